@@ -1,0 +1,236 @@
+//! Command buffers with their pool and fence (RAII), one-shot submissions, descriptor sets, and
+//! host <-> GPU transfers through staging buffers.
+
+use super::buffer::Buffer;
+use super::context::Context;
+use super::pipeline::Pipeline;
+use crate::error::{Error, Result, VkContext};
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use std::sync::Arc;
+
+/// A primary command buffer, its pool and a fence to wait on its submission.
+pub struct CommandBuffer {
+    ctx: Arc<Context>,
+    pool: vk::CommandPool,
+    pub(crate) cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+}
+
+impl CommandBuffer {
+    pub fn new(ctx: &Arc<Context>) -> Result<Self> {
+        let mut this = CommandBuffer {
+            ctx: ctx.clone(),
+            pool: vk::CommandPool::null(),
+            cmd: vk::CommandBuffer::null(),
+            fence: vk::Fence::null(),
+        };
+        // SAFETY: valid device; handles are stored immediately so Drop cleans up on error.
+        unsafe {
+            this.pool = ctx
+                .device
+                .create_command_pool(
+                    &vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family),
+                    None,
+                )
+                .vk("vkCreateCommandPool")?;
+            this.cmd = ctx
+                .device
+                .allocate_command_buffers(
+                    &vk::CommandBufferAllocateInfo::default()
+                        .command_pool(this.pool)
+                        .level(vk::CommandBufferLevel::PRIMARY)
+                        .command_buffer_count(1),
+                )
+                .vk("vkAllocateCommandBuffers")?[0];
+            this.fence =
+                ctx.device.create_fence(&vk::FenceCreateInfo::default(), None).vk("vkCreateFence")?;
+        }
+        Ok(this)
+    }
+
+    /// Records `body` into the (reset) command buffer.
+    pub fn record(&mut self, body: impl FnOnce(&ash::Device, vk::CommandBuffer)) -> Result<()> {
+        let device = &self.ctx.device;
+        // SAFETY: the buffer is not pending (every submit waits on the fence).
+        unsafe {
+            device
+                .reset_command_pool(self.pool, vk::CommandPoolResetFlags::empty())
+                .vk("vkResetCommandPool")?;
+            device
+                .begin_command_buffer(self.cmd, &vk::CommandBufferBeginInfo::default())
+                .vk("vkBeginCommandBuffer")?;
+            body(device, self.cmd);
+            device.end_command_buffer(self.cmd).vk("vkEndCommandBuffer")?;
+        }
+        Ok(())
+    }
+
+    /// Submits and blocks until the GPU is done; reports validation errors as an error.
+    pub fn submit_and_wait(&self) -> Result<()> {
+        let device = &self.ctx.device;
+        let cmds = [self.cmd];
+        let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+        // SAFETY: recorded command buffer, unsignalled fence, queue access serialised by lock.
+        unsafe {
+            {
+                let queue = self.ctx.queue();
+                device.queue_submit(*queue, &submit, self.fence).vk("vkQueueSubmit")?;
+            }
+            let waited = device.wait_for_fences(&[self.fence], true, u64::MAX);
+            device.reset_fences(&[self.fence]).vk("vkResetFences")?;
+            waited.vk("vkWaitForFences")?;
+        }
+        self.ctx.check_validation()
+    }
+}
+
+impl Drop for CommandBuffer {
+    fn drop(&mut self) {
+        // SAFETY: submissions are always waited on, so nothing is pending.
+        unsafe {
+            self.ctx.device.destroy_fence(self.fence, None);
+            self.ctx.device.destroy_command_pool(self.pool, None);
+        }
+    }
+}
+
+/// Records `body` into a fresh command buffer, submits it and waits.
+pub fn one_shot(ctx: &Arc<Context>, body: impl FnOnce(&ash::Device, vk::CommandBuffer)) -> Result<()> {
+    let mut cmd = CommandBuffer::new(ctx)?;
+    cmd.record(body)?;
+    cmd.submit_and_wait()
+}
+
+/// Global barrier making transfer and compute writes visible to later compute and transfer.
+pub fn full_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
+    let barrier = [vk::MemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+        .dst_access_mask(
+            vk::AccessFlags::SHADER_READ
+                | vk::AccessFlags::SHADER_WRITE
+                | vk::AccessFlags::TRANSFER_READ
+                | vk::AccessFlags::TRANSFER_WRITE,
+        )];
+    // SAFETY: recording command buffer.
+    unsafe {
+        device.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        )
+    };
+}
+
+/// Copies `data` into `dst` (any memory location) through a staging buffer.
+pub fn upload(ctx: &Arc<Context>, dst: &Buffer, data: &[u8]) -> Result<()> {
+    if data.len() as u64 > dst.size() {
+        return Err(Error::InvalidParameter {
+            name: "upload",
+            problem: format!("{} bytes into a {}-byte buffer", data.len(), dst.size()),
+        });
+    }
+    if data.is_empty() {
+        return Ok(());
+    }
+    let mut staging = Buffer::new(ctx, "staging upload", data.len() as u64, MemoryLocation::CpuToGpu)?;
+    let mapped = staging.mapped_mut().ok_or(Error::Kernel {
+        kernel: "upload".into(),
+        problem: "staging buffer is not host visible".into(),
+    })?;
+    mapped[..data.len()].copy_from_slice(data);
+    let region = [vk::BufferCopy::default().size(data.len() as u64)];
+    one_shot(ctx, |device, cmd| unsafe {
+        // SAFETY: recording; both buffers are alive until the submission completes.
+        device.cmd_copy_buffer(cmd, staging.handle, dst.handle, &region);
+    })
+}
+
+/// Reads `len` bytes from the start of `src` through a staging buffer.
+pub fn download(ctx: &Arc<Context>, src: &Buffer, len: u64) -> Result<Vec<u8>> {
+    let len = len.min(src.size());
+    if len == 0 {
+        return Ok(Vec::new());
+    }
+    let staging = Buffer::new(ctx, "staging download", len, MemoryLocation::GpuToCpu)?;
+    let region = [vk::BufferCopy::default().size(len)];
+    one_shot(ctx, |device, cmd| unsafe {
+        // SAFETY: recording; both buffers outlive the submission. The barrier makes earlier
+        // submissions' shader writes visible to the copy (queue submission order).
+        full_barrier(device, cmd);
+        device.cmd_copy_buffer(cmd, src.handle, staging.handle, &region);
+    })?;
+    let mapped = staging.mapped().ok_or(Error::Kernel {
+        kernel: "download".into(),
+        problem: "staging buffer is not host visible".into(),
+    })?;
+    Ok(mapped[..len as usize].to_vec())
+}
+
+/// A descriptor pool from which sets are allocated; all sets die with it.
+pub struct DescriptorArena {
+    ctx: Arc<Context>,
+    pool: vk::DescriptorPool,
+}
+
+impl DescriptorArena {
+    /// Room for `max_sets` sets of up to `max_bindings` storage buffers in total.
+    pub fn new(ctx: &Arc<Context>, max_sets: u32, max_bindings: u32) -> Result<Self> {
+        let sizes = [vk::DescriptorPoolSize::default()
+            .ty(vk::DescriptorType::STORAGE_BUFFER)
+            .descriptor_count(max_bindings.max(1))];
+        let info = vk::DescriptorPoolCreateInfo::default().max_sets(max_sets.max(1)).pool_sizes(&sizes);
+        // SAFETY: valid device and create info.
+        let pool = unsafe { ctx.device.create_descriptor_pool(&info, None) }
+            .vk("vkCreateDescriptorPool")?;
+        Ok(DescriptorArena { ctx: ctx.clone(), pool })
+    }
+
+    /// A set for `pipeline` with `buffers[i]` at binding i (whole buffer).
+    pub fn bind(&self, pipeline: &Pipeline, buffers: &[&Buffer]) -> Result<vk::DescriptorSet> {
+        if buffers.len() != pipeline.spec.bindings.len() {
+            return Err(Error::Kernel {
+                kernel: pipeline.spec.entry.into(),
+                problem: format!(
+                    "{} buffers bound, the kernel declares {} bindings",
+                    buffers.len(),
+                    pipeline.spec.bindings.len()
+                ),
+            });
+        }
+        let layouts = [pipeline.set_layout];
+        let info = vk::DescriptorSetAllocateInfo::default().descriptor_pool(self.pool).set_layouts(&layouts);
+        // SAFETY: pool and layout from this device.
+        let set = unsafe { self.ctx.device.allocate_descriptor_sets(&info) }
+            .vk("vkAllocateDescriptorSets")?[0];
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+            .iter()
+            .map(|b| [vk::DescriptorBufferInfo::default().buffer(b.handle).offset(0).range(vk::WHOLE_SIZE)])
+            .collect();
+        let writes: Vec<_> = infos
+            .iter()
+            .enumerate()
+            .map(|(i, info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(i as u32)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(info)
+            })
+            .collect();
+        // SAFETY: set and buffers valid; descriptors are written before any use.
+        unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
+        Ok(set)
+    }
+}
+
+impl Drop for DescriptorArena {
+    fn drop(&mut self) {
+        // SAFETY: no pending work uses the sets (owners wait on submissions).
+        unsafe { self.ctx.device.destroy_descriptor_pool(self.pool, None) };
+    }
+}

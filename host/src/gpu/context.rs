@@ -1,0 +1,336 @@
+//! The Vulkan context: loader, instance, optional validation messenger, device, compute queue and
+//! memory allocator. Everything else holds an `Arc<Context>`, so the context outlives every
+//! object created from it; `Drop` tears down allocator, device, messenger, instance in that order.
+
+use crate::error::{Error, Result, VkContext};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use std::ffi::{CStr, c_void};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// Environment variable that switches the validation layer on (`1`, `true`, `on`).
+pub const VALIDATION_ENV: &str = "DRAPE_VALIDATION";
+
+/// Whether to load `VK_LAYER_KHRONOS_validation`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Validation {
+    /// No validation (fastest).
+    Off,
+    /// Validation when the layer is installed, silently off otherwise.
+    IfAvailable,
+    /// Validation, or an error when the layer is not installed (tests use this).
+    Required,
+}
+
+impl Validation {
+    /// `IfAvailable` when `DRAPE_VALIDATION` is set to a true value, `Off` otherwise.
+    pub fn from_env() -> Self {
+        match std::env::var(VALIDATION_ENV).as_deref() {
+            Ok("1") | Ok("true") | Ok("on") | Ok("yes") => Validation::IfAvailable,
+            _ => Validation::Off,
+        }
+    }
+}
+
+/// Messages the validation layer reported at error severity; shared with its callback.
+type ValidationLog = Mutex<Vec<String>>;
+
+/// Device properties the host needs.
+#[derive(Clone, Debug)]
+pub struct DeviceInfo {
+    pub name: String,
+    pub driver: String,
+    /// Nanoseconds per timestamp tick.
+    pub timestamp_period_ns: f32,
+    /// Valid bits of the compute queue's timestamps (0 = no timestamps).
+    pub timestamp_valid_bits: u32,
+    pub max_workgroup_count_x: u32,
+}
+
+/// Instance, device, queue and allocator.
+pub struct Context {
+    _entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    /// Boxed so its address stays valid for the messenger callback.
+    validation_log: Box<ValidationLog>,
+    pub(crate) device: ash::Device,
+    pub(crate) queue: Mutex<vk::Queue>,
+    pub(crate) queue_family: u32,
+    allocator: Mutex<Option<Allocator>>,
+    info: DeviceInfo,
+}
+
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    // SAFETY: the layer passes valid callback data; `user` is the boxed log owned by the
+    // Context, which destroys the messenger before dropping the box.
+    let message = unsafe {
+        data.as_ref()
+            .and_then(|d| d.message_as_c_str())
+            .map(|m| m.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    };
+    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        eprintln!("[vulkan validation error] {message}");
+        if let Some(log) = unsafe { (user as *const ValidationLog).as_ref() } {
+            if let Ok(mut log) = log.lock() {
+                log.push(message);
+            }
+        }
+    } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
+        eprintln!("[vulkan validation warning] {message}");
+    }
+    vk::FALSE
+}
+
+impl Context {
+    /// Opens the first Vulkan device with a compute queue.
+    pub fn new(validation: Validation) -> Result<Arc<Self>> {
+        // SAFETY: loading the Vulkan loader library; its initialisation has no preconditions.
+        let entry =
+            unsafe { ash::Entry::load() }.map_err(|e| Error::NoVulkanLoader(e.to_string()))?;
+        let validation_log: Box<ValidationLog> = Box::default();
+
+        let layer_available = || -> Result<bool> {
+            // SAFETY: plain query on a loaded entry.
+            let layers = unsafe { entry.enumerate_instance_layer_properties() }
+                .vk("vkEnumerateInstanceLayerProperties")?;
+            Ok(layers
+                .iter()
+                .any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER)))
+        };
+        let validate = match validation {
+            Validation::Off => false,
+            Validation::IfAvailable => layer_available()?,
+            Validation::Required => {
+                if !layer_available()? {
+                    return Err(Error::MissingFeature {
+                        device: "Vulkan loader".into(),
+                        feature: "VK_LAYER_KHRONOS_validation (install vulkan-validationlayers)",
+                    });
+                }
+                true
+            }
+        };
+
+        let app = vk::ApplicationInfo::default()
+            .application_name(c"drape")
+            .engine_name(c"drape")
+            .api_version(vk::API_VERSION_1_2);
+        let layers = if validate { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
+        let extensions = if validate { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
+        let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(
+                vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                    | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+            )
+            .message_type(
+                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+            )
+            .pfn_user_callback(Some(debug_callback))
+            .user_data(&*validation_log as *const ValidationLog as *mut c_void);
+        let mut instance_info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&extensions);
+        if validate {
+            // Also catches errors in vkCreateInstance / vkDestroyInstance themselves.
+            instance_info = instance_info.push_next(&mut messenger_info);
+        }
+        // SAFETY: create info and everything it points to live across the call.
+        let instance = unsafe { entry.create_instance(&instance_info, None) }
+            .map_err(|result| match result {
+                vk::Result::ERROR_INCOMPATIBLE_DRIVER => Error::NoComputeDevice,
+                result => Error::Vulkan { call: "vkCreateInstance", result },
+            })?;
+
+        // From here on, a failure must destroy what exists: build a partial Context.
+        let mut partial = PartialContext { entry, instance, debug: None, device: None };
+        if validate {
+            let debug_utils = ash::ext::debug_utils::Instance::new(&partial.entry, &partial.instance);
+            // SAFETY: valid instance with debug_utils enabled.
+            let messenger = unsafe { debug_utils.create_debug_utils_messenger(&messenger_info, None) }
+                .vk("vkCreateDebugUtilsMessengerEXT")?;
+            partial.debug = Some((debug_utils, messenger));
+        }
+
+        let (physical_device, queue_family, info) = pick_device(&partial.instance)?;
+        let queue_priorities = [1.0];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&queue_priorities)];
+        // rust-gpu always emits the Vulkan memory model; device-scope atomics need its flag.
+        let mut features12 = vk::PhysicalDeviceVulkan12Features::default()
+            .vulkan_memory_model(true)
+            .vulkan_memory_model_device_scope(true);
+        let device_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .push_next(&mut features12);
+        // SAFETY: physical device from this instance; create info lives across the call.
+        let device = unsafe { partial.instance.create_device(physical_device, &device_info, None) }
+            .vk("vkCreateDevice")?;
+        partial.device = Some(device.clone());
+        // SAFETY: the family was created with one queue.
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: partial.instance.clone(),
+            device: device.clone(),
+            physical_device,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })?;
+        let (entry, instance, debug) = partial.into_parts();
+        Ok(Arc::new(Context {
+            _entry: entry,
+            instance,
+            debug,
+            validation_log,
+            device,
+            queue: Mutex::new(queue),
+            queue_family,
+            allocator: Mutex::new(Some(allocator)),
+            info,
+        }))
+    }
+
+    /// What runs the kernels.
+    pub fn info(&self) -> &DeviceInfo {
+        &self.info
+    }
+
+    /// Whether the validation layer is loaded.
+    pub fn validation_enabled(&self) -> bool {
+        self.debug.is_some()
+    }
+
+    /// Validation errors reported so far; clears the log.
+    pub fn take_validation_errors(&self) -> Vec<String> {
+        self.validation_log.lock().map(|mut log| std::mem::take(&mut *log)).unwrap_or_default()
+    }
+
+    /// `Err(Error::Validation)` if the validation layer reported an error since the last check.
+    pub fn check_validation(&self) -> Result<()> {
+        let errors = self.take_validation_errors();
+        if errors.is_empty() { Ok(()) } else { Err(Error::Validation(errors.join("\n"))) }
+    }
+
+    pub(crate) fn allocator(&self) -> MutexGuard<'_, Option<Allocator>> {
+        // A poisoned lock only means another thread panicked mid-allocation; the allocator's
+        // own state is still consistent, so keep going.
+        self.allocator.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    pub(crate) fn queue(&self) -> MutexGuard<'_, vk::Queue> {
+        self.queue.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+impl Drop for Context {
+    fn drop(&mut self) {
+        // SAFETY: every object created from this device holds an Arc<Context>, so none is left.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            // The allocator frees its memory blocks through the device: drop it first.
+            self.allocator().take();
+            self.device.destroy_device(None);
+            if let Some((utils, messenger)) = self.debug.take() {
+                utils.destroy_debug_utils_messenger(messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+/// Owns the instance (and maybe device) while `Context::new` is still failing part way.
+struct PartialContext {
+    entry: ash::Entry,
+    instance: ash::Instance,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    device: Option<ash::Device>,
+}
+
+type InstanceParts =
+    (ash::Entry, ash::Instance, Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>);
+
+impl PartialContext {
+    fn into_parts(self) -> InstanceParts {
+        let this = std::mem::ManuallyDrop::new(self);
+        // SAFETY: fields are moved out exactly once and `this` is never dropped.
+        unsafe {
+            (std::ptr::read(&this.entry), std::ptr::read(&this.instance), std::ptr::read(&this.debug))
+        }
+    }
+}
+
+impl Drop for PartialContext {
+    fn drop(&mut self) {
+        // SAFETY: reverse creation order; nothing else refers to these handles yet.
+        unsafe {
+            if let Some(device) = self.device.take() {
+                device.destroy_device(None);
+            }
+            if let Some((utils, messenger)) = self.debug.take() {
+                utils.destroy_debug_utils_messenger(messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+/// First physical device with a compute queue and the Vulkan memory model features.
+fn pick_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice, u32, DeviceInfo)> {
+    // SAFETY: plain queries on a valid instance.
+    let devices = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+    let mut missing: Option<Error> = None;
+    for pd in devices {
+        let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        let Some((family, props)) = families
+            .iter()
+            .enumerate()
+            .find(|(_, f)| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+        else {
+            continue;
+        };
+        let mut driver = vk::PhysicalDeviceDriverProperties::default();
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+        unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+        let properties = props2.properties;
+        let name = properties
+            .device_name_as_c_str()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let driver_info = driver
+            .driver_info_as_c_str()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+        let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
+        unsafe { instance.get_physical_device_features2(pd, &mut f2) };
+        if f12.vulkan_memory_model == 0 || f12.vulkan_memory_model_device_scope == 0 {
+            missing = Some(Error::MissingFeature {
+                device: name,
+                feature: "vulkanMemoryModel + vulkanMemoryModelDeviceScope",
+            });
+            continue;
+        }
+        let info = DeviceInfo {
+            name,
+            driver: driver_info,
+            timestamp_period_ns: properties.limits.timestamp_period,
+            timestamp_valid_bits: props.timestamp_valid_bits,
+            max_workgroup_count_x: properties.limits.max_compute_work_group_count[0],
+        };
+        return Ok((pd, family as u32, info));
+    }
+    Err(missing.unwrap_or(Error::NoComputeDevice))
+}

@@ -1,0 +1,117 @@
+//! Minimal SPIR-V reflection: for each entry point, its descriptor bindings (set, binding, name,
+//! writable) and whether it uses push constants. Used to check the host's binding tables against
+//! what the kernels really declare.
+
+use std::collections::HashMap;
+
+/// One storage-buffer binding as the SPIR-V declares it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ReflectedBinding {
+    pub set: u32,
+    pub binding: u32,
+    pub name: String,
+    pub writable: bool,
+}
+
+/// An entry point's resource interface.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ReflectedEntry {
+    pub bindings: Vec<ReflectedBinding>,
+    pub uses_push_constants: bool,
+}
+
+const OP_NAME: u32 = 5;
+const OP_ENTRY_POINT: u32 = 15;
+const OP_VARIABLE: u32 = 59;
+const OP_DECORATE: u32 = 71;
+const DECORATION_NON_WRITABLE: u32 = 24;
+const DECORATION_BINDING: u32 = 33;
+const DECORATION_DESCRIPTOR_SET: u32 = 34;
+const STORAGE_CLASS_PUSH_CONSTANT: u32 = 9;
+const STORAGE_CLASS_STORAGE_BUFFER: u32 = 12;
+
+/// Decodes a literal string starting at `words[0]`; returns it and the words it used.
+fn literal_string(words: &[u32]) -> (String, usize) {
+    let mut bytes = Vec::new();
+    for (i, w) in words.iter().enumerate() {
+        for b in w.to_le_bytes() {
+            if b == 0 {
+                return (String::from_utf8_lossy(&bytes).into_owned(), i + 1);
+            }
+            bytes.push(b);
+        }
+    }
+    (String::from_utf8_lossy(&bytes).into_owned(), words.len())
+}
+
+/// Reflects every entry point of a SPIR-V module (SPIR-V >= 1.4: interfaces list all globals).
+pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> {
+    if spirv.len() % 4 != 0 || spirv.len() < 20 {
+        return Err("not a SPIR-V module (length)".into());
+    }
+    let words: Vec<u32> =
+        spirv.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    if words[0] != 0x0723_0203 {
+        return Err("not a SPIR-V module (magic)".into());
+    }
+    let mut names: HashMap<u32, String> = HashMap::new();
+    let mut entries: Vec<(String, Vec<u32>)> = Vec::new();
+    let mut storage: HashMap<u32, u32> = HashMap::new();
+    let mut binding: HashMap<u32, u32> = HashMap::new();
+    let mut set: HashMap<u32, u32> = HashMap::new();
+    let mut non_writable: HashMap<u32, bool> = HashMap::new();
+    let mut at = 5;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        let opcode = words[at] & 0xffff;
+        if count == 0 || at + count > words.len() {
+            return Err(format!("malformed instruction at word {at}"));
+        }
+        let ops = &words[at + 1..at + count];
+        match opcode {
+            OP_NAME if ops.len() >= 2 => {
+                names.insert(ops[0], literal_string(&ops[1..]).0);
+            }
+            OP_ENTRY_POINT if ops.len() >= 3 => {
+                let (name, used) = literal_string(&ops[2..]);
+                entries.push((name, ops[2 + used..].to_vec()));
+            }
+            OP_VARIABLE if ops.len() >= 3 => {
+                storage.insert(ops[1], ops[2]);
+            }
+            OP_DECORATE if ops.len() >= 2 => match ops[1] {
+                DECORATION_BINDING if ops.len() >= 3 => {
+                    binding.insert(ops[0], ops[2]);
+                }
+                DECORATION_DESCRIPTOR_SET if ops.len() >= 3 => {
+                    set.insert(ops[0], ops[2]);
+                }
+                DECORATION_NON_WRITABLE => {
+                    non_writable.insert(ops[0], true);
+                }
+                _ => {}
+            },
+            _ => {}
+        }
+        at += count;
+    }
+    let mut out = HashMap::new();
+    for (name, interface) in entries {
+        let mut entry = ReflectedEntry::default();
+        for id in interface {
+            match storage.get(&id) {
+                Some(&STORAGE_CLASS_STORAGE_BUFFER) => entry.bindings.push(ReflectedBinding {
+                    set: set.get(&id).copied().unwrap_or(0),
+                    binding: binding.get(&id).copied().unwrap_or(u32::MAX),
+                    name: names.get(&id).cloned().unwrap_or_default(),
+                    writable: !non_writable.contains_key(&id),
+                }),
+                Some(&STORAGE_CLASS_PUSH_CONSTANT) => entry.uses_push_constants = true,
+                _ => {}
+            }
+        }
+        entry.bindings.sort_by_key(|b| (b.set, b.binding));
+        out.insert(name, entry);
+    }
+    Ok(out)
+}

@@ -1,0 +1,146 @@
+//! An independent f64 reference integrator for accuracy tests: the same cloth model written
+//! directly with an explicit spring list and `DVec3`, classical RK4, any (tiny) step.
+
+use crate::cloth::Cloth;
+use glam::DVec3;
+
+/// One spring: particle indices, stiffness, rest length.
+#[derive(Copy, Clone, Debug)]
+struct Spring {
+    a: usize,
+    b: usize,
+    k: f64,
+    rest: f64,
+}
+
+/// f64 state and spring list of a cloth.
+#[derive(Clone, Debug)]
+pub struct ReferenceCloth {
+    pub x: Vec<DVec3>,
+    pub v: Vec<DVec3>,
+    free: Vec<bool>,
+    springs: Vec<Spring>,
+    mass: f64,
+    gravity: DVec3,
+    external: DVec3,
+    spring_damping: f64,
+    velocity_damping: f64,
+}
+
+impl ReferenceCloth {
+    pub fn new(cloth: &Cloth) -> Self {
+        let p = &cloth.params;
+        let (rows, cols) = (p.rows as i64, p.cols as i64);
+        let x: Vec<DVec3> = cloth.positions.iter().map(|q| q.truncate().as_dvec3()).collect();
+        let mut springs = Vec::new();
+        // Each spring once: offsets with a positive first non-zero component.
+        let families = [
+            ((0, 1), p.k_struct),
+            ((1, 0), p.k_struct),
+            ((1, 1), p.k_shear),
+            ((1, -1), p.k_shear),
+            ((0, 2), p.k_bend),
+            ((2, 0), p.k_bend),
+        ];
+        for r in 0..rows {
+            for c in 0..cols {
+                for ((dr, dc), k) in families {
+                    let (r2, c2) = (r + dr, c + dc);
+                    if r2 < 0 || c2 < 0 || r2 >= rows || c2 >= cols {
+                        continue;
+                    }
+                    let (a, b) = ((r * cols + c) as usize, (r2 * cols + c2) as usize);
+                    springs.push(Spring { a, b, k: k as f64, rest: (x[b] - x[a]).length() });
+                }
+            }
+        }
+        ReferenceCloth {
+            v: cloth.velocities.iter().map(|q| q.truncate().as_dvec3()).collect(),
+            free: cloth.positions.iter().map(|q| q.w != 0.0).collect(),
+            x,
+            springs,
+            mass: p.particle_mass as f64,
+            gravity: p.gravity.truncate().as_dvec3(),
+            external: p.external_force.truncate().as_dvec3(),
+            spring_damping: p.spring_damping as f64,
+            velocity_damping: p.velocity_damping as f64,
+        }
+    }
+
+    fn accelerations(&self, x: &[DVec3], v: &[DVec3]) -> Vec<DVec3> {
+        let mut f: Vec<DVec3> =
+            v.iter().map(|vi| self.gravity * self.mass + self.external - *vi * self.velocity_damping).collect();
+        for s in &self.springs {
+            let d = x[s.b] - x[s.a];
+            let len = d.length();
+            if len < 1e-12 {
+                continue;
+            }
+            let u = d / len;
+            let force = u * (s.k * (len - s.rest) + self.spring_damping * (v[s.b] - v[s.a]).dot(u));
+            f[s.a] += force;
+            f[s.b] -= force;
+        }
+        f.iter().zip(&self.free).map(|(fi, &free)| if free { *fi / self.mass } else { DVec3::ZERO }).collect()
+    }
+
+    /// One classical RK4 step of length `h`.
+    pub fn rk4_step(&mut self, h: f64) {
+        let n = self.x.len();
+        let axpy = |y: &[DVec3], k: &[DVec3], s: f64| -> Vec<DVec3> { (0..n).map(|i| y[i] + k[i] * s).collect() };
+        let k1x = self.v.clone();
+        let k1v = self.accelerations(&self.x, &self.v);
+        let (x2, v2) = (axpy(&self.x, &k1x, h / 2.0), axpy(&self.v, &k1v, h / 2.0));
+        let k2x = v2.clone();
+        let k2v = self.accelerations(&x2, &v2);
+        let (x3, v3) = (axpy(&self.x, &k2x, h / 2.0), axpy(&self.v, &k2v, h / 2.0));
+        let k3x = v3.clone();
+        let k3v = self.accelerations(&x3, &v3);
+        let (x4, v4) = (axpy(&self.x, &k3x, h), axpy(&self.v, &k3v, h));
+        let k4v = self.accelerations(&x4, &v4);
+        let k4x = v4;
+        for i in 0..n {
+            if !self.free[i] {
+                self.v[i] = DVec3::ZERO;
+                continue;
+            }
+            self.x[i] += (k1x[i] + 2.0 * k2x[i] + 2.0 * k3x[i] + k4x[i]) * (h / 6.0);
+            self.v[i] += (k1v[i] + 2.0 * k2v[i] + 2.0 * k3v[i] + k4v[i]) * (h / 6.0);
+        }
+    }
+
+    /// Advances `duration` seconds in `steps` equal RK4 steps.
+    pub fn run(&mut self, duration: f64, steps: u32) {
+        let h = duration / steps as f64;
+        for _ in 0..steps {
+            self.rk4_step(h);
+        }
+    }
+
+    /// Total energy (J): kinetic + gravitational + spring potential (no external force).
+    pub fn energy(&self) -> f64 {
+        energy_of(self, &self.x, &self.v)
+    }
+}
+
+fn energy_of(c: &ReferenceCloth, x: &[DVec3], v: &[DVec3]) -> f64 {
+    let mut e = 0.0;
+    for i in 0..x.len() {
+        if c.free[i] {
+            e += 0.5 * c.mass * v[i].length_squared() - c.mass * c.gravity.dot(x[i]);
+        }
+    }
+    for s in &c.springs {
+        let stretch = (x[s.b] - x[s.a]).length() - s.rest;
+        e += 0.5 * s.k * stretch * stretch;
+    }
+    e
+}
+
+/// Total energy (J) of a cloth state given in f32 (positions w = pin weight).
+pub fn energy(cloth: &Cloth, x: &[glam::Vec4], v: &[glam::Vec4]) -> f64 {
+    let reference = ReferenceCloth::new(cloth);
+    let xs: Vec<DVec3> = x.iter().map(|q| q.truncate().as_dvec3()).collect();
+    let vs: Vec<DVec3> = v.iter().map(|q| q.truncate().as_dvec3()).collect();
+    energy_of(&reference, &xs, &vs)
+}

@@ -1,0 +1,94 @@
+//! Per-kernel timing report over many frames: medians of each pass label's GPU time per frame
+//! (from timestamp queries) and of the wall time per frame.
+
+use crate::gpu::FrameTimings;
+use std::fmt::Write;
+use std::time::Duration;
+
+/// Collects frames and reports medians.
+#[derive(Clone, Debug, Default)]
+pub struct TimingReport {
+    /// Labels in first-seen order, with dispatches per frame.
+    labels: Vec<(&'static str, u32)>,
+    /// Per label: GPU µs per frame, one entry per frame.
+    samples: Vec<Vec<f64>>,
+    wall_ms: Vec<f64>,
+    gpu_total: Vec<f64>,
+    skipped: Vec<&'static str>,
+}
+
+/// Median of a sample (0 for none).
+pub fn median(values: &[f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let mid = v.len() / 2;
+    if v.len() % 2 == 1 { v[mid] } else { 0.5 * (v[mid - 1] + v[mid]) }
+}
+
+impl TimingReport {
+    /// Adds one frame: its GPU pass timings and its wall-clock time (submit to results).
+    pub fn add(&mut self, frame: &FrameTimings, wall: Duration) {
+        for (label, count, micros) in frame.by_label() {
+            let slot = match self.labels.iter().position(|(l, _)| *l == label) {
+                Some(i) => i,
+                None => {
+                    self.labels.push((label, count));
+                    self.samples.push(Vec::new());
+                    self.labels.len() - 1
+                }
+            };
+            self.samples[slot].push(micros);
+        }
+        for s in &frame.skipped {
+            if !self.skipped.contains(s) {
+                self.skipped.push(s);
+            }
+        }
+        self.gpu_total.push(frame.total_micros());
+        self.wall_ms.push(wall.as_secs_f64() * 1e3);
+    }
+
+    pub fn frames(&self) -> usize {
+        self.wall_ms.len()
+    }
+    /// Median wall time per frame (ms).
+    pub fn median_wall_ms(&self) -> f64 {
+        median(&self.wall_ms)
+    }
+    /// Median summed GPU time per frame (µs).
+    pub fn median_gpu_micros(&self) -> f64 {
+        median(&self.gpu_total)
+    }
+    /// (label, dispatches per frame, median µs per frame) for each pass label.
+    pub fn rows(&self) -> Vec<(&'static str, u32, f64)> {
+        self.labels.iter().zip(&self.samples).map(|(&(l, n), s)| (l, n, median(s))).collect()
+    }
+    pub fn skipped(&self) -> &[&'static str] {
+        &self.skipped
+    }
+
+    /// A text table: one row per pass label, then totals.
+    pub fn table(&self) -> String {
+        let mut out = String::new();
+        let _ = writeln!(out, "{:<22} {:>10} {:>14} {:>14}", "pass", "dispatches", "GPU µs/frame", "µs/dispatch");
+        for (label, n, micros) in self.rows() {
+            let _ = writeln!(out, "{label:<22} {n:>10} {micros:>14.1} {:>14.1}", micros / n as f64);
+        }
+        for label in &self.skipped {
+            let _ = writeln!(out, "{label:<22} {:>10} {:>14} {:>14}", 0, "skipped", "-");
+        }
+        let _ = writeln!(
+            out,
+            "{:<22} {:>10} {:>14.1}\nwall time per frame (median of {} frames): {:.3} ms",
+            "total GPU",
+            self.labels.iter().map(|(_, n)| n).sum::<u32>(),
+            self.median_gpu_micros(),
+            self.frames(),
+            self.median_wall_ms()
+        );
+        out
+    }
+}
