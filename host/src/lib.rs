@@ -24,6 +24,7 @@ pub mod kernels;
 pub mod obj;
 pub mod program;
 pub mod reference;
+pub mod scenes;
 pub mod sim;
 pub mod stability;
 pub mod timing;

@@ -3,7 +3,7 @@
 
 use clap::{Parser, ValueEnum};
 use drape::timing::TimingReport;
-use drape::{ClothBuilder, Context, Integrator, SimSettings, Simulation, Validation};
+use drape::{Context, Integrator, SimSettings, Simulation, Validation};
 use glam::Vec3;
 use std::io::Write;
 use std::path::PathBuf;
@@ -56,6 +56,9 @@ struct Args {
     /// Write every n-th frame (with --obj-dir).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     obj_every: Option<u32>,
+    /// Skip GPU timestamp queries (they cost tens of µs per pass on lavapipe).
+    #[arg(long)]
+    no_timestamps: bool,
     /// Load the Vulkan validation layer (also: DRAPE_VALIDATION=1).
     #[arg(long)]
     validate: bool,
@@ -78,14 +81,12 @@ fn run(args: &Args) -> drape::Result<()> {
     let info = ctx.info();
     println!("device: {} ({})", info.name, info.driver);
 
-    let cloth = ClothBuilder::new(args.grid, args.grid)
+    let cloth = drape::scenes::swinging_cloth(args.grid)
         .size(args.size)
         .mass(args.mass)
         .stiffness(args.stiffness[0], args.stiffness[1], args.stiffness[2])
         .spring_damping(args.spring_damping)
         .external_force(Vec3::from_slice(&args.wind))
-        .transform(glam::Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0)))
-        .pin_top_corners()
         .build()?;
     let settings = SimSettings {
         substeps: args.substeps,
@@ -94,6 +95,7 @@ fn run(args: &Args) -> drape::Result<()> {
             IntegratorArg::Euler => Integrator::SemiImplicitEuler,
         },
         normals: !args.no_normals,
+        timestamps: !args.no_timestamps,
         ..SimSettings::default()
     };
     let mut sim = Simulation::new(&ctx, &cloth, settings)?;

@@ -46,6 +46,8 @@ pub struct SimSettings {
     pub normals: bool,
     /// A structural spring longer than this many rest lengths counts as a blow-up.
     pub max_stretch: f32,
+    /// Time every pass with GPU timestamp queries (costs ~tens of µs per pass on lavapipe).
+    pub timestamps: bool,
 }
 
 impl Default for SimSettings {
@@ -57,6 +59,7 @@ impl Default for SimSettings {
             integrator: Integrator::Rk4,
             normals: true,
             max_stretch: 10.0,
+            timestamps: true,
         }
     }
 }
@@ -213,7 +216,7 @@ impl Simulation {
             upload(ctx, get(id)?, bytemuck::cast_slice(&cloth.positions))?;
         }
 
-        let (arena, frame) = record_frame(ctx, &steps, &pipelines, &buffers)?;
+        let (arena, frame) = record_frame(ctx, &steps, &pipelines, &buffers, settings.timestamps)?;
         Ok(Simulation {
             frame,
             _arena: arena,
@@ -290,6 +293,7 @@ fn record_frame(
     steps: &[FrameStep],
     pipelines: &HashMap<KernelId, Pipeline>,
     buffers: &HashMap<BufferId, Buffer>,
+    timed: bool,
 ) -> Result<(DescriptorArena, RecordedFrame)> {
     let missing = |what: String| Error::Kernel { kernel: "frame".into(), problem: what };
     let mut distinct: Vec<(KernelId, Vec<BufferId>)> = Vec::new();
@@ -333,6 +337,6 @@ fn record_frame(
             }
         });
     }
-    let frame = RecordedFrame::record(ctx, &commands)?;
+    let frame = RecordedFrame::record(ctx, &commands, timed)?;
     Ok((arena, frame))
 }

@@ -100,7 +100,8 @@ pub struct RecordedFrame {
 impl RecordedFrame {
     /// Records `commands` with a full memory barrier after each one; the last barrier also makes
     /// shader writes visible to the host (readback of mapped buffers after the wait).
-    pub fn record(ctx: &Arc<Context>, commands: &[Command]) -> Result<Self> {
+    /// With `timed`, a timestamp query brackets each dispatch (when the queue supports them).
+    pub fn record(ctx: &Arc<Context>, commands: &[Command], timed: bool) -> Result<Self> {
         let labels: Vec<&'static str> = commands
             .iter()
             .filter_map(|c| if let Command::Dispatch { label, .. } = c { Some(*label) } else { None })
@@ -109,7 +110,7 @@ impl RecordedFrame {
             .iter()
             .filter_map(|c| if let Command::Skipped { label } = c { Some(*label) } else { None })
             .collect();
-        let timed = ctx.info().timestamp_valid_bits > 0 && std::env::var("DRAPE_NO_TIMESTAMPS").is_err();
+        let timed = timed && ctx.info().timestamp_valid_bits > 0;
         let queries = if timed { Some(QueryPool::new(ctx, labels.len() as u32)?) } else { None };
         let mut cmd = CommandBuffer::new(ctx)?;
         cmd.record(|device, cb| {
