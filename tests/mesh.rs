@@ -1,0 +1,1 @@
+//! Mesh loading, procedural meshes, voxel-sphere colliders and accuracy metrics (CPU).
