@@ -25,6 +25,7 @@ fn binding_tables_match_the_spirv() {
             assert_eq!(actual.writable, declared.writable, "{} binding {i} ({}) writability", spec.entry, declared.name);
         }
         assert_eq!(entry.uses_push_constants, spec.push_constant_size > 0, "{}: push constants", spec.entry);
+        assert_eq!(entry.workgroup_size, [spec.workgroup_size, 1, 1], "{}: workgroup size", spec.entry);
     }
 }
 
@@ -47,7 +48,7 @@ fn frame_timings_name_every_pass() {
         labels,
         vec![("rk4: k1", 3), ("rk4: k2", 3), ("rk4: k3", 3), ("rk4: k4 + update", 3), ("health check", 1)]
     );
-    assert_eq!(timings.skipped, vec!["normals"]);
+    assert_eq!(timings.skipped, vec!["collide", "normals"]);
     assert!(ctx.info().timestamp_valid_bits > 0, "lavapipe and real GPUs have compute timestamps");
     for pass in &timings.passes {
         let micros = pass.micros.expect("timestamps");

@@ -5,13 +5,15 @@
 use crate::cloth::Cloth;
 use crate::error::{Error, Result};
 use crate::kernels::KernelId;
-use crate::program::{BufferId, FrameStep, Pass, cloth_frame};
-use crate::sim::{SimSettings, check_health};
+use crate::lbvh::{Lbvh, build_cpu, collider_params};
+use crate::program::{BufferId, CollisionMode, FrameStep, Pass, cloth_frame};
+use crate::sim::{Collider, SimSettings, check_health};
+use drape_kernels::collide::{aabbs_overlap, collide_at, collide_brute_force_at, root_aabb, swept_bounds};
 use crate::stability::Stability;
 use drape_kernels::health::check_health_at;
 use drape_kernels::integrate::{StageBuffers, integrate_stage_at};
 use drape_kernels::normals::vertex_normal_at;
-use drape_types::{Health, SimParams};
+use drape_types::{ColliderParams, CollisionStatus, Health, SimParams};
 use glam::Vec4;
 use std::collections::HashMap;
 
@@ -23,13 +25,29 @@ pub struct CpuSimulation {
     steps: Vec<FrameStep>,
     buffers: HashMap<BufferId, Vec<Vec4>>,
     health: Health,
+    collider: Option<(ColliderParams, Lbvh)>,
+    status: CollisionStatus,
+    /// Set by the culling pass: whether this substep's traversal runs.
+    traverse: bool,
     frames_done: u64,
 }
 
 impl CpuSimulation {
     pub fn new(cloth: &Cloth, settings: SimSettings) -> Result<Self> {
+        Self::with_collider(cloth, settings, None)
+    }
+
+    /// Like `Simulation::with_collider`, with the LBVH built by the CPU twin.
+    pub fn with_collider(cloth: &Cloth, settings: SimSettings, collider: Option<&Collider>) -> Result<Self> {
         let (params, stability) = settings.resolve(cloth)?;
-        let steps = cloth_frame(settings.plan(&params, &stability));
+        let mut plan = settings.plan(&params, &stability);
+        let mut built = None;
+        if let Some(c) = collider {
+            let collider_params = collider_params(&c.spheres, c.thickness)?;
+            built = Some((collider_params, build_cpu(&c.spheres, &collider_params)));
+            plan.collision = if c.use_bvh { CollisionMode::Bvh } else { CollisionMode::BruteForce };
+        }
+        let steps = cloth_frame(plan);
         let n = cloth.particle_count();
         let mut buffers = HashMap::new();
         for id in [BufferId::V, BufferId::VA, BufferId::VB, BufferId::AccX, BufferId::AccV, BufferId::Normals] {
@@ -46,6 +64,9 @@ impl CpuSimulation {
             steps,
             buffers,
             health: Health::default(),
+            collider: built,
+            status: CollisionStatus::default(),
+            traverse: false,
             frames_done: 0,
         })
     }
@@ -57,7 +78,16 @@ impl CpuSimulation {
         self.steps = steps;
         result?;
         self.frames_done += 1;
-        check_health(&self.health, self.frames_done, &self.settings, &self.stability)
+        check_health(&self.health, self.frames_done, &self.settings, &self.stability)?;
+        if self.status.overflows > 0 {
+            return Err(Error::TraversalOverflow { frame: self.frames_done, particles: self.status.overflows });
+        }
+        Ok(())
+    }
+
+    /// Collision counters of the last frame.
+    pub fn collision_status(&self) -> CollisionStatus {
+        self.status
     }
 
     fn take(&mut self, id: BufferId) -> Result<Vec<Vec4>> {
@@ -69,26 +99,36 @@ impl CpuSimulation {
 
     fn run(&mut self, step: &FrameStep) -> Result<()> {
         let pass: &Pass = match step {
-            FrameStep::ResetHealth => {
+            FrameStep::Fill { buffer: BufferId::Health, .. } => {
                 self.health = Health::default();
                 return Ok(());
+            }
+            FrameStep::Fill { buffer: BufferId::CollisionStatus, .. } => {
+                self.status = CollisionStatus::default();
+                return Ok(());
+            }
+            FrameStep::Fill { buffer, .. } => {
+                return Err(Error::Kernel { kernel: "cpu".into(), problem: format!("cannot fill {buffer:?}") });
             }
             FrameStep::Skip { .. } => return Ok(()),
             FrameStep::Run(pass) => pass,
         };
         // Params and health live outside the particle buffers; the rest are taken out and put back.
-        let ids: Vec<BufferId> =
-            pass.bindings.iter().copied().filter(|id| !matches!(id, BufferId::Params | BufferId::Health)).collect();
+        // Only the particle buffers (X, V, stages, normals) are taken out and put back; params,
+        // health, collider and collision status live in their own fields.
+        let ids: Vec<BufferId> = pass.bindings.iter().copied().filter(|id| self.buffers.contains_key(id)).collect();
+        let threads = self.params.particle_count;
+        let unsupported = || Error::Kernel { kernel: "cpu".into(), problem: format!("{:?} needs a collider", pass.kernel) };
         let mut bound: Vec<Vec<Vec4>> = ids.iter().map(|&id| self.take(id)).collect::<Result<_>>()?;
         let p = self.params;
         match pass.kernel {
             KernelId::IntegrateStage => {
-                let stage = pass.push.map(|push| push.stage).unwrap_or(0);
+                let stage = pass.push.map(|push| push[0]).unwrap_or(0);
                 let [x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev] = &mut bound[..] else {
                     return Err(Error::Kernel { kernel: "cpu".into(), problem: "integrate binds 9 buffers".into() });
                 };
                 let mut b = StageBuffers { x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev };
-                for i in 0..pass.threads {
+                for i in 0..threads {
                     integrate_stage_at(&p, stage, i, &mut b);
                 }
             }
@@ -96,7 +136,7 @@ impl CpuSimulation {
                 let [x, normals] = &mut bound[..] else {
                     return Err(Error::Kernel { kernel: "cpu".into(), problem: "normals binds 2 buffers".into() });
                 };
-                for i in 0..pass.threads {
+                for i in 0..threads {
                     normals[i as usize] = vertex_normal_at(&p, i, x).extend(0.0);
                 }
             }
@@ -104,9 +144,51 @@ impl CpuSimulation {
                 let [x, v] = &bound[..] else {
                     return Err(Error::Kernel { kernel: "cpu".into(), problem: "health binds 2 buffers".into() });
                 };
-                for i in 0..pass.threads {
+                for i in 0..threads {
                     check_health_at(&p, i, x, v, &mut self.health);
                 }
+            }
+            KernelId::CullCollision => {
+                let [x, x_prev] = &bound[..] else {
+                    return Err(Error::Kernel { kernel: "cpu".into(), problem: "cull binds 2 particle buffers".into() });
+                };
+                let (c, tree) = self.collider.as_ref().ok_or_else(unsupported)?;
+                // One "workgroup" of lanes; min/max reduction is order independent.
+                let mut cloth = swept_bounds(x, x_prev, threads, 0, 1);
+                cloth.min.w = 0.0;
+                cloth.max.w = 0.0;
+                let root = root_aabb(c, &tree.aabbs, &tree.spheres);
+                self.traverse = aabbs_overlap(&cloth, &root, c.thickness);
+                if self.traverse {
+                    self.status.ran += 1;
+                } else {
+                    self.status.skipped += 1;
+                }
+            }
+            KernelId::Collide => {
+                let [x, v, x_prev] = &mut bound[..] else {
+                    return Err(Error::Kernel { kernel: "cpu".into(), problem: "collide binds 3 particle buffers".into() });
+                };
+                let (c, tree) = self.collider.as_ref().ok_or_else(unsupported)?;
+                if self.traverse {
+                    for i in 0..threads {
+                        if collide_at(i, c, &tree.nodes, &tree.aabbs, &tree.spheres, x, v, x_prev) {
+                            self.status.overflows += 1;
+                        }
+                    }
+                }
+            }
+            KernelId::CollideBruteForce => {
+                let [x, v, x_prev] = &mut bound[..] else {
+                    return Err(Error::Kernel { kernel: "cpu".into(), problem: "collide binds 3 particle buffers".into() });
+                };
+                let (c, tree) = self.collider.as_ref().ok_or_else(unsupported)?;
+                for i in 0..threads {
+                    collide_brute_force_at(i, c, &tree.spheres, x, v, x_prev);
+                }
+            }
+            other => {
+                return Err(Error::Kernel { kernel: "cpu".into(), problem: format!("{other:?} is not part of a cloth frame") });
             }
         }
         for (&id, data) in ids.iter().zip(bound) {

@@ -21,6 +21,7 @@ pub mod cpu;
 pub mod error;
 pub mod gpu;
 pub mod kernels;
+pub mod lbvh;
 pub mod obj;
 pub mod program;
 pub mod reference;
@@ -33,7 +34,7 @@ pub use cloth::{Cloth, ClothBuilder};
 pub use cpu::CpuSimulation;
 pub use error::{Error, Result};
 pub use gpu::{Context, FrameTimings, Validation};
-pub use sim::{Integrator, SimSettings, Simulation};
+pub use sim::{Collider, FrameReport, Integrator, SimSettings, Simulation};
 pub use stability::Stability;
 
 include!(concat!(env!("OUT_DIR"), "/kernels_spv.rs"));

@@ -3,15 +3,13 @@
 
 use crate::cloth::Cloth;
 use crate::error::{Error, Result};
-use crate::gpu::commands::{DescriptorArena, download, upload};
-use crate::gpu::{Buffer, Command, Context, FrameTimings, Pipeline, RecordedFrame, ShaderModule};
-use crate::kernels::KernelId;
-use crate::program::{BufferId, FramePlan, FrameStep, cloth_frame};
+use crate::gpu::{Context, Engine, FrameTimings, RecordedFrame};
+use crate::lbvh;
+use crate::program::{BufferId, CollisionMode, FramePlan, cloth_frame};
 use crate::stability::{self, DEFAULT_SAFETY, Stability};
-use drape_types::{Health, SimParams, integrator};
+use drape_types::{CollisionStatus, DispatchArgs, Health, SimParams, integrator};
 use glam::Vec4;
 use gpu_allocator::MemoryLocation;
-use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Time integration scheme.
@@ -111,6 +109,7 @@ impl SimSettings {
             substeps: stability.substeps,
             integrator: params.integrator,
             normals: self.normals,
+            collision: CollisionMode::None,
         }
     }
 }
@@ -139,123 +138,113 @@ pub(crate) fn check_health(
     })
 }
 
+/// A rigid collider: spheres (xyz centre, w radius, e.g. from `collider::voxel_spheres`) and
+/// the contact thickness (m).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Collider {
+    pub spheres: Vec<Vec4>,
+    pub thickness: f32,
+    /// Traverse the LBVH (true) or test every sphere (the brute-force baseline).
+    pub use_bvh: bool,
+}
+
+impl Collider {
+    pub fn new(spheres: Vec<Vec4>, thickness: f32) -> Self {
+        Collider { spheres, thickness, use_bvh: true }
+    }
+}
+
+/// What a frame reports besides timings.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameReport {
+    pub timings: FrameTimings,
+    /// Substeps whose collision traversal ran / was skipped by the root-box test.
+    pub collision_ran: u32,
+    pub collision_skipped: u32,
+}
+
 /// A cloth simulation on the GPU.
 pub struct Simulation {
-    // Field order is drop order: the recorded frame and sets go before what they reference.
+    // Field order is drop order: the recorded frame goes before the engine it refers to.
     frame: RecordedFrame,
-    _arena: DescriptorArena,
-    _pipelines: HashMap<KernelId, Pipeline>,
-    buffers: HashMap<BufferId, Buffer>,
-    _module: ShaderModule,
-    ctx: Arc<Context>,
+    engine: Engine,
     params: SimParams,
     settings: SimSettings,
     stability: Stability,
+    collision: CollisionMode,
+    lbvh_timings: Option<FrameTimings>,
     frames_done: u64,
 }
 
 impl Simulation {
-    /// Uploads `cloth` and records its frame.
+    /// Uploads `cloth` and records its frame (no collider).
     pub fn new(ctx: &Arc<Context>, cloth: &Cloth, settings: SimSettings) -> Result<Self> {
+        Self::with_collider(ctx, cloth, settings, None)
+    }
+
+    /// Uploads `cloth`, builds the collider's LBVH on the GPU (if any) and records the frame.
+    pub fn with_collider(
+        ctx: &Arc<Context>,
+        cloth: &Cloth,
+        settings: SimSettings,
+        collider: Option<&Collider>,
+    ) -> Result<Self> {
         let (params, stability) = settings.resolve(cloth)?;
-        let groups = params.particle_count.div_ceil(drape_kernels::WORKGROUP_SIZE);
-        if groups > ctx.info().max_workgroup_count_x {
-            return Err(Error::InvalidParameter {
-                name: "rows/cols",
-                problem: format!(
-                    "{} particles need {groups} workgroups; this device dispatches at most {}",
-                    params.particle_count,
-                    ctx.info().max_workgroup_count_x
-                ),
-            });
+        let mut engine = Engine::new(ctx)?;
+        let vec4s = cloth.particle_count() as u64 * size_of::<Vec4>() as u64;
+        for id in [BufferId::V, BufferId::VA, BufferId::VB, BufferId::AccX, BufferId::AccV, BufferId::Normals] {
+            engine.create(id, vec4s, MemoryLocation::GpuOnly)?;
         }
-        let steps = cloth_frame(settings.plan(&params, &stability));
-        let module = ShaderModule::new(ctx, crate::KERNELS_SPV)?;
-        let mut pipelines = HashMap::new();
-        for id in KernelId::ALL {
-            pipelines.insert(id, Pipeline::new(ctx, &module, id.spec())?);
-        }
-
-        let n = cloth.particle_count() as u64;
-        let vec4s = n * size_of::<Vec4>() as u64;
-        let mut buffers = HashMap::new();
-        for id in [
-            BufferId::X,
-            BufferId::V,
-            BufferId::XA,
-            BufferId::VA,
-            BufferId::XB,
-            BufferId::VB,
-            BufferId::AccX,
-            BufferId::AccV,
-            BufferId::XPrev,
-            BufferId::Normals,
-        ] {
-            buffers.insert(id, Buffer::new(ctx, &format!("{id:?}"), vec4s, MemoryLocation::GpuOnly)?);
-        }
-        buffers.insert(
-            BufferId::Params,
-            Buffer::new(ctx, "params", size_of::<SimParams>() as u64, MemoryLocation::GpuOnly)?,
-        );
-        // Read by the host after every frame: keep it mapped.
-        buffers.insert(
-            BufferId::Health,
-            Buffer::new(ctx, "health", size_of::<Health>() as u64, MemoryLocation::GpuToCpu)?,
-        );
-        let get = |id: BufferId| {
-            buffers.get(&id).ok_or_else(|| Error::Kernel {
-                kernel: "simulation".into(),
-                problem: format!("buffer {id:?} not allocated"),
-            })
-        };
-        upload(ctx, get(BufferId::Params)?, bytemuck::bytes_of(&params))?;
-        upload(ctx, get(BufferId::X)?, bytemuck::cast_slice(&cloth.positions))?;
-        upload(ctx, get(BufferId::V)?, bytemuck::cast_slice(&cloth.velocities))?;
+        engine.create_with(BufferId::Params, std::slice::from_ref(&params))?;
         // Stage buffers start as copies of the state so pinned particles read sane values.
-        for id in [BufferId::XA, BufferId::XB, BufferId::XPrev] {
-            upload(ctx, get(id)?, bytemuck::cast_slice(&cloth.positions))?;
+        for id in [BufferId::X, BufferId::XA, BufferId::XB, BufferId::XPrev] {
+            engine.create_with(id, &cloth.positions)?;
         }
+        engine.upload(BufferId::V, &cloth.velocities)?;
+        // Read by the host after every frame: keep them mapped.
+        engine.create(BufferId::Health, size_of::<Health>() as u64, MemoryLocation::GpuToCpu)?;
 
-        let (arena, frame) = record_frame(ctx, &steps, &pipelines, &buffers, settings.timestamps)?;
-        Ok(Simulation {
-            frame,
-            _arena: arena,
-            _pipelines: pipelines,
-            buffers,
-            _module: module,
-            ctx: ctx.clone(),
-            params,
-            settings,
-            stability,
-            frames_done: 0,
-        })
+        let mut collision = CollisionMode::None;
+        let mut lbvh_timings = None;
+        if let Some(collider) = collider {
+            let collider_params = lbvh::collider_params(&collider.spheres, collider.thickness)?;
+            lbvh::allocate(&mut engine, &collider_params, &collider.spheres)?;
+            lbvh_timings = Some(lbvh::build_gpu(&mut engine, &collider_params)?);
+            engine.create(BufferId::DispatchArgs, size_of::<DispatchArgs>() as u64, MemoryLocation::GpuOnly)?;
+            engine.create(BufferId::CollisionStatus, size_of::<CollisionStatus>() as u64, MemoryLocation::GpuToCpu)?;
+            collision = if collider.use_bvh { CollisionMode::Bvh } else { CollisionMode::BruteForce };
+        }
+        let mut plan = settings.plan(&params, &stability);
+        plan.collision = collision;
+        let frame = engine.record(&cloth_frame(plan), settings.timestamps)?;
+        Ok(Simulation { frame, engine, params, settings, stability, collision, lbvh_timings, frames_done: 0 })
     }
 
     /// Runs one frame; returns its per-pass GPU timings, or `Error::Unstable` on blow-up.
     pub fn step(&mut self) -> Result<FrameTimings> {
-        let timings = self.frame.submit()?;
-        self.frames_done += 1;
-        let health = self.read_health()?;
-        check_health(&health, self.frames_done, &self.settings, &self.stability)?;
-        Ok(timings)
+        Ok(self.step_report()?.timings)
     }
 
-    fn read_health(&self) -> Result<Health> {
-        let bytes = self
-            .buffers
-            .get(&BufferId::Health)
-            .and_then(|b| b.mapped())
-            .ok_or_else(|| Error::Kernel { kernel: "health".into(), problem: "not host visible".into() })?;
-        Ok(bytemuck::pod_read_unaligned(&bytes[..size_of::<Health>()]))
+    /// Runs one frame; returns its timings and collision counters.
+    pub fn step_report(&mut self) -> Result<FrameReport> {
+        let timings = self.frame.submit()?;
+        self.frames_done += 1;
+        let health: Health = self.engine.read_mapped(BufferId::Health)?;
+        check_health(&health, self.frames_done, &self.settings, &self.stability)?;
+        let mut report = FrameReport { timings, ..FrameReport::default() };
+        if self.collision != CollisionMode::None {
+            let status: CollisionStatus = self.engine.read_mapped(BufferId::CollisionStatus)?;
+            if status.overflows > 0 {
+                return Err(Error::TraversalOverflow { frame: self.frames_done, particles: status.overflows });
+            }
+            report.collision_ran = status.ran;
+            report.collision_skipped = status.skipped;
+        }
+        Ok(report)
     }
 
     fn read_vec4s(&self, id: BufferId) -> Result<Vec<Vec4>> {
-        let buffer = self.buffers.get(&id).ok_or_else(|| Error::Kernel {
-            kernel: "simulation".into(),
-            problem: format!("buffer {id:?} not allocated"),
-        })?;
-        let bytes = download(&self.ctx, buffer, self.params.particle_count as u64 * 16)?;
-        Ok(bytes.chunks_exact(size_of::<Vec4>()).map(bytemuck::pod_read_unaligned).collect())
+        self.engine.download(id, self.params.particle_count as usize)
     }
 
     /// Positions (xyz, w = pin weight), read back from the GPU.
@@ -270,6 +259,18 @@ impl Simulation {
     pub fn normals(&self) -> Result<Vec<Vec4>> {
         self.read_vec4s(BufferId::Normals)
     }
+    /// The collider's LBVH as built on the GPU (None without a collider).
+    pub fn collider_bvh(&self) -> Result<Option<lbvh::Lbvh>> {
+        if self.collision == CollisionMode::None {
+            return Ok(None);
+        }
+        let params: Vec<drape_types::ColliderParams> = self.engine.download(BufferId::Collider, 1)?;
+        Ok(Some(lbvh::download(&self.engine, &params[0])?))
+    }
+    /// GPU time of the LBVH build per stage (None without a collider).
+    pub fn lbvh_timings(&self) -> Option<&FrameTimings> {
+        self.lbvh_timings.as_ref()
+    }
     pub fn params(&self) -> &SimParams {
         &self.params
     }
@@ -283,60 +284,6 @@ impl Simulation {
         self.frames_done
     }
     pub fn context(&self) -> &Arc<Context> {
-        &self.ctx
+        self.engine.context()
     }
-}
-
-/// Creates descriptor sets for every distinct (kernel, buffers) pair and records the frame.
-fn record_frame(
-    ctx: &Arc<Context>,
-    steps: &[FrameStep],
-    pipelines: &HashMap<KernelId, Pipeline>,
-    buffers: &HashMap<BufferId, Buffer>,
-    timed: bool,
-) -> Result<(DescriptorArena, RecordedFrame)> {
-    let missing = |what: String| Error::Kernel { kernel: "frame".into(), problem: what };
-    let mut distinct: Vec<(KernelId, Vec<BufferId>)> = Vec::new();
-    for step in steps {
-        if let FrameStep::Run(pass) = step {
-            let key = (pass.kernel, pass.bindings.clone());
-            if !distinct.contains(&key) {
-                distinct.push(key);
-            }
-        }
-    }
-    let total_bindings: usize = distinct.iter().map(|(_, b)| b.len()).sum();
-    let arena = DescriptorArena::new(ctx, distinct.len() as u32, total_bindings as u32)?;
-    let mut sets = HashMap::new();
-    for (kernel, ids) in &distinct {
-        let pipeline = pipelines.get(kernel).ok_or_else(|| missing(format!("no pipeline {kernel:?}")))?;
-        let bound: Vec<&Buffer> = ids
-            .iter()
-            .map(|id| buffers.get(id).ok_or_else(|| missing(format!("no buffer {id:?}"))))
-            .collect::<Result<_>>()?;
-        sets.insert((*kernel, ids.clone()), arena.bind(pipeline, &bound)?);
-    }
-    let mut commands = Vec::with_capacity(steps.len());
-    for step in steps {
-        commands.push(match step {
-            FrameStep::ResetHealth => Command::Fill {
-                buffer: buffers.get(&BufferId::Health).ok_or_else(|| missing("no health buffer".into()))?.handle,
-                value: 0,
-            },
-            FrameStep::Skip { label } => Command::Skipped { label: *label },
-            FrameStep::Run(pass) => {
-                let pipeline = pipelines.get(&pass.kernel).ok_or_else(|| missing(format!("{:?}", pass.kernel)))?;
-                let key = (pass.kernel, pass.bindings.clone());
-                Command::Dispatch {
-                    label: pass.label,
-                    pipeline,
-                    set: sets[&key],
-                    push: pass.push.map(|p| bytemuck::bytes_of(&p).to_vec()).unwrap_or_default(),
-                    groups: pass.threads.div_ceil(pipeline.spec.workgroup_size),
-                }
-            }
-        });
-    }
-    let frame = RecordedFrame::record(ctx, &commands, timed)?;
-    Ok((arena, frame))
 }

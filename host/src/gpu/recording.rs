@@ -17,6 +17,8 @@ pub enum Command<'a> {
         set: vk::DescriptorSet,
         push: Vec<u8>,
         groups: u32,
+        /// Take the workgroup count from `DispatchArgs` in this buffer instead of `groups`.
+        indirect: Option<vk::Buffer>,
     },
     /// Fill a whole buffer with a 32-bit value (e.g. reset counters).
     Fill { buffer: vk::Buffer, value: u32 },
@@ -123,7 +125,7 @@ impl RecordedFrame {
                 let mut query = 0;
                 for command in commands {
                     match command {
-                        Command::Dispatch { pipeline, set, push, groups, .. } => {
+                        Command::Dispatch { pipeline, set, push, groups, indirect, .. } => {
                             device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pipeline.pipeline);
                             device.cmd_bind_descriptor_sets(
                                 cb,
@@ -145,7 +147,10 @@ impl RecordedFrame {
                             if let Some(q) = &queries {
                                 device.cmd_write_timestamp(cb, vk::PipelineStageFlags::TOP_OF_PIPE, q.pool, query);
                             }
-                            device.cmd_dispatch(cb, *groups, 1, 1);
+                            match indirect {
+                                Some(args) => device.cmd_dispatch_indirect(cb, *args, 0),
+                                None => device.cmd_dispatch(cb, *groups, 1, 1),
+                            }
                             if let Some(q) = &queries {
                                 device.cmd_write_timestamp(
                                     cb,

@@ -18,10 +18,14 @@ pub struct ReflectedBinding {
 pub struct ReflectedEntry {
     pub bindings: Vec<ReflectedBinding>,
     pub uses_push_constants: bool,
+    /// `LocalSize` execution mode (threads per workgroup).
+    pub workgroup_size: [u32; 3],
 }
 
 const OP_NAME: u32 = 5;
 const OP_ENTRY_POINT: u32 = 15;
+const OP_EXECUTION_MODE: u32 = 16;
+const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
 const OP_VARIABLE: u32 = 59;
 const OP_DECORATE: u32 = 71;
 const DECORATION_NON_WRITABLE: u32 = 24;
@@ -55,7 +59,8 @@ pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> 
         return Err("not a SPIR-V module (magic)".into());
     }
     let mut names: HashMap<u32, String> = HashMap::new();
-    let mut entries: Vec<(String, Vec<u32>)> = Vec::new();
+    let mut entries: Vec<(String, u32, Vec<u32>)> = Vec::new();
+    let mut local_size: HashMap<u32, [u32; 3]> = HashMap::new();
     let mut storage: HashMap<u32, u32> = HashMap::new();
     let mut binding: HashMap<u32, u32> = HashMap::new();
     let mut set: HashMap<u32, u32> = HashMap::new();
@@ -74,7 +79,10 @@ pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> 
             }
             OP_ENTRY_POINT if ops.len() >= 3 => {
                 let (name, used) = literal_string(&ops[2..]);
-                entries.push((name, ops[2 + used..].to_vec()));
+                entries.push((name, ops[1], ops[2 + used..].to_vec()));
+            }
+            OP_EXECUTION_MODE if ops.len() >= 5 && ops[1] == EXECUTION_MODE_LOCAL_SIZE => {
+                local_size.insert(ops[0], [ops[2], ops[3], ops[4]]);
             }
             OP_VARIABLE if ops.len() >= 3 => {
                 storage.insert(ops[1], ops[2]);
@@ -96,8 +104,11 @@ pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> 
         at += count;
     }
     let mut out = HashMap::new();
-    for (name, interface) in entries {
-        let mut entry = ReflectedEntry::default();
+    for (name, function, interface) in entries {
+        let mut entry = ReflectedEntry {
+            workgroup_size: local_size.get(&function).copied().unwrap_or_default(),
+            ..ReflectedEntry::default()
+        };
         for id in interface {
             match storage.get(&id) {
                 Some(&STORAGE_CLASS_STORAGE_BUFFER) => entry.bindings.push(ReflectedBinding {

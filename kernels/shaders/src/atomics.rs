@@ -39,3 +39,70 @@ pub fn max(target: &mut u32, value: u32) -> u32 {
         old
     }
 }
+
+/// `*target += value` on workgroup-shared memory, returns the old value.
+#[inline]
+pub fn add_workgroup(target: &mut u32, value: u32) -> u32 {
+    #[cfg(target_arch = "spirv")]
+    unsafe {
+        spirv_std::arch::atomic_i_add::<u32, { Scope::Workgroup as u32 }, { Semantics::NONE.bits() }>(
+            target, value,
+        )
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        let old = *target;
+        *target = old.wrapping_add(value);
+        old
+    }
+}
+
+/// `*target += value` with acquire-release ordering on device (storage buffer) memory: what
+/// this invocation wrote before is visible to whoever sees the new value, and vice versa.
+#[inline]
+pub fn add_acq_rel(target: &mut u32, value: u32) -> u32 {
+    #[cfg(target_arch = "spirv")]
+    unsafe {
+        spirv_std::arch::atomic_i_add::<
+            u32,
+            { Scope::Device as u32 },
+            { Semantics::ACQUIRE_RELEASE.bits() | Semantics::UNIFORM_MEMORY.bits() },
+        >(target, value)
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        let old = *target;
+        *target = old.wrapping_add(value);
+        old
+    }
+}
+
+/// Atomic (relaxed, device scope) load: data exchanged between invocations of one dispatch
+/// goes through atomics so the acquire/release on the flag orders it (rust-gpu emits no
+/// NonPrivate/MakeVisible operands for plain loads and stores).
+#[inline]
+pub fn load(source: &u32) -> u32 {
+    #[cfg(target_arch = "spirv")]
+    unsafe {
+        spirv_std::arch::atomic_load::<u32, { Scope::Device as u32 }, { Semantics::NONE.bits() }>(source)
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        *source
+    }
+}
+
+/// Atomic (relaxed, device scope) store; see `load`.
+#[inline]
+pub fn store(target: &mut u32, value: u32) {
+    #[cfg(target_arch = "spirv")]
+    unsafe {
+        spirv_std::arch::atomic_store::<u32, { Scope::Device as u32 }, { Semantics::NONE.bits() }>(
+            target, value,
+        )
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        *target = value;
+    }
+}

@@ -130,7 +130,7 @@ pub fn acceleration(p: &SimParams, index: u32, pos: &[Vec4], vel: &[Vec4]) -> Ve
         );
         s += 1;
     }
-    force * (pin_weight / p.particle_mass)
+    force * (pin_weight * (1.0 / p.particle_mass))
 }
 
 #[cfg(test)]

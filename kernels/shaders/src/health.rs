@@ -13,10 +13,10 @@ pub fn particle_health(p: &SimParams, index: u32, x: &[Vec4], v: &[Vec4]) -> (bo
     let finite = here.is_finite() && v[i].xyz().is_finite();
     let mut stretch: f32 = 0.0;
     if index % p.cols + 1 < p.cols {
-        stretch = stretch.max((x[i + 1].xyz() - here).length() / p.rest.x);
+        stretch = stretch.max((x[i + 1].xyz() - here).length() * (1.0 / p.rest.x));
     }
     if index / p.cols + 1 < p.rows {
-        stretch = stretch.max((x[i + p.cols as usize].xyz() - here).length() / p.rest.y);
+        stretch = stretch.max((x[i + p.cols as usize].xyz() - here).length() * (1.0 / p.rest.y));
     }
     (!finite, stretch)
 }

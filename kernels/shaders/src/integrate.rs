@@ -81,8 +81,8 @@ pub fn integrate_stage_at(p: &SimParams, stage: u32, index: u32, b: &mut StageBu
     if stage == 3 {
         let sum_x = b.acc_x[i].xyz() + dx;
         let sum_v = b.acc_v[i].xyz() + dv;
-        b.x[i] = with_w(x0.xyz() + sum_x * (h / 6.0), w);
-        b.v[i] = with_w(v0 + sum_v * (h / 6.0), 0.0);
+        b.x[i] = with_w(x0.xyz() + sum_x * (h * (1.0 / 6.0)), w);
+        b.v[i] = with_w(v0 + sum_v * (h * (1.0 / 6.0)), 0.0);
         return;
     }
     let (weight, step) = if stage == 0 {

@@ -19,7 +19,7 @@ pub fn vertex_normal_at(p: &SimParams, index: u32, pos: &[Vec4]) -> Vec3 {
     let down = edge(row > 0, index.wrapping_sub(p.cols));
     let sum = up.cross(right) + left.cross(up) + down.cross(left) + right.cross(down);
     let len = sum.length();
-    if len > 0.0 { sum / len } else { Vec3::Y }
+    if len > 0.0 { sum * (1.0 / len) } else { Vec3::Y }
 }
 
 #[spirv(compute(threads(256)))]

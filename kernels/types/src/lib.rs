@@ -74,3 +74,95 @@ pub struct Health {
 const _: () = assert!(core::mem::size_of::<SimParams>() == 96);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
 const _: () = assert!(core::mem::size_of::<Health>() == 16);
+
+/// Marks a child index in `BvhNode` as a leaf (sorted sphere index) rather than an internal node.
+pub const LEAF_BIT: u32 = 0x8000_0000;
+/// "No node" (the root's parent).
+pub const NO_NODE: u32 = u32::MAX;
+
+/// An internal node of the LBVH (Karras 2012 layout: N-1 internal nodes for N leaves, node 0 is
+/// the root). Children are internal node indices, or sorted leaf indices with `LEAF_BIT` set.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct BvhNode {
+    pub left: u32,
+    pub right: u32,
+    pub _pad: [u32; 2],
+}
+
+/// Axis-aligned box: `min.xyz`, `max.xyz` (w unused). Internal node bounds of the LBVH. The
+/// bottom-up refit writes these through device atomics as 8 u32 words per box.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct Aabb {
+    pub min: Vec4,
+    pub max: Vec4,
+}
+
+/// u32 words per `Aabb` (as the refit kernel addresses them).
+pub const AABB_WORDS: u32 = 8;
+
+/// Constants of a collider (LBVH over spheres) and of the contact model.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct ColliderParams {
+    /// Number of leaves (spheres), N >= 1.
+    pub leaf_count: u32,
+    /// Contact thickness (m): a particle closer than radius + thickness to a sphere's centre
+    /// is in contact.
+    pub thickness: f32,
+    pub _pad: [u32; 2],
+    /// Box that normalises leaf centres for Morton codes (the spheres' centre bounds).
+    pub scene_min: Vec4,
+    pub scene_max: Vec4,
+}
+
+/// Push constants of the sort and scan passes.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct SortPush {
+    /// Bit offset of this pass's 8-bit digit.
+    pub shift: u32,
+    /// Number of elements (keys, or scan entries).
+    pub count: u32,
+    /// Number of tiles (workgroups) of the keys pass.
+    pub tiles: u32,
+    pub _pad: u32,
+}
+
+/// Collision pass counters, reset every frame and read by the host.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct CollisionStatus {
+    /// Particles whose traversal stack overflowed (contacts may be missed).
+    pub overflows: u32,
+    /// Substeps whose traversal was skipped because the cloth cannot touch the collider.
+    pub skipped: u32,
+    /// Substeps whose traversal ran.
+    pub ran: u32,
+    pub _pad: u32,
+}
+
+/// `vkCmdDispatchIndirect` arguments, written by the culling kernel.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct DispatchArgs {
+    pub x: u32,
+    pub y: u32,
+    pub z: u32,
+    pub _pad: u32,
+}
+
+const _: () = assert!(core::mem::size_of::<BvhNode>() == 16);
+const _: () = assert!(core::mem::size_of::<Aabb>() == 32);
+const _: () = assert!(core::mem::size_of::<Aabb>() == AABB_WORDS as usize * 4);
+const _: () = assert!(core::mem::size_of::<ColliderParams>() == 48);
+const _: () = assert!(core::mem::size_of::<SortPush>() == 16);
+const _: () = assert!(core::mem::size_of::<CollisionStatus>() == 16);
+const _: () = assert!(core::mem::size_of::<DispatchArgs>() == 16);

@@ -1,0 +1,314 @@
+//! Cloth-vs-collider contact (design.md §1): each particle walks the LBVH with a fixed-size
+//! stack; at a sphere within radius + thickness it moves to the first hit of its substep's
+//! motion p0 -> p1 with the inflated sphere (radially out if p0 was already inside) and keeps
+//! only the tangential part of its velocity. A one-workgroup culling pass first tests the cloth's
+//! swept bounds against the collider's root box and dispatches the traversal indirectly with
+//! zero workgroups when they cannot touch.
+
+use crate::atomics;
+use crate::lbvh::sphere_aabb;
+use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
+use drape_types::{Aabb, BvhNode, ColliderParams, CollisionStatus, DispatchArgs, LEAF_BIT, SimParams};
+use spirv_std::spirv;
+#[cfg(target_arch = "spirv")]
+use spirv_std::num_traits::Float;
+
+/// Traversal stack entries per particle: the LBVH of 30-bit Morton codes is at most ~30 +
+/// log2(N) deep, and each level pushes at most one node.
+pub const STACK_SIZE: usize = 64;
+
+/// The earliest contact found so far: hit parameter along p0 -> p1 (0 = p0 already inside),
+/// sphere index, and the sphere.
+#[derive(Copy, Clone)]
+pub struct Contact {
+    pub t: f32,
+    pub sphere_index: u32,
+    pub sphere: Vec4,
+}
+
+/// No contact.
+pub const NO_CONTACT: Contact = Contact { t: 2.0, sphere_index: u32::MAX, sphere: Vec4::ZERO };
+
+/// Whether `p` is inside `b` grown by `margin`.
+#[inline]
+pub fn point_in_aabb(p: Vec3, b: &Aabb, margin: f32) -> bool {
+    p.cmpge(b.min.xyz() - Vec3::splat(margin)).all() && p.cmple(b.max.xyz() + Vec3::splat(margin)).all()
+}
+
+/// If p1 lies within `sphere` inflated by `thickness`, the parameter in [0, 1] of the first
+/// point of p0 -> p1 on the inflated sphere (0 when p0 is inside too); otherwise > 1.
+#[inline]
+pub fn hit_parameter(p0: Vec3, p1: Vec3, sphere: Vec4, thickness: f32) -> f32 {
+    let c = sphere.xyz();
+    let radius = sphere.w + thickness;
+    let r2 = radius * radius;
+    if (p1 - c).length_squared() >= r2 {
+        return 2.0;
+    }
+    let from = p0 - c;
+    let c0 = from.length_squared() - r2;
+    if c0 <= 0.0 {
+        return 0.0;
+    }
+    // |from + t d|^2 = r^2 has a root in (0, 1): p0 outside, p1 inside.
+    let d = p1 - p0;
+    let a = d.length_squared();
+    let b = from.dot(d);
+    let disc = (b * b - a * c0).max(0.0);
+    let t = (-b - disc.sqrt()) * (1.0 / a.max(1e-30));
+    t.clamp(0.0, 1.0)
+}
+
+/// Keeps the earlier of two contacts (ties: lower sphere index), so any visiting order gives the
+/// same answer: the BVH and the brute-force loop agree exactly.
+#[inline]
+pub fn consider(best: Contact, t: f32, sphere_index: u32, sphere: Vec4) -> Contact {
+    if t <= 1.0 && (t < best.t || (t == best.t && sphere_index < best.sphere_index)) {
+        Contact { t, sphere_index, sphere }
+    } else {
+        best
+    }
+}
+
+/// Contact response: new position and velocity.
+pub fn respond(p0: Vec3, p1: Vec3, v: Vec3, contact: Contact, thickness: f32) -> (Vec3, Vec3) {
+    let c = contact.sphere.xyz();
+    let radius = contact.sphere.w + thickness;
+    let (position, outward) = if contact.t <= 0.0 {
+        // Started inside: push p1 radially onto the surface.
+        let out = p1 - c;
+        let len = out.length();
+        let n = if len > 1e-12 { out * (1.0 / len) } else { Vec3::Y };
+        (c + n * radius, n)
+    } else {
+        let hit = p0 + (p1 - p0) * contact.t;
+        let out = hit - c;
+        let len = out.length();
+        let n = if len > 1e-12 { out * (1.0 / len) } else { Vec3::Y };
+        (hit, n)
+    };
+    let into = v.dot(outward).min(0.0);
+    (position, v - outward * into)
+}
+
+/// Earliest contact of p0 -> p1 with the LBVH's spheres. Returns it and whether the stack
+/// overflowed (some subtrees were then not visited).
+pub fn traverse(
+    collider: &ColliderParams,
+    nodes: &[BvhNode],
+    aabbs: &[Aabb],
+    spheres: &[Vec4],
+    p0: Vec3,
+    p1: Vec3,
+) -> (Contact, bool) {
+    let thickness = collider.thickness;
+    let mut best = NO_CONTACT;
+    if collider.leaf_count == 1 {
+        let t = hit_parameter(p0, p1, spheres[0], thickness);
+        return (consider(best, t, 0, spheres[0]), false);
+    }
+    let mut stack = [0u32; STACK_SIZE];
+    let mut top = 1; // stack[0] = root
+    let mut overflow = false;
+    while top > 0 {
+        top -= 1;
+        let node = nodes[stack[top] as usize];
+        let mut side = 0;
+        while side < 2 {
+            let child = if side == 0 { node.left } else { node.right };
+            if child & LEAF_BIT != 0 {
+                let leaf = child & !LEAF_BIT;
+                let sphere = spheres[leaf as usize];
+                best = consider(best, hit_parameter(p0, p1, sphere, thickness), leaf, sphere);
+            } else if point_in_aabb(p1, &aabbs[child as usize], thickness) {
+                if top < STACK_SIZE {
+                    stack[top] = child;
+                    top += 1;
+                } else {
+                    overflow = true;
+                }
+            }
+            side += 1;
+        }
+    }
+    (best, overflow)
+}
+
+/// The same contact by testing every sphere (reference and benchmark baseline).
+pub fn brute_force(collider: &ColliderParams, spheres: &[Vec4], p0: Vec3, p1: Vec3) -> Contact {
+    let mut best = NO_CONTACT;
+    let mut i = 0;
+    while i < collider.leaf_count {
+        let sphere = spheres[i as usize];
+        best = consider(best, hit_parameter(p0, p1, sphere, collider.thickness), i, sphere);
+        i += 1;
+    }
+    best
+}
+
+/// Applies `contact` (if any) to particle `index`, whose substep started at `x_prev`.
+#[inline]
+pub fn apply_contact(index: u32, contact: Contact, thickness: f32, x: &mut [Vec4], v: &mut [Vec4], x_prev: &[Vec4]) {
+    let i = index as usize;
+    if contact.t <= 1.0 {
+        let here = x[i];
+        let (position, velocity) = respond(x_prev[i].xyz(), here.xyz(), v[i].xyz(), contact, thickness);
+        x[i] = position.extend(here.w);
+        v[i] = velocity.extend(0.0);
+    }
+}
+
+/// One particle's collision through the LBVH; returns whether its stack overflowed.
+#[allow(clippy::too_many_arguments)]
+pub fn collide_at(
+    index: u32,
+    collider: &ColliderParams,
+    nodes: &[BvhNode],
+    aabbs: &[Aabb],
+    spheres: &[Vec4],
+    x: &mut [Vec4],
+    v: &mut [Vec4],
+    x_prev: &[Vec4],
+) -> bool {
+    let i = index as usize;
+    if x[i].w == 0.0 {
+        return false;
+    }
+    let (contact, overflow) = traverse(collider, nodes, aabbs, spheres, x_prev[i].xyz(), x[i].xyz());
+    apply_contact(index, contact, collider.thickness, x, v, x_prev);
+    overflow
+}
+
+/// One particle's collision by testing every sphere.
+pub fn collide_brute_force_at(
+    index: u32,
+    collider: &ColliderParams,
+    spheres: &[Vec4],
+    x: &mut [Vec4],
+    v: &mut [Vec4],
+    x_prev: &[Vec4],
+) {
+    let i = index as usize;
+    if x[i].w == 0.0 {
+        return;
+    }
+    let contact = brute_force(collider, spheres, x_prev[i].xyz(), x[i].xyz());
+    apply_contact(index, contact, collider.thickness, x, v, x_prev);
+}
+
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn collide(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spheres: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] v: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] status: &mut CollisionStatus,
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    if collide_at(id.x, collider, nodes, aabbs, spheres, x, v, x_prev) {
+        atomics::add(&mut status.overflows, 1);
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn collide_brute_force(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] spheres: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] x: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] v: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[Vec4],
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    collide_brute_force_at(id.x, collider, spheres, x, v, x_prev);
+}
+
+/// Root box of the collider (a single sphere's box when there is one leaf).
+#[inline]
+pub fn root_aabb(collider: &ColliderParams, aabbs: &[Aabb], spheres: &[Vec4]) -> Aabb {
+    if collider.leaf_count == 1 { sphere_aabb(spheres[0]) } else { aabbs[0] }
+}
+
+/// Bounds of particles `lane, lane + stride, ...` over both ends of their substep motion.
+pub fn swept_bounds(x: &[Vec4], x_prev: &[Vec4], count: u32, lane: u32, stride: u32) -> Aabb {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    let mut i = lane;
+    while i < count {
+        let (a, b) = (x[i as usize].xyz(), x_prev[i as usize].xyz());
+        lo = lo.min(a).min(b);
+        hi = hi.max(a).max(b);
+        i += stride;
+    }
+    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
+}
+
+/// Whether two boxes, one grown by `margin`, overlap.
+#[inline]
+pub fn aabbs_overlap(a: &Aabb, b: &Aabb, margin: f32) -> bool {
+    let m = Vec3::splat(margin);
+    (a.min.xyz() - m).cmple(b.max.xyz()).all() && (a.max.xyz() + m).cmpge(b.min.xyz()).all()
+}
+
+/// Threads per workgroup of `collide` and `collide_brute_force` (their `threads(64)`).
+pub const COLLIDE_THREADS: u32 = 64;
+
+/// Threads of the culling pass (one workgroup).
+pub const CULL_THREADS: u32 = 256;
+
+/// One workgroup: reduce the cloth's swept bounds in shared memory, test them against the
+/// collider's root box, and write the traversal's indirect dispatch size (0 = skip).
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(256)))]
+pub fn cull_collision(
+    #[spirv(local_invocation_id)] lid: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] spheres: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] args: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] status: &mut CollisionStatus,
+    #[spirv(workgroup)] lows: &mut [Vec4; 256],
+    #[spirv(workgroup)] highs: &mut [Vec4; 256],
+) {
+    let lane = lid.x;
+    let own = swept_bounds(x, x_prev, params.particle_count, lane, CULL_THREADS);
+    lows[lane as usize] = own.min;
+    highs[lane as usize] = own.max;
+    let mut stride = CULL_THREADS / 2;
+    while stride > 0 {
+        #[cfg(target_arch = "spirv")]
+        spirv_std::arch::workgroup_memory_barrier_with_group_sync();
+        if lane < stride {
+            let other = (lane + stride) as usize;
+            lows[lane as usize] = lows[lane as usize].min(lows[other]);
+            highs[lane as usize] = highs[lane as usize].max(highs[other]);
+        }
+        stride /= 2;
+    }
+    if lane == 0 {
+        let cloth = Aabb { min: lows[0], max: highs[0] };
+        let root = root_aabb(collider, aabbs, spheres);
+        let run = aabbs_overlap(&cloth, &root, collider.thickness);
+        *args = DispatchArgs { x: if run { params.particle_count.div_ceil(COLLIDE_THREADS) } else { 0 }, y: 1, z: 1, _pad: 0 };
+        if run {
+            status.ran += 1;
+        } else {
+            status.skipped += 1;
+        }
+    }
+}

@@ -1,0 +1,223 @@
+//! Linear BVH over spheres (Karras 2012, "Maximizing Parallelism in the Construction of BVHs,
+//! Octrees, and k-d Trees"): Morton codes of the leaf centres, a radix sort (`sort.rs`), all
+//! internal nodes in parallel (one thread each), then internal boxes bottom-up (one thread per
+//! leaf; the second thread to reach a node computes it).
+
+use crate::atomics;
+use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
+use drape_types::{AABB_WORDS, Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE};
+use spirv_std::spirv;
+
+/// Spreads the low 10 bits of `v` to every third bit.
+#[inline]
+pub fn expand_bits(v: u32) -> u32 {
+    let mut v = v & 0x3ff;
+    v = (v | (v << 16)) & 0x0300_00ff;
+    v = (v | (v << 8)) & 0x0300_f00f;
+    v = (v | (v << 4)) & 0x030c_30c3;
+    v = (v | (v << 2)) & 0x0924_9249;
+    v
+}
+
+/// 30-bit Morton code of `p` normalised into the box [lo, hi] (10 bits per axis).
+#[inline]
+pub fn morton_code(p: Vec3, lo: Vec3, hi: Vec3) -> u32 {
+    let extent = (hi - lo).max(Vec3::splat(1e-30));
+    let unit = ((p - lo) * extent.recip()).clamp(Vec3::ZERO, Vec3::ONE);
+    let q = (unit * 1023.0).min(Vec3::splat(1023.0));
+    (expand_bits(q.x as u32) << 2) | (expand_bits(q.y as u32) << 1) | expand_bits(q.z as u32)
+}
+
+#[spirv(compute(threads(256)))]
+pub fn morton_codes(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] spheres: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] keys: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] values: &mut [u32],
+) {
+    let i = id.x;
+    if i >= collider.leaf_count {
+        return;
+    }
+    keys[i as usize] =
+        morton_code(spheres[i as usize].xyz(), collider.scene_min.xyz(), collider.scene_max.xyz());
+    values[i as usize] = i;
+}
+
+/// Puts the spheres in sorted order: `sorted[i] = spheres[order[i]]`.
+#[spirv(compute(threads(256)))]
+pub fn gather_leaves(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] spheres: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] order: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] sorted: &mut [Vec4],
+) {
+    let i = id.x;
+    if i < collider.leaf_count {
+        sorted[i as usize] = spheres[order[i as usize] as usize];
+    }
+}
+
+/// Karras' delta: length of the common prefix of (code_i, i) and (code_j, j); -1 outside.
+/// Equal codes fall back to the indices (Karras §4), so every key is unique.
+#[inline]
+pub fn delta(codes: &[u32], n: u32, i: u32, j: i32) -> i32 {
+    if j < 0 || j >= n as i32 {
+        return -1;
+    }
+    let (a, b) = (codes[i as usize], codes[j as usize]);
+    if a == b { 32 + (i ^ j as u32).leading_zeros() as i32 } else { (a ^ b).leading_zeros() as i32 }
+}
+
+/// Children of internal node `i` (of n - 1), with `LEAF_BIT` marking leaves.
+pub fn internal_node(codes: &[u32], n: u32, i: u32) -> BvhNode {
+    let ii = i as i32;
+    let d: i32 = if delta(codes, n, i, ii + 1) - delta(codes, n, i, ii - 1) >= 0 { 1 } else { -1 };
+    let delta_min = delta(codes, n, i, ii - d);
+    // Upper bound on the range length, then binary search for its other end.
+    let mut l_max: i32 = 2;
+    while delta(codes, n, i, ii + l_max * d) > delta_min {
+        l_max *= 2;
+    }
+    let mut l: i32 = 0;
+    let mut t = l_max / 2;
+    while t >= 1 {
+        if delta(codes, n, i, ii + (l + t) * d) > delta_min {
+            l += t;
+        }
+        t /= 2;
+    }
+    let j = ii + l * d;
+    // Split: the highest position where the range's keys differ.
+    let delta_node = delta(codes, n, i, j);
+    let mut s: i32 = 0;
+    let mut divisor: i32 = 2;
+    loop {
+        let t = (l + divisor - 1) / divisor;
+        if delta(codes, n, i, ii + (s + t) * d) > delta_node {
+            s += t;
+        }
+        if t <= 1 {
+            break;
+        }
+        divisor *= 2;
+    }
+    let gamma = ii + s * d + if d < 0 { -1 } else { 0 };
+    let (first, last) = if ii < j { (ii, j) } else { (j, ii) };
+    let left = if first == gamma { gamma as u32 | LEAF_BIT } else { gamma as u32 };
+    let right = if last == gamma + 1 { (gamma + 1) as u32 | LEAF_BIT } else { (gamma + 1) as u32 };
+    BvhNode { left, right, _pad: [0; 2] }
+}
+
+/// Index in the parents buffer: internal nodes first, then leaves.
+#[inline]
+pub fn parent_slot(child: u32, leaf_count: u32) -> u32 {
+    if child & LEAF_BIT != 0 { leaf_count - 1 + (child & !LEAF_BIT) } else { child }
+}
+
+/// One thread per internal node: its children, and their parent links.
+#[spirv(compute(threads(256)))]
+pub fn build_nodes(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] codes: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] nodes: &mut [BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] parents: &mut [u32],
+) {
+    let n = collider.leaf_count;
+    let i = id.x;
+    if i + 1 >= n {
+        return;
+    }
+    let node = internal_node(codes, n, i);
+    nodes[i as usize] = node;
+    parents[parent_slot(node.left, n) as usize] = i;
+    parents[parent_slot(node.right, n) as usize] = i;
+    if i == 0 {
+        parents[0] = NO_NODE;
+    }
+}
+
+/// Bounds of a sphere (xyz centre, w radius).
+#[inline]
+pub fn sphere_aabb(s: Vec4) -> Aabb {
+    let r = Vec3::splat(s.w);
+    Aabb { min: (s.xyz() - r).extend(0.0), max: (s.xyz() + r).extend(0.0) }
+}
+
+#[inline]
+fn union(a: Aabb, b: Aabb) -> Aabb {
+    Aabb { min: a.min.min(b.min), max: a.max.max(b.max) }
+}
+
+/// Reads internal node `node`'s box through atomics (see `atomics::load`).
+#[inline]
+pub fn load_aabb(words: &[u32], node: u32) -> Aabb {
+    let base = (node * AABB_WORDS) as usize;
+    let w = |k: usize| f32::from_bits(atomics::load(&words[base + k]));
+    Aabb { min: Vec4::new(w(0), w(1), w(2), 0.0), max: Vec4::new(w(4), w(5), w(6), 0.0) }
+}
+
+#[inline]
+fn store_aabb(words: &mut [u32], node: u32, b: Aabb) {
+    let base = (node * AABB_WORDS) as usize;
+    atomics::store(&mut words[base], b.min.x.to_bits());
+    atomics::store(&mut words[base + 1], b.min.y.to_bits());
+    atomics::store(&mut words[base + 2], b.min.z.to_bits());
+    atomics::store(&mut words[base + 4], b.max.x.to_bits());
+    atomics::store(&mut words[base + 5], b.max.y.to_bits());
+    atomics::store(&mut words[base + 6], b.max.z.to_bits());
+}
+
+/// Box of a child: a sorted leaf's sphere, or an internal node's stored box.
+#[inline]
+fn child_aabb(child: u32, sorted: &[Vec4], words: &[u32]) -> Aabb {
+    if child & LEAF_BIT != 0 {
+        sphere_aabb(sorted[(child & !LEAF_BIT) as usize])
+    } else {
+        load_aabb(words, child)
+    }
+}
+
+/// Walks from leaf `leaf` towards the root. At each node the first thread to arrive stops; the
+/// second (acquire/release on the node's flag makes the sibling's box visible) computes the
+/// node's box and goes on.
+pub fn refit_from_leaf(
+    leaf: u32,
+    n: u32,
+    nodes: &[BvhNode],
+    parents: &[u32],
+    sorted: &[Vec4],
+    flags: &mut [u32],
+    words: &mut [u32],
+) {
+    let mut node = parents[parent_slot(leaf | LEAF_BIT, n) as usize];
+    while node != NO_NODE {
+        if atomics::add_acq_rel(&mut flags[node as usize], 1) == 0 {
+            return;
+        }
+        let children = nodes[node as usize];
+        let b = union(child_aabb(children.left, sorted, words), child_aabb(children.right, sorted, words));
+        store_aabb(words, node, b);
+        node = parents[node as usize];
+    }
+}
+
+#[spirv(compute(threads(256)))]
+pub fn refit(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] parents: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] sorted: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] flags: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] aabbs: &mut [u32],
+) {
+    let n = collider.leaf_count;
+    if id.x >= n || n < 2 {
+        return;
+    }
+    refit_from_leaf(id.x, n, nodes, parents, sorted, flags, aabbs);
+}
