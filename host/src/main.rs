@@ -1,14 +1,25 @@
-//! `drape`: runs a built-in scene on the GPU, prints per-kernel GPU timings and the stability
-//! figures, and can write frames as OBJ.
+//! `drape`: runs a built-in scene on the GPU, prints per-kernel GPU timings, the LBVH build time,
+//! the stability figures and the accuracy against the true mesh, and can write OBJ frames.
 
 use clap::{Parser, ValueEnum};
+use drape::metrics::{Accuracy, TriangleBvh, accuracy};
+use drape::mesh::Mesh;
+use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, shared_model};
 use drape::timing::TimingReport;
-use drape::{Context, Integrator, SimSettings, Simulation, Validation};
+use drape::{Collider, Context, Integrator, SimSettings, Simulation, Validation};
 use glam::Vec3;
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
+
+#[derive(Copy, Clone, Debug, ValueEnum, PartialEq)]
+enum SceneArg {
+    /// A cloth falls onto a mesh collider (the standard benchmark scene).
+    Drape,
+    /// A cloth pinned at two corners swings under gravity and wind (no collider).
+    Swing,
+}
 
 #[derive(Copy, Clone, Debug, ValueEnum)]
 enum IntegratorArg {
@@ -16,15 +27,29 @@ enum IntegratorArg {
     Euler,
 }
 
-/// Simulate the default scene: a cloth pinned at two corners, swinging under gravity and wind.
+/// Simulate a scene: by default a 64x64 cloth falling onto a procedural icosphere for 2 s.
 #[derive(Parser, Debug)]
 #[command(name = "drape", version, about)]
 struct Args {
+    #[arg(long, value_enum, default_value = "drape")]
+    scene: SceneArg,
+    /// Collider mesh: icosphere, torus, bunny, dragon (from ../shared/models) or an OBJ path.
+    #[arg(long, default_value = "icosphere")]
+    mesh: String,
+    /// Collider voxels per axis (one sphere per non-empty voxel).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=256))]
+    voxels: u32,
+    /// Contact thickness (m).
+    #[arg(long, default_value_t = drape::scenes::DEFAULT_THICKNESS)]
+    thickness: f32,
+    /// Test every sphere instead of traversing the LBVH (baseline).
+    #[arg(long)]
+    brute_force: bool,
     /// Particles per side (rows = cols).
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(2..=4096))]
     grid: u32,
     /// Frames to simulate (1/60 s each).
-    #[arg(long, default_value_t = 120)]
+    #[arg(long, default_value_t = SETTLE_FRAMES)]
     frames: u32,
     /// Substeps per frame; default: automatic from the stability bound.
     #[arg(long)]
@@ -32,19 +57,13 @@ struct Args {
     /// Time integrator.
     #[arg(long, value_enum, default_value = "rk4")]
     integrator: IntegratorArg,
-    /// Cloth side length (m).
-    #[arg(long, default_value_t = 1.0)]
-    size: f32,
-    /// Total cloth mass (kg).
-    #[arg(long, default_value_t = 0.2)]
-    mass: f32,
     /// Structural, shear and bend stiffness (N/m), comma separated.
     #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [40.0, 10.0, 2.0])]
     stiffness: Vec<f32>,
     /// Damping along spring axes (N s/m).
     #[arg(long, default_value_t = 0.002)]
     spring_damping: f32,
-    /// Wind: constant force on the whole cloth (N), x,y,z.
+    /// Wind: constant force on the whole cloth (N), x,y,z (swing scene).
     #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [0.3, 0.0, 0.5])]
     wind: Vec<f32>,
     /// Skip vertex normals.
@@ -75,18 +94,36 @@ fn main() -> ExitCode {
     }
 }
 
+fn load_mesh(name: &str) -> drape::Result<Mesh> {
+    match name {
+        "icosphere" => Ok(default_mesh()),
+        "torus" => Ok(Mesh::torus(0.35, 0.12, 48, 24)),
+        "bunny" => Mesh::load_obj(&shared_model("stanford-bunny.obj")),
+        "dragon" => Mesh::load_obj(&shared_model("stanford-dragon-res2.obj")),
+        path => Mesh::load_obj(std::path::Path::new(path)),
+    }
+}
+
 fn run(args: &Args) -> drape::Result<()> {
     let validation = if args.validate { Validation::Required } else { Validation::from_env() };
     let ctx = Context::new(validation)?;
     let info = ctx.info();
     println!("device: {} ({})", info.name, info.driver);
 
-    let cloth = drape::scenes::swinging_cloth(args.grid)
-        .size(args.size)
-        .mass(args.mass)
+    let mut scene = None;
+    let builder = match args.scene {
+        SceneArg::Swing => drape::scenes::swinging_cloth(args.grid).external_force(Vec3::from_slice(&args.wind)),
+        SceneArg::Drape => {
+            let mesh = load_mesh(&args.mesh)?;
+            let s = DrapeScene::standard(&mesh, args.grid);
+            let builder = s.cloth.clone();
+            scene = Some(s);
+            builder
+        }
+    };
+    let cloth = builder
         .stiffness(args.stiffness[0], args.stiffness[1], args.stiffness[2])
         .spring_damping(args.spring_damping)
-        .external_force(Vec3::from_slice(&args.wind))
         .build()?;
     let settings = SimSettings {
         substeps: args.substeps,
@@ -98,8 +135,77 @@ fn run(args: &Args) -> drape::Result<()> {
         timestamps: !args.no_timestamps,
         ..SimSettings::default()
     };
-    let mut sim = Simulation::new(&ctx, &cloth, settings)?;
-    let s = *sim.stability();
+    let collider = match &mut scene {
+        Some(s) => {
+            s.thickness = args.thickness;
+            let start = Instant::now();
+            let mut c = s.collider(args.voxels)?;
+            c.use_bvh = !args.brute_force;
+            println!(
+                "collider: {} ({} vertices, {} triangles), {n}^3 voxels -> {} spheres in {:.1} ms (CPU)",
+                args.mesh,
+                s.mesh.vertices.len(),
+                s.mesh.triangles.len(),
+                c.spheres.len(),
+                start.elapsed().as_secs_f64() * 1e3,
+                n = args.voxels
+            );
+            Some(c)
+        }
+        None => None,
+    };
+    let mut sim = Simulation::with_collider(&ctx, &cloth, settings, collider.as_ref())?;
+    print_setup(args, &sim, &settings);
+    if let Some(t) = sim.lbvh_timings() {
+        println!("LBVH build on the GPU: {:.3} ms", t.total_micros() / 1e3);
+        for (label, n, micros) in t.by_label() {
+            println!("  {label:<16} {n:>3} dispatches {micros:>10.1} µs");
+        }
+    }
+    if let Some(dir) = &args.obj_dir {
+        std::fs::create_dir_all(dir).map_err(|source| drape::Error::Io { path: dir.clone(), source })?;
+    }
+
+    let mut report = TimingReport::default();
+    let (mut ran, mut skipped) = (0, 0);
+    for frame in 1..=args.frames {
+        let start = Instant::now();
+        let r = sim.step_report()?;
+        report.add(&r.timings, start.elapsed());
+        ran += r.collision_ran;
+        skipped += r.collision_skipped;
+        progress(frame, args.frames);
+        let write_this = match args.obj_every {
+            Some(n) => frame % n == 0,
+            None => frame == args.frames,
+        };
+        if let (Some(dir), true) = (&args.obj_dir, write_this) {
+            let path = dir.join(format!("frame_{frame:05}.obj"));
+            drape::obj::write_cloth_obj(&path, args.grid, args.grid, &sim.positions()?, &sim.normals()?)?;
+        }
+    }
+    eprintln!();
+    println!("\nGPU time per kernel (timestamp queries, median over frames):");
+    print!("{}", report.table());
+    if collider.is_some() {
+        println!("collision traversal: ran in {ran} substeps, culled (cloth cannot touch) in {skipped}");
+    }
+    let x = sim.positions()?;
+    if let (Some(s), Some(c)) = (&scene, &collider) {
+        let start = Instant::now();
+        let bvh = TriangleBvh::new(&s.mesh);
+        let p = sim.params();
+        let a = accuracy(&bvh, &c.spheres, c.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
+        print_accuracy(&a, args.frames, start.elapsed().as_secs_f64());
+    } else {
+        let lowest = x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+        println!("final: lowest particle at y = {lowest:.3} m after {} frames", sim.frames_done());
+    }
+    ctx.check_validation()
+}
+
+fn print_setup(args: &Args, sim: &Simulation, settings: &SimSettings) {
+    let s = sim.stability();
     println!(
         "cloth: {g} x {g} particles, {:?}, {} substeps/frame of {:.3e} s",
         settings.integrator,
@@ -118,32 +224,14 @@ fn run(args: &Args) -> drape::Result<()> {
     if let Some(w) = s.warning() {
         eprintln!("warning: {w}");
     }
-    if let Some(dir) = &args.obj_dir {
-        std::fs::create_dir_all(dir).map_err(|source| drape::Error::Io { path: dir.clone(), source })?;
-    }
+}
 
-    let mut report = TimingReport::default();
-    for frame in 1..=args.frames {
-        let start = Instant::now();
-        let timings = sim.step()?;
-        report.add(&timings, start.elapsed());
-        progress(frame, args.frames);
-        let write_this = match args.obj_every {
-            Some(n) => frame % n == 0,
-            None => frame == args.frames,
-        };
-        if let (Some(dir), true) = (&args.obj_dir, write_this) {
-            let path = dir.join(format!("frame_{frame:05}.obj"));
-            drape::obj::write_cloth_obj(&path, args.grid, args.grid, &sim.positions()?, &sim.normals()?)?;
-        }
-    }
-    eprintln!();
-    println!("\nGPU time per kernel (timestamp queries, median over frames):");
-    print!("{}", report.table());
-    let x = sim.positions()?;
-    let lowest = x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
-    println!("final: lowest particle at y = {lowest:.3} m, {} frames simulated", sim.frames_done());
-    ctx.check_validation()
+fn print_accuracy(a: &Accuracy, frames: u32, seconds: f64) {
+    println!("accuracy at t = {:.2} s against the true triangle mesh ({:.2} s on the CPU):", frames as f32 / 60.0, seconds);
+    println!("  particles inside the mesh   {:.3} %  (max penetration {:.2} mm, p99 {:.2} mm)", 100.0 * a.inside_fraction, a.max_penetration * 1e3, a.p99_penetration * 1e3);
+    println!("  within thickness of surface {:.3} %", 100.0 * a.within_thickness_fraction);
+    println!("  resting on the collider     {} particles, gap to true surface mean {:.2} mm, max {:.2} mm", a.resting, a.gap_mean * 1e3, a.gap_max * 1e3);
+    println!("  spring stretch              max {:.3}, p99 {:.3}; all finite: {}", a.max_stretch, a.p99_stretch, a.all_finite);
 }
 
 fn progress(frame: u32, total: u32) {

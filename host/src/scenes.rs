@@ -14,3 +14,52 @@ pub fn swinging_cloth(grid: u32) -> ClothBuilder {
         .transform(Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0)))
         .pin_top_corners()
 }
+
+/// Contact thickness of the drape scenes (m).
+pub const DEFAULT_THICKNESS: f32 = 0.005;
+
+/// The standard benchmark scene (design.md §2): a mesh scaled so its larger horizontal extent
+/// is `MESH_EXTENT` and standing on y = 0; a flat square cloth 1.5x that wide, 5 cm above the
+/// mesh top, 0.2 kg/m^2, no pins; frames of 1/60 s, settled for 2 s.
+pub struct DrapeScene {
+    /// The collider mesh, placed.
+    pub mesh: crate::mesh::Mesh,
+    pub cloth: ClothBuilder,
+    pub thickness: f32,
+}
+
+/// Larger horizontal extent of the standard scene's mesh (m): the bunny x6.
+pub const MESH_EXTENT: f32 = 0.93;
+/// Frames of the standard scene's settle (2 s at 60 frames per second).
+pub const SETTLE_FRAMES: u32 = 120;
+
+impl DrapeScene {
+    /// The standard scene around `mesh` (any placement) with a `grid x grid` cloth.
+    pub fn standard(mesh: &crate::mesh::Mesh, grid: u32) -> Self {
+        let mesh = mesh.normalized_for_scene(MESH_EXTENT);
+        let (lo, hi) = mesh.bounds();
+        let side = 1.5 * (hi.x - lo.x).max(hi.z - lo.z);
+        let centre = 0.5 * (lo + hi);
+        let cloth = ClothBuilder::new(grid, grid)
+            .size(side)
+            .mass(0.2 * side * side)
+            .transform(Mat4::from_translation(Vec3::new(centre.x, hi.y + 0.05, centre.z)));
+        DrapeScene { mesh, cloth, thickness: DEFAULT_THICKNESS }
+    }
+
+    /// The collider: one sphere per non-empty voxel of an `n x n x n` grid over the mesh.
+    pub fn collider(&self, n: u32) -> crate::Result<crate::sim::Collider> {
+        Ok(crate::sim::Collider::new(crate::collider::voxel_spheres(&self.mesh, n)?, self.thickness))
+    }
+}
+
+/// The default scene's mesh: a procedural icosphere (no file needed).
+pub fn default_mesh() -> crate::mesh::Mesh {
+    crate::mesh::Mesh::icosphere(0.5, 3)
+}
+
+/// `../shared/models/<file>` next to the workspace, where the benchmarks and tests read the
+/// Stanford models from (they are never committed).
+pub fn shared_model(file: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models").join(file)
+}

@@ -1,0 +1,127 @@
+//! The paper's Table VII on this machine's Vulkan driver: a 64x64 cloth draped over the
+//! Stanford Bunny and Dragon (read from ../shared/models; skipped when absent) with n = 1, 3, 5,
+//! 16, 32, 64 voxels per axis. Per row: ms per frame (median wall, no timestamps), the GPU split
+//! per kernel (timestamps), the LBVH build, and the accuracy at t = 2 s against the true mesh.
+//! Then the same frame with a brute-force collision pass, to show what the BVH buys.
+
+use drape::metrics::{TriangleBvh, accuracy};
+use drape::mesh::Mesh;
+use drape::scenes::{DrapeScene, SETTLE_FRAMES, shared_model};
+use drape::timing::{TimingReport, median};
+use drape::{Collider, Context, SimSettings, Simulation, Validation};
+use std::time::Instant;
+
+const VOXELS: [u32; 6] = [1, 3, 5, 16, 32, 64];
+
+struct Row {
+    spheres: usize,
+    wall_ms: f64,
+    report: TimingReport,
+    lbvh_ms: f64,
+    accuracy: drape::metrics::Accuracy,
+}
+
+fn run(ctx: &std::sync::Arc<Context>, scene: &DrapeScene, collider: &Collider, bvh: &TriangleBvh) -> Row {
+    let cloth = scene.cloth.build().expect("cloth");
+    // Untimed run: wall time per frame over the whole 2 s settle, and the final state.
+    let untimed = SimSettings { timestamps: false, ..SimSettings::default() };
+    let mut sim = Simulation::with_collider(ctx, &cloth, untimed, Some(collider)).expect("simulation");
+    let mut walls = Vec::new();
+    for _ in 0..SETTLE_FRAMES {
+        let start = Instant::now();
+        sim.step().expect("stable");
+        walls.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    let x = sim.positions().expect("positions");
+    let p = *sim.params();
+    let accuracy = accuracy(bvh, &collider.spheres, collider.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
+    // Timed run (timestamps) for the per-kernel split: 30 frames into the fall.
+    let mut timed = Simulation::with_collider(ctx, &cloth, SimSettings::default(), Some(collider)).expect("simulation");
+    let lbvh_ms = timed.lbvh_timings().map(|t| t.total_micros() / 1e3).unwrap_or(0.0);
+    let mut report = TimingReport::default();
+    for frame in 0..60 {
+        let start = Instant::now();
+        let t = timed.step().expect("stable");
+        if frame >= 30 {
+            report.add(&t, start.elapsed());
+        }
+    }
+    Row { spheres: collider.spheres.len(), wall_ms: median(&walls), report, lbvh_ms, accuracy }
+}
+
+fn main() {
+    if std::env::args().any(|a| a == "--list") {
+        return;
+    }
+    let ctx = Context::new(Validation::Off).expect("a Vulkan driver");
+    println!("device: {} ({})", ctx.info().name, ctx.info().driver);
+    println!("Table VII reproduction: 64x64 cloth, frame = 1/60 s, auto substeps (RK4), thickness 5 mm, 2 s settle.");
+    println!("Paper (GTX 1650): Bunny 8 / 12 / 12 ms, Dragon 13 / 13 / 15 ms for n = 1 / 3 / 5.");
+    for (name, file) in [("bunny", "stanford-bunny.obj"), ("dragon", "stanford-dragon-res2.obj")] {
+        let path = shared_model(file);
+        let Ok(mesh) = Mesh::load_obj(&path) else {
+            println!("\n{name}: {} not found, skipped", path.display());
+            continue;
+        };
+        let scene = DrapeScene::standard(&mesh, 64);
+        let bvh = TriangleBvh::new(&scene.mesh);
+        println!("\n{name} ({} triangles)", scene.mesh.triangles.len());
+        println!(
+            "{:>3} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} | {:>8} {:>8} {:>8} {:>8} {:>8} {:>7}",
+            "n", "spheres", "ms/frame", "GPU ms", "integr.", "collide", "cull", "LBVH ms", "inside%", "maxpen", "p99pen", "gapmean", "gapmax", "stretch"
+        );
+        for n in VOXELS {
+            let collider = scene.collider(n).expect("collider");
+            let row = run(&ctx, &scene, &collider, &bvh);
+            let rows = row.report.rows();
+            let sum = |prefix: &str| rows.iter().filter(|r| r.0.starts_with(prefix)).map(|r| r.2).sum::<f64>() / 1e3;
+            let a = &row.accuracy;
+            println!(
+                "{n:>3} {:>7} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>9.2} {:>8.3} | {:>8.3} {:>7.1}mm {:>7.1}mm {:>7.1}mm {:>7.1}mm {:>7.3}",
+                row.spheres,
+                row.wall_ms,
+                row.report.median_gpu_micros() / 1e3,
+                sum("rk4"),
+                sum("collide (BVH)"),
+                sum("collide: cull"),
+                row.lbvh_ms,
+                100.0 * a.inside_fraction,
+                a.max_penetration * 1e3,
+                a.p99_penetration * 1e3,
+                a.gap_mean * 1e3,
+                a.gap_max * 1e3,
+                a.max_stretch
+            );
+        }
+        // What the BVH buys: the same frames with every particle testing every sphere.
+        println!("  brute-force collision (same results, every sphere tested), median ms per frame:");
+        let cloth = scene.cloth.build().expect("cloth");
+        for n in [5, 16, 64] {
+            let mut collider = scene.collider(n).expect("collider");
+            let timed_bvh = frame_ms(&ctx, &cloth, &collider, 20, 10);
+            collider.use_bvh = false;
+            // Brute force costs the same in every frame (it tests every sphere regardless).
+            let timed_brute = frame_ms(&ctx, &cloth, &collider, 0, 3);
+            println!(
+                "  n = {n:>2} ({:>5} spheres): BVH {timed_bvh:>8.2} ms, brute force {timed_brute:>8.2} ms ({:.1}x)",
+                collider.spheres.len(),
+                timed_brute / timed_bvh
+            );
+        }
+    }
+}
+
+/// Median wall ms of `measured` frames after `warmup` frames, without timestamps.
+fn frame_ms(ctx: &std::sync::Arc<Context>, cloth: &drape::Cloth, collider: &Collider, warmup: u32, measured: u32) -> f64 {
+    let settings = SimSettings { timestamps: false, ..SimSettings::default() };
+    let mut sim = Simulation::with_collider(ctx, cloth, settings, Some(collider)).expect("simulation");
+    let mut walls = Vec::new();
+    for frame in 0..warmup + measured {
+        let start = Instant::now();
+        sim.step().expect("stable");
+        if frame >= warmup {
+            walls.push(start.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+    median(&walls)
+}
