@@ -21,6 +21,7 @@ pub mod cpu;
 pub mod error;
 pub mod gpu;
 pub mod kernels;
+pub mod mesh;
 pub mod obj;
 pub mod program;
 pub mod reference;
@@ -33,6 +34,7 @@ pub use cloth::{Cloth, ClothBuilder};
 pub use cpu::CpuSimulation;
 pub use error::{Error, Result};
 pub use gpu::{Context, FrameTimings, Validation};
+pub use mesh::Mesh;
 pub use sim::{Integrator, SimSettings, Simulation};
 pub use stability::Stability;
 
