@@ -17,6 +17,7 @@
 //! ```
 
 pub mod cloth;
+pub mod collider;
 pub mod cpu;
 pub mod error;
 pub mod gpu;
