@@ -23,6 +23,7 @@ pub mod error;
 pub mod gpu;
 pub mod kernels;
 pub mod mesh;
+pub mod metrics;
 pub mod obj;
 pub mod program;
 pub mod reference;
