@@ -17,11 +17,14 @@
 //! ```
 
 pub mod cloth;
+pub mod collider;
 pub mod cpu;
 pub mod error;
 pub mod gpu;
 pub mod kernels;
 pub mod lbvh;
+pub mod mesh;
+pub mod metrics;
 pub mod obj;
 pub mod program;
 pub mod reference;
@@ -34,6 +37,7 @@ pub use cloth::{Cloth, ClothBuilder};
 pub use cpu::CpuSimulation;
 pub use error::{Error, Result};
 pub use gpu::{Context, FrameTimings, Validation};
+pub use mesh::Mesh;
 pub use sim::{Collider, FrameReport, Integrator, SimSettings, Simulation};
 pub use stability::Stability;
 

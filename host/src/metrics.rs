@@ -1,0 +1,385 @@
+//! Accuracy of a cloth state against the **true triangle mesh** (design.md §2), not against the
+//! spheres that stand in for it during the simulation: penetration, how far the sphere proxy
+//! holds the cloth off the surface, and spring stretch. CPU only.
+
+mod bvh;
+
+use crate::mesh::Mesh;
+use bvh::{Bvh, Node};
+use glam::{Vec3, Vec4, Vec4Swizzles};
+
+/// Ray directions for the inside test. Not axis-aligned, so rays rarely run along a scan's grid
+/// of edges; all three point upward because scanned models have their holes at the bottom, where
+/// they stood on the turntable (the bunny has 5), and a ray that leaves through a hole miscounts.
+const RAY_DIRECTIONS: [Vec3; 3] =
+    [Vec3::new(0.2620, 0.9636, 0.0530), Vec3::new(-0.3300, 0.9120, 0.2437), Vec3::new(0.1520, 0.8930, -0.4236)];
+
+/// Below this many spheres `accuracy` tests them all; above, it builds a BVH over them.
+const BRUTE_FORCE_SPHERES: usize = 64;
+
+/// A particle within this distance (m) of the sphere surface, beyond the contact thickness,
+/// still counts as resting on the collider.
+const RESTING_SLACK: f32 = 1e-4;
+
+/// A CPU BVH over a mesh's triangles for closest-point and inside/outside queries.
+pub struct TriangleBvh {
+    bvh: Bvh,
+    /// Triangles in leaf order: a leaf holds `triangles[first..first + count]`.
+    triangles: Vec<[Vec3; 3]>,
+}
+
+impl TriangleBvh {
+    /// Builds the tree (binned SAH). Triangles with an index out of range or a non-finite vertex
+    /// are left out, so any `Mesh` is accepted.
+    pub fn new(mesh: &Mesh) -> TriangleBvh {
+        let corners = |t: &[u32; 3]| {
+            let [a, b, c] = t.map(|i| mesh.vertices.get(i as usize).copied());
+            Some([a?, b?, c?]).filter(|tri| tri.iter().all(|v| v.is_finite()))
+        };
+        let valid: Vec<[Vec3; 3]> = mesh.triangles.iter().filter_map(corners).collect();
+        let boxes: Vec<(Vec3, Vec3)> = valid.iter().map(|&[a, b, c]| (a.min(b).min(c), a.max(b).max(c))).collect();
+        let bvh = bvh::build(&boxes);
+        let triangles = bvh.order.iter().map(|&i| valid[i as usize]).collect();
+        TriangleBvh { bvh, triangles }
+    }
+
+    /// Number of triangles in the tree.
+    pub fn len(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Whether the tree holds no triangle (then every point is outside, infinitely far).
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Distance from p to the closest point on the surface, and that point.
+    /// For an empty tree: (infinity, p).
+    pub fn closest_point(&self, p: Vec3) -> (f32, Vec3) {
+        let Some(root) = self.bvh.nodes.first() else {
+            return (f32::INFINITY, p);
+        };
+        let (mut best, mut best_point) = (f32::INFINITY, p);
+        // Nodes with the squared distance to their box; the nearer child is visited first.
+        let mut stack: Vec<(u32, f32)> = Vec::with_capacity(64);
+        stack.push((0, root.distance_squared(p)));
+        while let Some((index, d2)) = stack.pop() {
+            if d2 >= best {
+                continue;
+            }
+            let node = &self.bvh.nodes[index as usize];
+            if node.count > 0 {
+                for &[a, b, c] in self.leaf(node) {
+                    let q = closest_on_triangle(p, a, b, c);
+                    let d = q.distance_squared(p);
+                    if d < best {
+                        (best, best_point) = (d, q);
+                    }
+                }
+            } else {
+                let (l, r) = (node.first, node.first + 1);
+                let dl = self.bvh.nodes[l as usize].distance_squared(p);
+                let dr = self.bvh.nodes[r as usize].distance_squared(p);
+                let (near, far) = if dl <= dr { ((l, dl), (r, dr)) } else { ((r, dr), (l, dl)) };
+                if far.1 < best {
+                    stack.push(far);
+                }
+                if near.1 < best {
+                    stack.push(near);
+                }
+            }
+        }
+        (best.sqrt(), best_point)
+    }
+
+    /// Whether p is inside the mesh: ray parity along 3 fixed non-axis-aligned directions,
+    /// majority vote (robust to the bunny's small bottom holes and to rays grazing edges).
+    /// Back-to-back duplicate faces (the dragon's "fins") are crossed twice and cancel out.
+    pub fn is_inside(&self, p: Vec3) -> bool {
+        let Some(root) = self.bvh.nodes.first() else {
+            return false;
+        };
+        if !p.is_finite() || p.cmplt(root.min).any() || p.cmpgt(root.max).any() {
+            return false;
+        }
+        let odd = RAY_DIRECTIONS.iter().filter(|&&d| self.crossings(p, d) % 2 == 1).count();
+        odd >= 2
+    }
+
+    /// How many triangles the ray `origin + t * dir`, t > 0, passes through.
+    fn crossings(&self, origin: Vec3, dir: Vec3) -> u32 {
+        let inv = dir.recip();
+        let mut hits = 0;
+        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        stack.push(0);
+        while let Some(index) = stack.pop() {
+            let node = &self.bvh.nodes[index as usize];
+            if !ray_hits_box(origin, inv, node) {
+                continue;
+            }
+            if node.count > 0 {
+                hits +=
+                    self.leaf(node).iter().filter(|&&[a, b, c]| ray_hits_triangle(origin, dir, a, b, c)).count() as u32;
+            } else {
+                stack.extend([node.first, node.first + 1]);
+            }
+        }
+        hits
+    }
+
+    fn leaf(&self, node: &Node) -> &[[Vec3; 3]] {
+        let first = node.first as usize;
+        &self.triangles[first..first + node.count as usize]
+    }
+}
+
+/// Accuracy of a cloth state against the true mesh.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Accuracy {
+    pub particles: usize,
+    /// Every particle position is finite. Non-finite particles count as outside, not within the
+    /// thickness and not resting, so the other numbers describe the finite ones.
+    pub all_finite: bool,
+    /// Share of particles inside the mesh.
+    pub inside_fraction: f64,
+    /// Max distance to the surface over inside particles (0 if none).
+    pub max_penetration: f32,
+    /// 99th percentile (nearest rank) over all particles of (inside ? distance : 0).
+    pub p99_penetration: f32,
+    /// Share of particles whose distance to the true surface is <= thickness.
+    pub within_thickness_fraction: f64,
+    /// Particles resting on the collider: outside the mesh and within `thickness` (+1e-4 m) of
+    /// the collider's sphere surface (distance to the nearest sphere surface = |p - c| - r, min
+    /// over spheres).
+    pub resting: usize,
+    /// Over resting particles: distance to the true surface (how far the sphere proxy holds the
+    /// cloth off the mesh); 0 if none.
+    pub gap_mean: f32,
+    pub gap_max: f32,
+    /// Structural springs (row and column neighbours): length / rest length. A non-finite length
+    /// counts as infinite stretch.
+    pub max_stretch: f32,
+    pub p99_stretch: f32,
+}
+
+/// Measures `positions` (xyz + w; particle index = row * cols + col) of a `rows x cols` cloth
+/// against the mesh in `bvh` and the collider `spheres` (xyz = centre, w = radius).
+///
+/// Row springs join `i` and `i + cols` (rest `rest_row`), column springs `i` and `i + 1` (rest
+/// `rest_col`); springs that reach past `positions` are skipped, and so is a family whose rest
+/// length is not finite and positive.
+// The argument list is the interface the benchmarks and tests call.
+#[allow(clippy::too_many_arguments)]
+pub fn accuracy(
+    bvh: &TriangleBvh,
+    spheres: &[Vec4],
+    thickness: f32,
+    rows: u32,
+    cols: u32,
+    rest_col: f32,
+    rest_row: f32,
+    positions: &[Vec4],
+) -> Accuracy {
+    let particles = positions.len();
+    let mut result = Accuracy { particles, all_finite: true, ..Accuracy::default() };
+    if particles == 0 {
+        return result;
+    }
+    let collider = SphereSet::new(spheres);
+    let mut penetrations = Vec::with_capacity(particles);
+    let (mut inside, mut within) = (0usize, 0usize);
+    let mut gap_sum = 0.0f64;
+    for p in positions.iter().map(|p| p.xyz()) {
+        if !p.is_finite() {
+            result.all_finite = false;
+            penetrations.push(0.0);
+            continue;
+        }
+        let (distance, _) = bvh.closest_point(p);
+        let is_inside = bvh.is_inside(p);
+        if distance <= thickness {
+            within += 1;
+        }
+        if is_inside {
+            inside += 1;
+            result.max_penetration = result.max_penetration.max(distance);
+            penetrations.push(distance);
+        } else {
+            penetrations.push(0.0);
+            if collider.any_within(p, thickness + RESTING_SLACK) {
+                result.resting += 1;
+                gap_sum += distance as f64;
+                result.gap_max = result.gap_max.max(distance);
+            }
+        }
+    }
+    result.inside_fraction = inside as f64 / particles as f64;
+    result.within_thickness_fraction = within as f64 / particles as f64;
+    result.p99_penetration = p99(&mut penetrations);
+    if result.resting > 0 {
+        result.gap_mean = (gap_sum / result.resting as f64) as f32;
+    }
+
+    let mut stretches = Vec::with_capacity(2 * particles);
+    let (rows, cols) = (rows as usize, cols as usize);
+    let mut spring = |i: usize, j: usize, rest: f32| {
+        if let (Some(a), Some(b)) = (positions.get(i), positions.get(j)) {
+            let stretch = a.xyz().distance(b.xyz()) / rest;
+            stretches.push(if stretch.is_finite() { stretch } else { f32::INFINITY });
+        }
+    };
+    let usable = |rest: f32| rest.is_finite() && rest > 0.0;
+    for r in 0..rows {
+        for c in 0..cols {
+            let i = r * cols + c;
+            if r + 1 < rows && usable(rest_row) {
+                spring(i, i + cols, rest_row);
+            }
+            if c + 1 < cols && usable(rest_col) {
+                spring(i, i + 1, rest_col);
+            }
+        }
+    }
+    result.max_stretch = stretches.iter().copied().fold(0.0, f32::max);
+    result.p99_stretch = p99(&mut stretches);
+    result
+}
+
+/// The 99th percentile by nearest rank (the value at position ceil(0.99 n) in ascending order);
+/// 0 for no values.
+fn p99(values: &mut [f32]) -> f32 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let rank = (values.len() * 99).div_ceil(100).max(1);
+    *values.select_nth_unstable_by(rank - 1, f32::total_cmp).1
+}
+
+/// The collider's spheres, for "is p within `slack` of some sphere" queries.
+struct SphereSet {
+    spheres: Vec<Vec4>,
+    /// Over the spheres when there are many; spheres are then in leaf order.
+    bvh: Option<Bvh>,
+}
+
+impl SphereSet {
+    fn new(spheres: &[Vec4]) -> SphereSet {
+        let finite: Vec<Vec4> = spheres.iter().copied().filter(|s| s.is_finite()).collect();
+        if finite.len() <= BRUTE_FORCE_SPHERES {
+            return SphereSet { spheres: finite, bvh: None };
+        }
+        let boxes: Vec<(Vec3, Vec3)> = finite.iter().map(|s| (s.xyz() - s.w.abs(), s.xyz() + s.w.abs())).collect();
+        let bvh = bvh::build(&boxes);
+        let spheres = bvh.order.iter().map(|&i| finite[i as usize]).collect();
+        SphereSet { spheres, bvh: Some(bvh) }
+    }
+
+    /// Whether `|p - c| - r <= slack` for some sphere: the minimum over spheres is at most
+    /// `slack` exactly when one of them is, so the search stops at the first.
+    fn any_within(&self, p: Vec3, slack: f32) -> bool {
+        let near = |s: &Vec4| p.distance(s.xyz()) - s.w <= slack;
+        let Some(bvh) = &self.bvh else {
+            return self.spheres.iter().any(near);
+        };
+        let mut stack: Vec<u32> = Vec::with_capacity(64);
+        stack.push(0);
+        while let Some(index) = stack.pop() {
+            let node = &bvh.nodes[index as usize];
+            if node.distance_squared(p) > slack.max(0.0).powi(2) {
+                continue;
+            }
+            if node.count > 0 {
+                let first = node.first as usize;
+                if self.spheres[first..first + node.count as usize].iter().any(near) {
+                    return true;
+                }
+            } else {
+                stack.extend([node.first, node.first + 1]);
+            }
+        }
+        false
+    }
+}
+
+/// Slab test; `inv` = 1 / direction (finite: the directions are not axis-aligned).
+fn ray_hits_box(origin: Vec3, inv: Vec3, node: &Node) -> bool {
+    let t0 = (node.min - origin) * inv;
+    let t1 = (node.max - origin) * inv;
+    let near = t0.min(t1).max_element();
+    let far = t0.max(t1).min_element();
+    far >= near.max(0.0)
+}
+
+/// Möller–Trumbore, edges included (a ray through a shared edge may count twice: the majority
+/// vote over three directions absorbs that). Degenerate and parallel triangles are missed.
+fn ray_hits_triangle(origin: Vec3, dir: Vec3, a: Vec3, b: Vec3, c: Vec3) -> bool {
+    let (e1, e2) = (b - a, c - a);
+    let pv = dir.cross(e2);
+    let det = e1.dot(pv);
+    if det == 0.0 || !det.is_finite() {
+        return false;
+    }
+    let inv = 1.0 / det;
+    let s = origin - a;
+    let u = s.dot(pv) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return false;
+    }
+    let q = s.cross(e1);
+    let v = dir.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return false;
+    }
+    e2.dot(q) * inv > 0.0
+}
+
+/// Closest point to `p` on triangle `abc` (Ericson, Real-Time Collision Detection §5.1.5), by
+/// Voronoi region. A degenerate triangle (a division by zero) falls back to its three edges.
+fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let q = closest_by_region(p, a, b, c);
+    if q.is_finite() {
+        return q;
+    }
+    [closest_on_segment(p, a, b), closest_on_segment(p, b, c), closest_on_segment(p, c, a)]
+        .into_iter()
+        .min_by(|x, y| x.distance_squared(p).total_cmp(&y.distance_squared(p)))
+        .unwrap_or(a)
+}
+
+fn closest_by_region(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
+}
+
+fn closest_on_segment(p: Vec3, a: Vec3, b: Vec3) -> Vec3 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    if len2 > 0.0 { a + ab * ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { a }
+}
