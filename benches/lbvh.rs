@@ -32,7 +32,7 @@ fn lbvh(c: &mut Criterion) {
     let mut table = Vec::new();
     for n in SIZES {
         let input = spheres(n);
-        let params = collider_params(&input, 0.0).expect("params");
+        let params = collider_params(&input, 0.0, 0.0).expect("params");
         let mut engine = Engine::new(&ctx).expect("engine");
         allocate(&mut engine, &params, &input).expect("buffers");
         let untimed = engine.record(&lbvh_build(n), false).expect("record");

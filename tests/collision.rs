@@ -60,7 +60,7 @@ fn gpu_radix_sort_sorts_100k_keys() {
     let spheres = random_spheres(&mut rng, 100_000, 10.0);
     let gpu = GpuLbvh::build(&ctx, &spheres, 0.0).unwrap();
     let tree = gpu.download().unwrap();
-    let params = collider_params(&spheres, 0.0).unwrap();
+    let params = collider_params(&spheres, 0.0, 0.0).unwrap();
     let mut codes: Vec<u32> = spheres
         .iter()
         .map(|s| drape_kernels::lbvh::morton_code(s.truncate(), params.scene_min.truncate(), params.scene_max.truncate()))
@@ -79,7 +79,7 @@ fn bvh_traversal_finds_the_brute_force_contacts() {
     let mut contacts = 0;
     for n in [1usize, 2, 3, 50, 2000] {
         let spheres = random_spheres(&mut rng, n, 1.0);
-        let params = collider_params(&spheres, 0.02).unwrap();
+        let params = collider_params(&spheres, 0.02, 0.0).unwrap();
         let tree = build_cpu(&spheres, &params);
         for _ in 0..2000 {
             let p1 = Vec3::new(rng.range(-1.2, 1.2), rng.range(-1.2, 1.2), rng.range(-1.2, 1.2));

@@ -43,7 +43,7 @@ impl CpuSimulation {
         let mut plan = settings.plan(&params, &stability);
         let mut built = None;
         if let Some(c) = collider {
-            let collider_params = collider_params(&c.spheres, c.thickness)?;
+            let collider_params = collider_params(&c.spheres, c.thickness, c.friction)?;
             built = Some((collider_params, build_cpu(&c.spheres, &collider_params)));
             plan.collision = if c.use_bvh { CollisionMode::Bvh } else { CollisionMode::BruteForce };
         }

@@ -15,7 +15,7 @@ use std::sync::Arc;
 pub const MAX_LEAVES: u32 = 1 << 24;
 
 /// Collider parameters for `spheres` (xyz centre, w radius) with a contact `thickness`.
-pub fn collider_params(spheres: &[Vec4], thickness: f32) -> Result<ColliderParams> {
+pub fn collider_params(spheres: &[Vec4], thickness: f32, friction: f32) -> Result<ColliderParams> {
     if spheres.is_empty() || spheres.len() as u64 > MAX_LEAVES as u64 {
         return Err(Error::InvalidParameter {
             name: "collider",
@@ -24,6 +24,9 @@ pub fn collider_params(spheres: &[Vec4], thickness: f32) -> Result<ColliderParam
     }
     if !spheres.iter().all(|s| s.is_finite() && s.w >= 0.0) {
         return Err(Error::InvalidParameter { name: "collider", problem: "spheres must be finite with radius >= 0".into() });
+    }
+    if !(friction.is_finite() && friction >= 0.0) {
+        return Err(Error::InvalidParameter { name: "friction", problem: format!("must be finite and >= 0, got {friction}") });
     }
     if !(thickness.is_finite() && thickness >= 0.0) {
         return Err(Error::InvalidParameter { name: "thickness", problem: format!("must be finite and >= 0, got {thickness}") });
@@ -34,7 +37,8 @@ pub fn collider_params(spheres: &[Vec4], thickness: f32) -> Result<ColliderParam
     Ok(ColliderParams {
         leaf_count: spheres.len() as u32,
         thickness,
-        _pad: [0; 2],
+        friction,
+        _pad: 0,
         scene_min: lo.extend(0.0),
         scene_max: hi.extend(0.0),
     })
@@ -106,7 +110,7 @@ pub struct GpuLbvh {
 
 impl GpuLbvh {
     pub fn build(ctx: &Arc<Context>, spheres: &[Vec4], thickness: f32) -> Result<Self> {
-        let params = collider_params(spheres, thickness)?;
+        let params = collider_params(spheres, thickness, 0.0)?;
         let mut engine = Engine::new(ctx)?;
         allocate(&mut engine, &params, spheres)?;
         let timings = build_gpu(&mut engine, &params)?;

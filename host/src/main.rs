@@ -6,7 +6,7 @@ use drape::metrics::{Accuracy, TriangleBvh, accuracy};
 use drape::mesh::Mesh;
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, shared_model};
 use drape::timing::TimingReport;
-use drape::{Collider, Context, Integrator, SimSettings, Simulation, Validation};
+use drape::{Context, Integrator, SimSettings, Simulation, Validation};
 use glam::Vec3;
 use std::io::Write;
 use std::path::PathBuf;
@@ -42,6 +42,9 @@ struct Args {
     /// Contact thickness (m).
     #[arg(long, default_value_t = drape::scenes::DEFAULT_THICKNESS)]
     thickness: f32,
+    /// Coulomb friction coefficient of the contact (0 = the paper's frictionless response).
+    #[arg(long, default_value_t = drape::scenes::DEFAULT_FRICTION)]
+    friction: f32,
     /// Test every sphere instead of traversing the LBVH (baseline).
     #[arg(long)]
     brute_force: bool,
@@ -138,6 +141,7 @@ fn run(args: &Args) -> drape::Result<()> {
     let collider = match &mut scene {
         Some(s) => {
             s.thickness = args.thickness;
+            s.friction = args.friction;
             let start = Instant::now();
             let mut c = s.collider(args.voxels)?;
             c.use_bvh = !args.brute_force;

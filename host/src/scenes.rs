@@ -26,7 +26,13 @@ pub struct DrapeScene {
     pub mesh: crate::mesh::Mesh,
     pub cloth: ClothBuilder,
     pub thickness: f32,
+    /// Coulomb friction of the contact.
+    pub friction: f32,
 }
+
+/// Friction of the drape scenes: enough for cloth to rest on a mesh instead of sliding off
+/// within the 2 s settle (the paper's response is frictionless: `--friction 0`).
+pub const DEFAULT_FRICTION: f32 = 0.5;
 
 /// Larger horizontal extent of the standard scene's mesh (m): the bunny x6.
 pub const MESH_EXTENT: f32 = 0.93;
@@ -44,12 +50,14 @@ impl DrapeScene {
             .size(side)
             .mass(0.2 * side * side)
             .transform(Mat4::from_translation(Vec3::new(centre.x, hi.y + 0.05, centre.z)));
-        DrapeScene { mesh, cloth, thickness: DEFAULT_THICKNESS }
+        DrapeScene { mesh, cloth, thickness: DEFAULT_THICKNESS, friction: DEFAULT_FRICTION }
     }
 
     /// The collider: one sphere per non-empty voxel of an `n x n x n` grid over the mesh.
     pub fn collider(&self, n: u32) -> crate::Result<crate::sim::Collider> {
-        Ok(crate::sim::Collider::new(crate::collider::voxel_spheres(&self.mesh, n)?, self.thickness))
+        let mut collider = crate::sim::Collider::new(crate::collider::voxel_spheres(&self.mesh, n)?, self.thickness);
+        collider.friction = self.friction;
+        Ok(collider)
     }
 }
 

@@ -144,13 +144,15 @@ pub(crate) fn check_health(
 pub struct Collider {
     pub spheres: Vec<Vec4>,
     pub thickness: f32,
+    /// Coulomb friction coefficient (0 = the paper's frictionless response).
+    pub friction: f32,
     /// Traverse the LBVH (true) or test every sphere (the brute-force baseline).
     pub use_bvh: bool,
 }
 
 impl Collider {
     pub fn new(spheres: Vec<Vec4>, thickness: f32) -> Self {
-        Collider { spheres, thickness, use_bvh: true }
+        Collider { spheres, thickness, friction: 0.0, use_bvh: true }
     }
 }
 
@@ -207,7 +209,7 @@ impl Simulation {
         let mut collision = CollisionMode::None;
         let mut lbvh_timings = None;
         if let Some(collider) = collider {
-            let collider_params = lbvh::collider_params(&collider.spheres, collider.thickness)?;
+            let collider_params = lbvh::collider_params(&collider.spheres, collider.thickness, collider.friction)?;
             lbvh::allocate(&mut engine, &collider_params, &collider.spheres)?;
             lbvh_timings = Some(lbvh::build_gpu(&mut engine, &collider_params)?);
             engine.create(BufferId::DispatchArgs, size_of::<DispatchArgs>() as u64, MemoryLocation::GpuOnly)?;

@@ -70,8 +70,10 @@ pub fn consider(best: Contact, t: f32, sphere_index: u32, sphere: Vec4) -> Conta
     }
 }
 
-/// Contact response: new position and velocity.
-pub fn respond(p0: Vec3, p1: Vec3, v: Vec3, contact: Contact, thickness: f32) -> (Vec3, Vec3) {
+/// Contact response: new position and velocity. The normal velocity into the surface is
+/// removed (design.md §1); with `friction` > 0 the tangential velocity also loses up to
+/// `friction` times the removed normal speed (Coulomb: it stops when that covers it).
+pub fn respond(p0: Vec3, p1: Vec3, v: Vec3, contact: Contact, thickness: f32, friction: f32) -> (Vec3, Vec3) {
     let c = contact.sphere.xyz();
     let radius = contact.sphere.w + thickness;
     let (position, outward) = if contact.t <= 0.0 {
@@ -88,7 +90,11 @@ pub fn respond(p0: Vec3, p1: Vec3, v: Vec3, contact: Contact, thickness: f32) ->
         (hit, n)
     };
     let into = v.dot(outward).min(0.0);
-    (position, v - outward * into)
+    let tangential = v - outward * v.dot(outward);
+    let speed = tangential.length();
+    let kept = if speed > 1e-12 { (1.0 - friction * -into * (1.0 / speed)).max(0.0) } else { 0.0 };
+    let normal = outward * (v.dot(outward) - into);
+    (position, normal + tangential * kept)
 }
 
 /// Earliest contact of p0 -> p1 with the LBVH's spheres. Returns it and whether the stack
@@ -148,11 +154,12 @@ pub fn brute_force(collider: &ColliderParams, spheres: &[Vec4], p0: Vec3, p1: Ve
 
 /// Applies `contact` (if any) to particle `index`, whose substep started at `x_prev`.
 #[inline]
-pub fn apply_contact(index: u32, contact: Contact, thickness: f32, x: &mut [Vec4], v: &mut [Vec4], x_prev: &[Vec4]) {
+pub fn apply_contact(index: u32, contact: Contact, collider: &ColliderParams, x: &mut [Vec4], v: &mut [Vec4], x_prev: &[Vec4]) {
+    let (thickness, friction) = (collider.thickness, collider.friction);
     let i = index as usize;
     if contact.t <= 1.0 {
         let here = x[i];
-        let (position, velocity) = respond(x_prev[i].xyz(), here.xyz(), v[i].xyz(), contact, thickness);
+        let (position, velocity) = respond(x_prev[i].xyz(), here.xyz(), v[i].xyz(), contact, thickness, friction);
         x[i] = position.extend(here.w);
         v[i] = velocity.extend(0.0);
     }
@@ -175,7 +182,7 @@ pub fn collide_at(
         return false;
     }
     let (contact, overflow) = traverse(collider, nodes, aabbs, spheres, x_prev[i].xyz(), x[i].xyz());
-    apply_contact(index, contact, collider.thickness, x, v, x_prev);
+    apply_contact(index, contact, collider, x, v, x_prev);
     overflow
 }
 
@@ -193,7 +200,7 @@ pub fn collide_brute_force_at(
         return;
     }
     let contact = brute_force(collider, spheres, x_prev[i].xyz(), x[i].xyz());
-    apply_contact(index, contact, collider.thickness, x, v, x_prev);
+    apply_contact(index, contact, collider, x, v, x_prev);
 }
 
 #[allow(clippy::too_many_arguments)]

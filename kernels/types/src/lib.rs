@@ -114,7 +114,9 @@ pub struct ColliderParams {
     /// Contact thickness (m): a particle closer than radius + thickness to a sphere's centre
     /// is in contact.
     pub thickness: f32,
-    pub _pad: [u32; 2],
+    /// Coulomb friction coefficient of the contact (0 = the paper's frictionless response).
+    pub friction: f32,
+    pub _pad: u32,
     /// Box that normalises leaf centres for Morton codes (the spheres' centre bounds).
     pub scene_min: Vec4,
     pub scene_max: Vec4,
