@@ -218,3 +218,61 @@ fn invalid_colliders_are_errors() {
         assert!(matches!(result, Err(drape::Error::InvalidParameter { .. })), "{what}");
     }
 }
+
+/// The standard drape scene on a procedural mesh, settled for 2 s: no particle ends inside the
+/// true mesh, the cloth rests on the collider, and finer voxels hold it closer to the surface.
+#[test]
+fn draped_cloth_rests_outside_the_true_mesh_and_finer_voxels_hug_it() {
+    use drape::metrics::{TriangleBvh, accuracy};
+    use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh};
+    let ctx = context();
+    let scene = DrapeScene::standard(&default_mesh(), 24);
+    let bvh = TriangleBvh::new(&scene.mesh);
+    let cloth = scene.cloth.build().unwrap();
+    let mut gaps = Vec::new();
+    for n in [3, 12] {
+        let collider = scene.collider(n).unwrap();
+        let mut sim = Simulation::with_collider(&ctx, &cloth, SimSettings::default(), Some(&collider)).unwrap();
+        for _ in 0..SETTLE_FRAMES {
+            sim.step().unwrap();
+        }
+        let x = sim.positions().unwrap();
+        let p = *sim.params();
+        let a = accuracy(&bvh, &collider.spheres, collider.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
+        println!("n = {n}: {a:?}");
+        assert!(a.all_finite);
+        assert_eq!(a.inside_fraction, 0.0, "n = {n}: particles inside the mesh");
+        assert!(a.resting > 20, "n = {n}: only {} particles rest on the collider", a.resting);
+        assert!(a.max_stretch < 1.3, "n = {n}: stretch {}", a.max_stretch);
+        gaps.push(a.gap_mean);
+    }
+    assert!(gaps[1] < gaps[0], "finer voxels must hold the cloth closer: gaps {gaps:?}");
+    assert_validation_clean(&ctx);
+}
+
+/// Friction keeps cloth on a round collider that it slides off without friction.
+#[test]
+fn friction_holds_the_cloth_on_the_collider() {
+    use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh};
+    let ctx = context();
+    let scene = DrapeScene::standard(&default_mesh(), 16);
+    let mut cloth = scene.cloth.build().unwrap();
+    // Break the symmetry a little so the frictionless cloth has a direction to slide in.
+    for p in &mut cloth.positions {
+        p.x += 0.05;
+    }
+    let mut highest = Vec::new();
+    for friction in [0.0, 0.6] {
+        let mut collider = scene.collider(6).unwrap();
+        collider.friction = friction;
+        let mut sim = Simulation::with_collider(&ctx, &cloth, SimSettings::default(), Some(&collider)).unwrap();
+        for _ in 0..SETTLE_FRAMES {
+            sim.step().unwrap();
+        }
+        let x = sim.positions().unwrap();
+        highest.push(x.iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max));
+    }
+    // The highest particle: on the collider's top with friction, far below it without.
+    assert!(highest[1] > 0.5 && highest[0] < highest[1] - 0.2, "highest particle: frictionless {}, friction {}", highest[0], highest[1]);
+    assert_validation_clean(&ctx);
+}

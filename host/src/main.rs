@@ -168,6 +168,9 @@ fn run(args: &Args) -> drape::Result<()> {
     }
     if let Some(dir) = &args.obj_dir {
         std::fs::create_dir_all(dir).map_err(|source| drape::Error::Io { path: dir.clone(), source })?;
+        if let Some(s) = &scene {
+            drape::obj::write_mesh_obj(&dir.join("collider.obj"), &s.mesh)?;
+        }
     }
 
     let mut report = TimingReport::default();

@@ -27,3 +27,20 @@ pub fn write_cloth_obj(path: &Path, rows: u32, cols: u32, positions: &[Vec4], no
     };
     write().map_err(io)
 }
+
+/// Writes a triangle mesh (e.g. the collider) as OBJ.
+pub fn write_mesh_obj(path: &Path, mesh: &crate::mesh::Mesh) -> Result<()> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let file = std::fs::File::create(path).map_err(io)?;
+    let mut out = std::io::BufWriter::new(file);
+    let mut write = || -> std::io::Result<()> {
+        for v in &mesh.vertices {
+            writeln!(out, "v {} {} {}", v.x, v.y, v.z)?;
+        }
+        for t in &mesh.triangles {
+            writeln!(out, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+        }
+        out.flush()
+    };
+    write().map_err(io)
+}
