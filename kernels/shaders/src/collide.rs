@@ -18,16 +18,17 @@ use spirv_std::num_traits::Float;
 pub const STACK_SIZE: usize = 64;
 
 /// The earliest contact found so far: hit parameter along p0 -> p1 (0 = p0 already inside),
-/// sphere index, and the sphere.
+/// how deep p1 is inside the inflated sphere, sphere index, and the sphere.
 #[derive(Copy, Clone)]
 pub struct Contact {
     pub t: f32,
+    pub depth: f32,
     pub sphere_index: u32,
     pub sphere: Vec4,
 }
 
 /// No contact.
-pub const NO_CONTACT: Contact = Contact { t: 2.0, sphere_index: u32::MAX, sphere: Vec4::ZERO };
+pub const NO_CONTACT: Contact = Contact { t: 2.0, depth: 0.0, sphere_index: u32::MAX, sphere: Vec4::ZERO };
 
 /// Whether `p` is inside `b` grown by `margin`.
 #[inline]
@@ -59,15 +60,21 @@ pub fn hit_parameter(p0: Vec3, p1: Vec3, sphere: Vec4, thickness: f32) -> f32 {
     t.clamp(0.0, 1.0)
 }
 
-/// Keeps the earlier of two contacts (ties: lower sphere index), so any visiting order gives the
-/// same answer: the BVH and the brute-force loop agree exactly.
+/// Keeps the better of the best contact so far and sphere `sphere_index` (hit at `t`, see
+/// `hit_parameter`): the earlier hit; among equal hits (typically t = 0, p0 already inside
+/// several overlapping spheres) the shallowest, whose radial push-out moves the particle least
+/// (pushing out of a deep sphere can push it through a thin part of the mesh); then the lower
+/// index. A total order, so any visiting order gives the same answer: the BVH and the
+/// brute-force loop agree exactly.
 #[inline]
-pub fn consider(best: Contact, t: f32, sphere_index: u32, sphere: Vec4) -> Contact {
-    if t <= 1.0 && (t < best.t || (t == best.t && sphere_index < best.sphere_index)) {
-        Contact { t, sphere_index, sphere }
-    } else {
-        best
+pub fn consider(best: Contact, p1: Vec3, t: f32, sphere_index: u32, sphere: Vec4, thickness: f32) -> Contact {
+    if t > 1.0 {
+        return best;
     }
+    let depth = sphere.w + thickness - (p1 - sphere.xyz()).length();
+    let better = t < best.t
+        || (t == best.t && (depth < best.depth || (depth == best.depth && sphere_index < best.sphere_index)));
+    if better { Contact { t, depth, sphere_index, sphere } } else { best }
 }
 
 /// Contact response: new position and velocity. The normal velocity into the surface is
@@ -111,7 +118,7 @@ pub fn traverse(
     let mut best = NO_CONTACT;
     if collider.leaf_count == 1 {
         let t = hit_parameter(p0, p1, spheres[0], thickness);
-        return (consider(best, t, 0, spheres[0]), false);
+        return (consider(best, p1, t, 0, spheres[0], thickness), false);
     }
     let mut stack = [0u32; STACK_SIZE];
     let mut top = 1; // stack[0] = root
@@ -125,7 +132,7 @@ pub fn traverse(
             if child & LEAF_BIT != 0 {
                 let leaf = child & !LEAF_BIT;
                 let sphere = spheres[leaf as usize];
-                best = consider(best, hit_parameter(p0, p1, sphere, thickness), leaf, sphere);
+                best = consider(best, p1, hit_parameter(p0, p1, sphere, thickness), leaf, sphere, thickness);
             } else if point_in_aabb(p1, &aabbs[child as usize], thickness) {
                 if top < STACK_SIZE {
                     stack[top] = child;
@@ -146,7 +153,7 @@ pub fn brute_force(collider: &ColliderParams, spheres: &[Vec4], p0: Vec3, p1: Ve
     let mut i = 0;
     while i < collider.leaf_count {
         let sphere = spheres[i as usize];
-        best = consider(best, hit_parameter(p0, p1, sphere, collider.thickness), i, sphere);
+        best = consider(best, p1, hit_parameter(p0, p1, sphere, collider.thickness), i, sphere, collider.thickness);
         i += 1;
     }
     best
