@@ -4,8 +4,8 @@
 //! per kernel (timestamps), the LBVH build, and the accuracy at t = 2 s against the true mesh.
 //! Then the same frame with a brute-force collision pass, to show what the BVH buys.
 
-use drape::metrics::{TriangleBvh, accuracy};
 use drape::mesh::Mesh;
+use drape::metrics::{TriangleBvh, accuracy};
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, shared_model};
 use drape::timing::{TimingReport, median};
 use drape::{Collider, Context, SimSettings, Simulation, Validation};
@@ -68,7 +68,20 @@ fn main() {
         println!("\n{name} ({} triangles)", scene.mesh.triangles.len());
         println!(
             "{:>3} {:>7} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8} | {:>8} {:>8} {:>8} {:>8} {:>8} {:>7}",
-            "n", "spheres", "ms/frame", "GPU ms", "integr.", "collide", "cull", "LBVH ms", "inside%", "maxpen", "p99pen", "gapmean", "gapmax", "stretch"
+            "n",
+            "spheres",
+            "ms/frame",
+            "GPU ms",
+            "integr.",
+            "collide",
+            "cull",
+            "LBVH ms",
+            "inside%",
+            "maxpen",
+            "p99pen",
+            "gapmean",
+            "gapmax",
+            "stretch"
         );
         for n in VOXELS {
             let collider = scene.collider(n).expect("collider");
@@ -112,7 +125,13 @@ fn main() {
 }
 
 /// Median wall ms of `measured` frames after `warmup` frames, without timestamps.
-fn frame_ms(ctx: &std::sync::Arc<Context>, cloth: &drape::Cloth, collider: &Collider, warmup: u32, measured: u32) -> f64 {
+fn frame_ms(
+    ctx: &std::sync::Arc<Context>,
+    cloth: &drape::Cloth,
+    collider: &Collider,
+    warmup: u32,
+    measured: u32,
+) -> f64 {
     let settings = SimSettings { timestamps: false, ..SimSettings::default() };
     let mut sim = Simulation::with_collider(ctx, cloth, settings, Some(collider)).expect("simulation");
     let mut walls = Vec::new();

@@ -3,11 +3,11 @@
 //! build submission; the table gives medians of the stage split.
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use drape::gpu::Engine;
 use drape::lbvh::{allocate, build_gpu, collider_params};
 use drape::program::lbvh_build;
 use drape::timing::median;
 use drape::{Context, Validation};
-use drape::gpu::Engine;
 use glam::Vec4;
 use std::time::{Duration, Instant};
 

@@ -86,14 +86,10 @@ fn rk4_matches_f64_reference() {
 /// truncation error well above f32 round-off (~2e-7 m here).
 fn convergence_orders(integrator: Integrator) -> (f64, f64, [f64; 3]) {
     let n = 6;
-    let mut cloth = ClothBuilder::new(n, n)
-        .stiffness(4.0, 1.0, 0.4)
-        .spring_damping(0.0)
-        .pin_top_corners()
-        .build()
-        .unwrap();
+    let mut cloth =
+        ClothBuilder::new(n, n).stiffness(4.0, 1.0, 0.4).spring_damping(0.0).pin_top_corners().build().unwrap();
     for (i, v) in cloth.velocities.iter_mut().enumerate() {
-        let sign = if (i as u32 / n + i as u32 % n) % 2 == 0 { 1.0 } else { -1.0 };
+        let sign = if (i as u32 / n + i as u32 % n).is_multiple_of(2) { 1.0 } else { -1.0 };
         if cloth.positions[i].w != 0.0 {
             *v = Vec4::new(0.3 * sign, 0.0, 0.0, 0.0);
         }
@@ -164,12 +160,8 @@ fn free_fall_matches_closed_form() {
 
 #[test]
 fn energy_never_rises_with_damping_and_no_driving_force() {
-    let cloth = ClothBuilder::new(16, 16)
-        .spring_damping(0.005)
-        .velocity_damping(0.0005)
-        .pin_top_corners()
-        .build()
-        .unwrap();
+    let cloth =
+        ClothBuilder::new(16, 16).spring_damping(0.005).velocity_damping(0.0005).pin_top_corners().build().unwrap();
     let ctx = context();
     let mut sim = Simulation::new(&ctx, &cloth, SimSettings::default()).unwrap();
     let initial = energy(&cloth, &cloth.positions, &cloth.velocities);
@@ -235,7 +227,10 @@ fn stability_bound_separates_stable_from_unstable_runs() {
             let mut sim = Simulation::new(&ctx, &cloth, settings).unwrap();
             let actual = sim.stability().ratio;
             let outcome = (0..60).try_for_each(|_| sim.step().map(|_| ()));
-            println!("k {k}: substeps {substeps}, h/bound {actual:.2}: {}", if outcome.is_ok() { "stable" } else { "unstable" });
+            println!(
+                "k {k}: substeps {substeps}, h/bound {actual:.2}: {}",
+                if outcome.is_ok() { "stable" } else { "unstable" }
+            );
             if actual <= 1.0 {
                 outcome.unwrap_or_else(|e| panic!("k {k}, h/bound {actual}: {e}"));
                 let x = sim.positions().unwrap();

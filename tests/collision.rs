@@ -12,7 +12,14 @@ use glam::{Mat4, Vec3, Vec4};
 
 fn random_spheres(rng: &mut Rng, n: usize, spread: f32) -> Vec<Vec4> {
     (0..n)
-        .map(|_| Vec4::new(rng.range(-spread, spread), rng.range(-spread, spread), rng.range(-spread, spread), rng.range(0.01, 0.1)))
+        .map(|_| {
+            Vec4::new(
+                rng.range(-spread, spread),
+                rng.range(-spread, spread),
+                rng.range(-spread, spread),
+                rng.range(0.01, 0.1),
+            )
+        })
         .collect()
 }
 
@@ -63,7 +70,9 @@ fn gpu_radix_sort_sorts_100k_keys() {
     let params = collider_params(&spheres, 0.0, 0.0).unwrap();
     let mut codes: Vec<u32> = spheres
         .iter()
-        .map(|s| drape_kernels::lbvh::morton_code(s.truncate(), params.scene_min.truncate(), params.scene_max.truncate()))
+        .map(|s| {
+            drape_kernels::lbvh::morton_code(s.truncate(), params.scene_min.truncate(), params.scene_max.truncate())
+        })
         .collect();
     codes.sort_unstable();
     assert_eq!(tree.codes, codes);
@@ -273,6 +282,11 @@ fn friction_holds_the_cloth_on_the_collider() {
         highest.push(x.iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max));
     }
     // The highest particle: on the collider's top with friction, far below it without.
-    assert!(highest[1] > 0.5 && highest[0] < highest[1] - 0.2, "highest particle: frictionless {}, friction {}", highest[0], highest[1]);
+    assert!(
+        highest[1] > 0.5 && highest[0] < highest[1] - 0.2,
+        "highest particle: frictionless {}, friction {}",
+        highest[0],
+        highest[1]
+    );
     assert_validation_clean(&ctx);
 }

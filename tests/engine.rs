@@ -22,7 +22,11 @@ fn binding_tables_match_the_spirv() {
         for (i, (declared, actual)) in spec.bindings.iter().zip(&entry.bindings).enumerate() {
             assert_eq!((actual.set, actual.binding), (0, i as u32), "{}: {}", spec.entry, declared.name);
             assert_eq!(actual.name, declared.name, "{} binding {i}", spec.entry);
-            assert_eq!(actual.writable, declared.writable, "{} binding {i} ({}) writability", spec.entry, declared.name);
+            assert_eq!(
+                actual.writable, declared.writable,
+                "{} binding {i} ({}) writability",
+                spec.entry, declared.name
+            );
         }
         assert_eq!(entry.uses_push_constants, spec.push_constant_size > 0, "{}: push constants", spec.entry);
         assert_eq!(entry.workgroup_size, [spec.workgroup_size, 1, 1], "{}: workgroup size", spec.entry);

@@ -8,8 +8,8 @@ use crate::kernels::KernelId;
 use crate::lbvh::{Lbvh, build_cpu, collider_params};
 use crate::program::{BufferId, CollisionMode, FrameStep, Pass, cloth_frame};
 use crate::sim::{Collider, SimSettings, check_health};
-use drape_kernels::collide::{aabbs_overlap, collide_at, collide_brute_force_at, root_aabb, swept_bounds};
 use crate::stability::Stability;
+use drape_kernels::collide::{aabbs_overlap, collide_at, collide_brute_force_at, root_aabb, swept_bounds};
 use drape_kernels::health::check_health_at;
 use drape_kernels::integrate::{StageBuffers, integrate_stage_at};
 use drape_kernels::normals::vertex_normal_at;
@@ -118,7 +118,8 @@ impl CpuSimulation {
         // health, collider and collision status live in their own fields.
         let ids: Vec<BufferId> = pass.bindings.iter().copied().filter(|id| self.buffers.contains_key(id)).collect();
         let threads = self.params.particle_count;
-        let unsupported = || Error::Kernel { kernel: "cpu".into(), problem: format!("{:?} needs a collider", pass.kernel) };
+        let unsupported =
+            || Error::Kernel { kernel: "cpu".into(), problem: format!("{:?} needs a collider", pass.kernel) };
         let mut bound: Vec<Vec<Vec4>> = ids.iter().map(|&id| self.take(id)).collect::<Result<_>>()?;
         let p = self.params;
         match pass.kernel {
@@ -150,7 +151,10 @@ impl CpuSimulation {
             }
             KernelId::CullCollision => {
                 let [x, x_prev] = &bound[..] else {
-                    return Err(Error::Kernel { kernel: "cpu".into(), problem: "cull binds 2 particle buffers".into() });
+                    return Err(Error::Kernel {
+                        kernel: "cpu".into(),
+                        problem: "cull binds 2 particle buffers".into(),
+                    });
                 };
                 let (c, tree) = self.collider.as_ref().ok_or_else(unsupported)?;
                 // One "workgroup" of lanes; min/max reduction is order independent.
@@ -167,7 +171,10 @@ impl CpuSimulation {
             }
             KernelId::Collide => {
                 let [x, v, x_prev] = &mut bound[..] else {
-                    return Err(Error::Kernel { kernel: "cpu".into(), problem: "collide binds 3 particle buffers".into() });
+                    return Err(Error::Kernel {
+                        kernel: "cpu".into(),
+                        problem: "collide binds 3 particle buffers".into(),
+                    });
                 };
                 let (c, tree) = self.collider.as_ref().ok_or_else(unsupported)?;
                 if self.traverse {
@@ -180,7 +187,10 @@ impl CpuSimulation {
             }
             KernelId::CollideBruteForce => {
                 let [x, v, x_prev] = &mut bound[..] else {
-                    return Err(Error::Kernel { kernel: "cpu".into(), problem: "collide binds 3 particle buffers".into() });
+                    return Err(Error::Kernel {
+                        kernel: "cpu".into(),
+                        problem: "collide binds 3 particle buffers".into(),
+                    });
                 };
                 let (c, tree) = self.collider.as_ref().ok_or_else(unsupported)?;
                 for i in 0..threads {
@@ -188,7 +198,10 @@ impl CpuSimulation {
                 }
             }
             other => {
-                return Err(Error::Kernel { kernel: "cpu".into(), problem: format!("{other:?} is not part of a cloth frame") });
+                return Err(Error::Kernel {
+                    kernel: "cpu".into(),
+                    problem: format!("{other:?} is not part of a cloth frame"),
+                });
             }
         }
         for (&id, data) in ids.iter().zip(bound) {

@@ -6,7 +6,6 @@ use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::collide::{COLLIDE_THREADS, CULL_THREADS};
 use drape_kernels::sort::SORT_TILE;
 
-
 const fn read(name: &'static str) -> BindingSpec {
     BindingSpec { name, writable: false }
 }

@@ -23,17 +23,25 @@ pub fn collider_params(spheres: &[Vec4], thickness: f32, friction: f32) -> Resul
         });
     }
     if !spheres.iter().all(|s| s.is_finite() && s.w >= 0.0) {
-        return Err(Error::InvalidParameter { name: "collider", problem: "spheres must be finite with radius >= 0".into() });
+        return Err(Error::InvalidParameter {
+            name: "collider",
+            problem: "spheres must be finite with radius >= 0".into(),
+        });
     }
     if !(friction.is_finite() && friction >= 0.0) {
-        return Err(Error::InvalidParameter { name: "friction", problem: format!("must be finite and >= 0, got {friction}") });
+        return Err(Error::InvalidParameter {
+            name: "friction",
+            problem: format!("must be finite and >= 0, got {friction}"),
+        });
     }
     if !(thickness.is_finite() && thickness >= 0.0) {
-        return Err(Error::InvalidParameter { name: "thickness", problem: format!("must be finite and >= 0, got {thickness}") });
+        return Err(Error::InvalidParameter {
+            name: "thickness",
+            problem: format!("must be finite and >= 0, got {thickness}"),
+        });
     }
-    let (lo, hi) = spheres
-        .iter()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), s| (lo.min(s.xyz()), hi.max(s.xyz())));
+    let (lo, hi) =
+        spheres.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), s| (lo.min(s.xyz()), hi.max(s.xyz())));
     Ok(ColliderParams {
         leaf_count: spheres.len() as u32,
         thickness,
@@ -146,7 +154,12 @@ pub fn build_cpu(spheres: &[Vec4], params: &ColliderParams) -> Lbvh {
             refit_from_leaf(leaf, n, &nodes, &parents, &sorted, &mut flags, &mut words);
         }
     }
-    let aabbs = words.chunks_exact(AABB_WORDS as usize).map(|w| bytemuck::pod_read_unaligned::<Aabb>(bytemuck::cast_slice(w))).collect();
+    let aabbs = words
+        .as_chunks::<{ AABB_WORDS as usize }>()
+        .0
+        .iter()
+        .map(|w| bytemuck::pod_read_unaligned::<Aabb>(bytemuck::cast_slice(w)))
+        .collect();
     Lbvh { codes, order, spheres: sorted, nodes, parents, aabbs }
 }
 

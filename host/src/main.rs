@@ -2,8 +2,8 @@
 //! the stability figures and the accuracy against the true mesh, and can write OBJ frames.
 
 use clap::{Parser, ValueEnum};
-use drape::metrics::{Accuracy, TriangleBvh, accuracy};
 use drape::mesh::Mesh;
+use drape::metrics::{Accuracy, TriangleBvh, accuracy};
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, shared_model};
 use drape::timing::TimingReport;
 use drape::{Context, Integrator, SimSettings, Simulation, Validation};
@@ -234,11 +234,28 @@ fn print_setup(args: &Args, sim: &Simulation, settings: &SimSettings) {
 }
 
 fn print_accuracy(a: &Accuracy, frames: u32, seconds: f64) {
-    println!("accuracy at t = {:.2} s against the true triangle mesh ({:.2} s on the CPU):", frames as f32 / 60.0, seconds);
-    println!("  particles inside the mesh   {:.3} %  (max penetration {:.2} mm, p99 {:.2} mm)", 100.0 * a.inside_fraction, a.max_penetration * 1e3, a.p99_penetration * 1e3);
+    println!(
+        "accuracy at t = {:.2} s against the true triangle mesh ({:.2} s on the CPU):",
+        frames as f32 / 60.0,
+        seconds
+    );
+    println!(
+        "  particles inside the mesh   {:.3} %  (max penetration {:.2} mm, p99 {:.2} mm)",
+        100.0 * a.inside_fraction,
+        a.max_penetration * 1e3,
+        a.p99_penetration * 1e3
+    );
     println!("  within thickness of surface {:.3} %", 100.0 * a.within_thickness_fraction);
-    println!("  resting on the collider     {} particles, gap to true surface mean {:.2} mm, max {:.2} mm", a.resting, a.gap_mean * 1e3, a.gap_max * 1e3);
-    println!("  spring stretch              max {:.3}, p99 {:.3}; all finite: {}", a.max_stretch, a.p99_stretch, a.all_finite);
+    println!(
+        "  resting on the collider     {} particles, gap to true surface mean {:.2} mm, max {:.2} mm",
+        a.resting,
+        a.gap_mean * 1e3,
+        a.gap_max * 1e3
+    );
+    println!(
+        "  spring stretch              max {:.3}, p99 {:.3}; all finite: {}",
+        a.max_stretch, a.p99_stretch, a.all_finite
+    );
 }
 
 fn progress(frame: u32, total: u32) {

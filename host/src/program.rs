@@ -69,10 +69,15 @@ pub struct Pass {
 #[derive(Clone, Debug, PartialEq)]
 pub enum FrameStep {
     /// Fill a whole buffer with a 32-bit value.
-    Fill { buffer: BufferId, value: u32 },
+    Fill {
+        buffer: BufferId,
+        value: u32,
+    },
     Run(Pass),
     /// A pass the scene does not need: not recorded, reported as skipped.
-    Skip { label: &'static str },
+    Skip {
+        label: &'static str,
+    },
 }
 
 /// What a cloth frame must do.
@@ -97,7 +102,13 @@ pub enum CollisionMode {
     BruteForce,
 }
 
-fn stage_pass(label: &'static str, stage: u32, input: (BufferId, BufferId), output: (BufferId, BufferId), n: u32) -> Pass {
+fn stage_pass(
+    label: &'static str,
+    stage: u32,
+    input: (BufferId, BufferId),
+    output: (BufferId, BufferId),
+    n: u32,
+) -> Pass {
     use BufferId::*;
     let push = StagePush { stage, _pad: [0; 3] };
     Pass {

@@ -82,11 +82,10 @@ impl SimSettings {
         if !cloth.positions.iter().chain(&cloth.velocities).all(|p| p.is_finite()) {
             return bad("cloth", "positions and velocities must be finite".into());
         }
-        if !(self.max_stretch > 1.0) {
+        if self.max_stretch.is_nan() || self.max_stretch <= 1.0 {
             return bad("max_stretch", format!("must be > 1, got {}", self.max_stretch));
         }
-        let stability =
-            stability::choose(cloth, self.integrator.id(), self.frame_dt, self.substeps, self.safety);
+        let stability = stability::choose(cloth, self.integrator.id(), self.frame_dt, self.substeps, self.safety);
         if stability.substeps > 100_000 {
             return bad(
                 "stiffness/mass",
@@ -115,16 +114,11 @@ impl SimSettings {
 }
 
 /// Reads the blow-up detector and turns a blow-up into an error.
-pub(crate) fn check_health(
-    health: &Health,
-    frame: u64,
-    settings: &SimSettings,
-    stability: &Stability,
-) -> Result<()> {
+pub(crate) fn check_health(health: &Health, frame: u64, settings: &SimSettings, stability: &Stability) -> Result<()> {
     let stretch = f32::from_bits(health.max_stretch_bits);
     let detail = if health.non_finite > 0 {
         format!("{} particles have non-finite position or velocity", health.non_finite)
-    } else if !(stretch <= settings.max_stretch) {
+    } else if stretch.is_nan() || stretch > settings.max_stretch {
         format!("a spring stretched to {stretch:.1}x its rest length (limit {})", settings.max_stretch)
     } else {
         return Ok(());

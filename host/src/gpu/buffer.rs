@@ -35,10 +35,9 @@ impl Buffer {
         let requirements = unsafe { ctx.device.get_buffer_memory_requirements(handle) };
         let allocation = {
             let mut guard = ctx.allocator();
-            let allocator = guard.as_mut().ok_or_else(|| Error::Kernel {
-                kernel: name.into(),
-                problem: "allocator already destroyed".into(),
-            })?;
+            let allocator = guard
+                .as_mut()
+                .ok_or_else(|| Error::Kernel { kernel: name.into(), problem: "allocator already destroyed".into() })?;
             allocator.allocate(&AllocationCreateDesc {
                 name,
                 requirements,
@@ -75,10 +74,10 @@ impl Drop for Buffer {
         // SAFETY: the owner guarantees no pending GPU work uses the buffer (every submission is
         // waited on before its recording can be dropped).
         unsafe { self.ctx.device.destroy_buffer(self.handle, None) };
-        if let Some(allocation) = self.allocation.take() {
-            if let Some(allocator) = self.ctx.allocator().as_mut() {
-                let _ = allocator.free(allocation);
-            }
+        if let Some(allocation) = self.allocation.take()
+            && let Some(allocator) = self.ctx.allocator().as_mut()
+        {
+            let _ = allocator.free(allocation);
         }
     }
 }

@@ -29,10 +29,7 @@ impl CommandBuffer {
         unsafe {
             this.pool = ctx
                 .device
-                .create_command_pool(
-                    &vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family),
-                    None,
-                )
+                .create_command_pool(&vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family), None)
                 .vk("vkCreateCommandPool")?;
             this.cmd = ctx
                 .device
@@ -43,8 +40,7 @@ impl CommandBuffer {
                         .command_buffer_count(1),
                 )
                 .vk("vkAllocateCommandBuffers")?[0];
-            this.fence =
-                ctx.device.create_fence(&vk::FenceCreateInfo::default(), None).vk("vkCreateFence")?;
+            this.fence = ctx.device.create_fence(&vk::FenceCreateInfo::default(), None).vk("vkCreateFence")?;
         }
         Ok(this)
     }
@@ -54,12 +50,8 @@ impl CommandBuffer {
         let device = &self.ctx.device;
         // SAFETY: the buffer is not pending (every submit waits on the fence).
         unsafe {
-            device
-                .reset_command_pool(self.pool, vk::CommandPoolResetFlags::empty())
-                .vk("vkResetCommandPool")?;
-            device
-                .begin_command_buffer(self.cmd, &vk::CommandBufferBeginInfo::default())
-                .vk("vkBeginCommandBuffer")?;
+            device.reset_command_pool(self.pool, vk::CommandPoolResetFlags::empty()).vk("vkResetCommandPool")?;
+            device.begin_command_buffer(self.cmd, &vk::CommandBufferBeginInfo::default()).vk("vkBeginCommandBuffer")?;
             body(device, self.cmd);
             device.end_command_buffer(self.cmd).vk("vkEndCommandBuffer")?;
         }
@@ -141,10 +133,9 @@ pub fn upload(ctx: &Arc<Context>, dst: &Buffer, data: &[u8]) -> Result<()> {
         return Ok(());
     }
     let mut staging = Buffer::new(ctx, "staging upload", data.len() as u64, MemoryLocation::CpuToGpu)?;
-    let mapped = staging.mapped_mut().ok_or(Error::Kernel {
-        kernel: "upload".into(),
-        problem: "staging buffer is not host visible".into(),
-    })?;
+    let mapped = staging
+        .mapped_mut()
+        .ok_or(Error::Kernel { kernel: "upload".into(), problem: "staging buffer is not host visible".into() })?;
     mapped[..data.len()].copy_from_slice(data);
     let region = [vk::BufferCopy::default().size(data.len() as u64)];
     one_shot(ctx, |device, cmd| unsafe {
@@ -167,10 +158,9 @@ pub fn download(ctx: &Arc<Context>, src: &Buffer, len: u64) -> Result<Vec<u8>> {
         full_barrier(device, cmd);
         device.cmd_copy_buffer(cmd, src.handle, staging.handle, &region);
     })?;
-    let mapped = staging.mapped().ok_or(Error::Kernel {
-        kernel: "download".into(),
-        problem: "staging buffer is not host visible".into(),
-    })?;
+    let mapped = staging
+        .mapped()
+        .ok_or(Error::Kernel { kernel: "download".into(), problem: "staging buffer is not host visible".into() })?;
     Ok(mapped[..len as usize].to_vec())
 }
 
@@ -188,8 +178,7 @@ impl DescriptorArena {
             .descriptor_count(max_bindings.max(1))];
         let info = vk::DescriptorPoolCreateInfo::default().max_sets(max_sets.max(1)).pool_sizes(&sizes);
         // SAFETY: valid device and create info.
-        let pool = unsafe { ctx.device.create_descriptor_pool(&info, None) }
-            .vk("vkCreateDescriptorPool")?;
+        let pool = unsafe { ctx.device.create_descriptor_pool(&info, None) }.vk("vkCreateDescriptorPool")?;
         Ok(DescriptorArena { ctx: ctx.clone(), pool })
     }
 
@@ -208,8 +197,7 @@ impl DescriptorArena {
         let layouts = [pipeline.set_layout];
         let info = vk::DescriptorSetAllocateInfo::default().descriptor_pool(self.pool).set_layouts(&layouts);
         // SAFETY: pool and layout from this device.
-        let set = unsafe { self.ctx.device.allocate_descriptor_sets(&info) }
-            .vk("vkAllocateDescriptorSets")?[0];
+        let set = unsafe { self.ctx.device.allocate_descriptor_sets(&info) }.vk("vkAllocateDescriptorSets")?[0];
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
             .iter()
             .map(|b| [vk::DescriptorBufferInfo::default().buffer(b.handle).offset(0).range(vk::WHOLE_SIZE)])

@@ -72,17 +72,14 @@ unsafe extern "system" fn debug_callback(
     // SAFETY: the layer passes valid callback data; `user` is the boxed log owned by the
     // Context, which destroys the messenger before dropping the box.
     let message = unsafe {
-        data.as_ref()
-            .and_then(|d| d.message_as_c_str())
-            .map(|m| m.to_string_lossy().into_owned())
-            .unwrap_or_default()
+        data.as_ref().and_then(|d| d.message_as_c_str()).map(|m| m.to_string_lossy().into_owned()).unwrap_or_default()
     };
     if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
         eprintln!("[vulkan validation error] {message}");
-        if let Some(log) = unsafe { (user as *const ValidationLog).as_ref() } {
-            if let Ok(mut log) = log.lock() {
-                log.push(message);
-            }
+        if let Some(log) = unsafe { (user as *const ValidationLog).as_ref() }
+            && let Ok(mut log) = log.lock()
+        {
+            log.push(message);
         }
     } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
         eprintln!("[vulkan validation warning] {message}");
@@ -94,17 +91,14 @@ impl Context {
     /// Opens the first Vulkan device with a compute queue.
     pub fn new(validation: Validation) -> Result<Arc<Self>> {
         // SAFETY: loading the Vulkan loader library; its initialisation has no preconditions.
-        let entry =
-            unsafe { ash::Entry::load() }.map_err(|e| Error::NoVulkanLoader(e.to_string()))?;
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| Error::NoVulkanLoader(e.to_string()))?;
         let validation_log: Box<ValidationLog> = Box::default();
 
         let layer_available = || -> Result<bool> {
             // SAFETY: plain query on a loaded entry.
-            let layers = unsafe { entry.enumerate_instance_layer_properties() }
-                .vk("vkEnumerateInstanceLayerProperties")?;
-            Ok(layers
-                .iter()
-                .any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER)))
+            let layers =
+                unsafe { entry.enumerate_instance_layer_properties() }.vk("vkEnumerateInstanceLayerProperties")?;
+            Ok(layers.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER)))
         };
         let validate = match validation {
             Validation::Off => false,
@@ -128,8 +122,7 @@ impl Context {
         let extensions = if validate { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(
-                vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
-                    | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
             )
             .message_type(
                 vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
@@ -147,11 +140,10 @@ impl Context {
             instance_info = instance_info.push_next(&mut messenger_info);
         }
         // SAFETY: create info and everything it points to live across the call.
-        let instance = unsafe { entry.create_instance(&instance_info, None) }
-            .map_err(|result| match result {
-                vk::Result::ERROR_INCOMPATIBLE_DRIVER => Error::NoComputeDevice,
-                result => Error::Vulkan { call: "vkCreateInstance", result },
-            })?;
+        let instance = unsafe { entry.create_instance(&instance_info, None) }.map_err(|result| match result {
+            vk::Result::ERROR_INCOMPATIBLE_DRIVER => Error::NoComputeDevice,
+            result => Error::Vulkan { call: "vkCreateInstance", result },
+        })?;
 
         // From here on, a failure must destroy what exists: build a partial Context.
         let mut partial = PartialContext { entry, instance, debug: None, device: None };
@@ -165,19 +157,16 @@ impl Context {
 
         let (physical_device, queue_family, info) = pick_device(&partial.instance)?;
         let queue_priorities = [1.0];
-        let queue_info = [vk::DeviceQueueCreateInfo::default()
-            .queue_family_index(queue_family)
-            .queue_priorities(&queue_priorities)];
+        let queue_info =
+            [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&queue_priorities)];
         // rust-gpu always emits the Vulkan memory model; device-scope atomics need its flag.
         let mut features12 = vk::PhysicalDeviceVulkan12Features::default()
             .vulkan_memory_model(true)
             .vulkan_memory_model_device_scope(true);
-        let device_info = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&queue_info)
-            .push_next(&mut features12);
+        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info).push_next(&mut features12);
         // SAFETY: physical device from this instance; create info lives across the call.
-        let device = unsafe { partial.instance.create_device(physical_device, &device_info, None) }
-            .vk("vkCreateDevice")?;
+        let device =
+            unsafe { partial.instance.create_device(physical_device, &device_info, None) }.vk("vkCreateDevice")?;
         partial.device = Some(device.clone());
         // SAFETY: the family was created with one queue.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
@@ -259,16 +248,13 @@ struct PartialContext {
     device: Option<ash::Device>,
 }
 
-type InstanceParts =
-    (ash::Entry, ash::Instance, Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>);
+type InstanceParts = (ash::Entry, ash::Instance, Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>);
 
 impl PartialContext {
     fn into_parts(self) -> InstanceParts {
         let this = std::mem::ManuallyDrop::new(self);
         // SAFETY: fields are moved out exactly once and `this` is never dropped.
-        unsafe {
-            (std::ptr::read(&this.entry), std::ptr::read(&this.instance), std::ptr::read(&this.debug))
-        }
+        unsafe { (std::ptr::read(&this.entry), std::ptr::read(&this.instance), std::ptr::read(&this.debug)) }
     }
 }
 
@@ -294,10 +280,8 @@ fn pick_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice, u32, Dev
     let mut missing: Option<Error> = None;
     for pd in devices {
         let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
-        let Some((family, props)) = families
-            .iter()
-            .enumerate()
-            .find(|(_, f)| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+        let Some((family, props)) =
+            families.iter().enumerate().find(|(_, f)| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
         else {
             continue;
         };
@@ -305,14 +289,8 @@ fn pick_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice, u32, Dev
         let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
         unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
         let properties = props2.properties;
-        let name = properties
-            .device_name_as_c_str()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let driver_info = driver
-            .driver_info_as_c_str()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
+        let name = properties.device_name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let driver_info = driver.driver_info_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
         let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
         unsafe { instance.get_physical_device_features2(pd, &mut f2) };

@@ -108,8 +108,10 @@ impl Engine {
         let mut commands = Vec::with_capacity(steps.len());
         for step in steps {
             commands.push(match step {
-                FrameStep::Fill { buffer, value } => Command::Fill { buffer: self.buffer(*buffer)?.handle, value: *value },
-                FrameStep::Skip { label } => Command::Skipped { label: *label },
+                FrameStep::Fill { buffer, value } => {
+                    Command::Fill { buffer: self.buffer(*buffer)?.handle, value: *value }
+                }
+                FrameStep::Skip { label } => Command::Skipped { label },
                 FrameStep::Run(pass) => {
                     let pipeline = &self.pipelines[&pass.kernel];
                     let (groups, indirect) = match pass.groups {

@@ -36,14 +36,11 @@ pub struct ShaderModule {
 
 impl ShaderModule {
     pub fn new(ctx: &Arc<Context>, spirv: &[u8]) -> Result<Self> {
-        let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).map_err(|e| Error::Kernel {
-            kernel: "module".into(),
-            problem: format!("bad SPIR-V: {e}"),
-        })?;
+        let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
+            .map_err(|e| Error::Kernel { kernel: "module".into(), problem: format!("bad SPIR-V: {e}") })?;
         let info = vk::ShaderModuleCreateInfo::default().code(&code);
         // SAFETY: valid device; code is a complete SPIR-V module.
-        let handle =
-            unsafe { ctx.device.create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
+        let handle = unsafe { ctx.device.create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
         Ok(ShaderModule { ctx: ctx.clone(), handle })
     }
 }
@@ -86,10 +83,8 @@ impl Pipeline {
         // SAFETY (this block): valid device and create infos; each handle is stored in
         // `pipeline` at once, so an early return destroys what was made.
         unsafe {
-            pipeline.set_layout = ctx
-                .device
-                .create_descriptor_set_layout(&set_info, None)
-                .vk("vkCreateDescriptorSetLayout")?;
+            pipeline.set_layout =
+                ctx.device.create_descriptor_set_layout(&set_info, None).vk("vkCreateDescriptorSetLayout")?;
             let ranges = [vk::PushConstantRange::default()
                 .stage_flags(vk::ShaderStageFlags::COMPUTE)
                 .offset(0)
@@ -99,14 +94,9 @@ impl Pipeline {
             if spec.push_constant_size > 0 {
                 layout_info = layout_info.push_constant_ranges(&ranges);
             }
-            pipeline.layout = ctx
-                .device
-                .create_pipeline_layout(&layout_info, None)
-                .vk("vkCreatePipelineLayout")?;
-            let entry = CString::new(spec.entry).map_err(|_| Error::Kernel {
-                kernel: spec.entry.into(),
-                problem: "entry name contains NUL".into(),
-            })?;
+            pipeline.layout = ctx.device.create_pipeline_layout(&layout_info, None).vk("vkCreatePipelineLayout")?;
+            let entry = CString::new(spec.entry)
+                .map_err(|_| Error::Kernel { kernel: spec.entry.into(), problem: "entry name contains NUL".into() })?;
             let stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module.handle)

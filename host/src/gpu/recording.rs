@@ -74,9 +74,7 @@ struct QueryPool {
 impl QueryPool {
     fn new(ctx: &Arc<Context>, passes: u32) -> Result<Self> {
         let count = passes * 2;
-        let info = vk::QueryPoolCreateInfo::default()
-            .query_type(vk::QueryType::TIMESTAMP)
-            .query_count(count.max(1));
+        let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(count.max(1));
         // SAFETY: valid device and create info.
         let pool = unsafe { ctx.device.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
         Ok(QueryPool { ctx: ctx.clone(), pool, count })
@@ -136,13 +134,7 @@ impl RecordedFrame {
                                 &[],
                             );
                             if !push.is_empty() {
-                                device.cmd_push_constants(
-                                    cb,
-                                    pipeline.layout,
-                                    vk::ShaderStageFlags::COMPUTE,
-                                    0,
-                                    push,
-                                );
+                                device.cmd_push_constants(cb, pipeline.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
                             }
                             if let Some(q) = &queries {
                                 device.cmd_write_timestamp(cb, vk::PipelineStageFlags::TOP_OF_PIPE, q.pool, query);
@@ -188,15 +180,19 @@ impl RecordedFrame {
     /// Runs the frame on the GPU, waits, and returns each pass's GPU time.
     pub fn submit(&self) -> Result<FrameTimings> {
         self.cmd.submit_and_wait()?;
-        let mut passes: Vec<PassTiming> =
-            self.labels.iter().map(|&label| PassTiming { label, micros: None }).collect();
+        let mut passes: Vec<PassTiming> = self.labels.iter().map(|&label| PassTiming { label, micros: None }).collect();
         if let Some(q) = &self.queries {
             let mut stamps = vec![0u64; q.count as usize];
             // SAFETY: all queries were written by the completed submission.
             unsafe {
                 self.ctx
                     .device
-                    .get_query_pool_results(q.pool, 0, &mut stamps, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT)
+                    .get_query_pool_results(
+                        q.pool,
+                        0,
+                        &mut stamps,
+                        vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                    )
                     .vk("vkGetQueryPoolResults")?;
             }
             let info = self.ctx.info();

@@ -50,11 +50,11 @@ fn literal_string(words: &[u32]) -> (String, usize) {
 
 /// Reflects every entry point of a SPIR-V module (SPIR-V >= 1.4: interfaces list all globals).
 pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> {
-    if spirv.len() % 4 != 0 || spirv.len() < 20 {
+    if !spirv.len().is_multiple_of(4) || spirv.len() < 20 {
         return Err("not a SPIR-V module (length)".into());
     }
     let words: Vec<u32> =
-        spirv.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        spirv.as_chunks::<4>().0.iter().map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
     if words[0] != 0x0723_0203 {
         return Err("not a SPIR-V module (magic)".into());
     }

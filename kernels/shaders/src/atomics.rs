@@ -9,9 +9,7 @@ use spirv_std::memory::{Scope, Semantics};
 pub fn add(target: &mut u32, value: u32) -> u32 {
     #[cfg(target_arch = "spirv")]
     unsafe {
-        spirv_std::arch::atomic_i_add::<u32, { Scope::Device as u32 }, { Semantics::NONE.bits() }>(
-            target, value,
-        )
+        spirv_std::arch::atomic_i_add::<u32, { Scope::Device as u32 }, { Semantics::NONE.bits() }>(target, value)
     }
     #[cfg(not(target_arch = "spirv"))]
     {
@@ -26,9 +24,7 @@ pub fn add(target: &mut u32, value: u32) -> u32 {
 pub fn max(target: &mut u32, value: u32) -> u32 {
     #[cfg(target_arch = "spirv")]
     unsafe {
-        spirv_std::arch::atomic_u_max::<u32, { Scope::Device as u32 }, { Semantics::NONE.bits() }>(
-            target, value,
-        )
+        spirv_std::arch::atomic_u_max::<u32, { Scope::Device as u32 }, { Semantics::NONE.bits() }>(target, value)
     }
     #[cfg(not(target_arch = "spirv"))]
     {
@@ -45,9 +41,7 @@ pub fn max(target: &mut u32, value: u32) -> u32 {
 pub fn add_workgroup(target: &mut u32, value: u32) -> u32 {
     #[cfg(target_arch = "spirv")]
     unsafe {
-        spirv_std::arch::atomic_i_add::<u32, { Scope::Workgroup as u32 }, { Semantics::NONE.bits() }>(
-            target, value,
-        )
+        spirv_std::arch::atomic_i_add::<u32, { Scope::Workgroup as u32 }, { Semantics::NONE.bits() }>(target, value)
     }
     #[cfg(not(target_arch = "spirv"))]
     {
@@ -97,9 +91,7 @@ pub fn load(source: &u32) -> u32 {
 pub fn store(target: &mut u32, value: u32) {
     #[cfg(target_arch = "spirv")]
     unsafe {
-        spirv_std::arch::atomic_store::<u32, { Scope::Device as u32 }, { Semantics::NONE.bits() }>(
-            target, value,
-        )
+        spirv_std::arch::atomic_store::<u32, { Scope::Device as u32 }, { Semantics::NONE.bits() }>(target, value)
     }
     #[cfg(not(target_arch = "spirv"))]
     {

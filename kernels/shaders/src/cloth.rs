@@ -73,11 +73,7 @@ pub fn rest_length(p: &SimParams, s: SpringOffset) -> f32 {
 pub fn neighbour(p: &SimParams, row: u32, col: u32, s: SpringOffset) -> Option<u32> {
     let r = row as i32 + s.d_row;
     let c = col as i32 + s.d_col;
-    if r < 0 || c < 0 || r >= p.rows as i32 || c >= p.cols as i32 {
-        None
-    } else {
-        Some(r as u32 * p.cols + c as u32)
-    }
+    if r < 0 || c < 0 || r >= p.rows as i32 || c >= p.cols as i32 { None } else { Some(r as u32 * p.cols + c as u32) }
 }
 
 /// Force (N) on a particle at `xi` from one spring to `xj`: Hooke (eq. 1) plus damping along
@@ -107,8 +103,7 @@ pub fn acceleration(p: &SimParams, index: u32, pos: &[Vec4], vel: &[Vec4]) -> Ve
     let pin_weight = here.w;
     let xi = here.xyz();
     let vi = load(vel, index).xyz();
-    let mut force = p.gravity.xyz() * p.particle_mass + p.external_force.xyz()
-        - vi * p.velocity_damping;
+    let mut force = p.gravity.xyz() * p.particle_mass + p.external_force.xyz() - vi * p.velocity_damping;
     // Integer division is scalarised on SIMD drivers (llvmpipe): once per particle.
     let (row, col) = (index / p.cols, index % p.cols);
     let mut s = 0;

@@ -9,9 +9,9 @@ use crate::atomics;
 use crate::lbvh::sphere_aabb;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, BvhNode, ColliderParams, CollisionStatus, DispatchArgs, LEAF_BIT, SimParams};
-use spirv_std::spirv;
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
+use spirv_std::spirv;
 
 /// Traversal stack entries per particle: the LBVH of 30-bit Morton codes is at most ~30 +
 /// log2(N) deep, and each level pushes at most one node.
@@ -161,7 +161,14 @@ pub fn brute_force(collider: &ColliderParams, spheres: &[Vec4], p0: Vec3, p1: Ve
 
 /// Applies `contact` (if any) to particle `index`, whose substep started at `x_prev`.
 #[inline]
-pub fn apply_contact(index: u32, contact: Contact, collider: &ColliderParams, x: &mut [Vec4], v: &mut [Vec4], x_prev: &[Vec4]) {
+pub fn apply_contact(
+    index: u32,
+    contact: Contact,
+    collider: &ColliderParams,
+    x: &mut [Vec4],
+    v: &mut [Vec4],
+    x_prev: &[Vec4],
+) {
     let (thickness, friction) = (collider.thickness, collider.friction);
     let i = index as usize;
     if contact.t <= 1.0 {
@@ -318,7 +325,12 @@ pub fn cull_collision(
         let cloth = Aabb { min: lows[0], max: highs[0] };
         let root = root_aabb(collider, aabbs, spheres);
         let run = aabbs_overlap(&cloth, &root, collider.thickness);
-        *args = DispatchArgs { x: if run { params.particle_count.div_ceil(COLLIDE_THREADS) } else { 0 }, y: 1, z: 1, _pad: 0 };
+        *args = DispatchArgs {
+            x: if run { params.particle_count.div_ceil(COLLIDE_THREADS) } else { 0 },
+            y: 1,
+            z: 1,
+            _pad: 0,
+        };
         if run {
             status.ran += 1;
         } else {

@@ -40,8 +40,7 @@ pub fn morton_codes(
     if i >= collider.leaf_count {
         return;
     }
-    keys[i as usize] =
-        morton_code(spheres[i as usize].xyz(), collider.scene_min.xyz(), collider.scene_max.xyz());
+    keys[i as usize] = morton_code(spheres[i as usize].xyz(), collider.scene_min.xyz(), collider.scene_max.xyz());
     values[i as usize] = i;
 }
 
@@ -174,11 +173,7 @@ fn store_aabb(words: &mut [u32], node: u32, b: Aabb) {
 /// Box of a child: a sorted leaf's sphere, or an internal node's stored box.
 #[inline]
 fn child_aabb(child: u32, sorted: &[Vec4], words: &[u32]) -> Aabb {
-    if child & LEAF_BIT != 0 {
-        sphere_aabb(sorted[(child & !LEAF_BIT) as usize])
-    } else {
-        load_aabb(words, child)
-    }
+    if child & LEAF_BIT != 0 { sphere_aabb(sorted[(child & !LEAF_BIT) as usize]) } else { load_aabb(words, child) }
 }
 
 /// Walks from leaf `leaf` towards the root. At each node the first thread to arrive stops; the

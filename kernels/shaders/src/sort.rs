@@ -110,11 +110,7 @@ pub fn radix_scatter(
 /// Inclusive Hillis-Steele scan step `stride` over the thread totals in shared memory.
 #[inline]
 pub fn scan_step(totals: &[u32; 256], lane: u32, stride: u32) -> u32 {
-    if lane >= stride {
-        totals[lane as usize] + totals[(lane - stride) as usize]
-    } else {
-        totals[lane as usize]
-    }
+    if lane >= stride { totals[lane as usize] + totals[(lane - stride) as usize] } else { totals[lane as usize] }
 }
 
 /// Exclusive scan of each block of `SCAN_BLOCK` entries in place; block totals into `sums`.
