@@ -37,6 +37,23 @@ pub const SPRINGS: [SpringOffset; 12] = [
     spring(-2, 0, BEND),
 ];
 
+/// The `s`-th entry of `SPRINGS`, computed rather than looked up: rust-gpu keeps a constant
+/// table indexed in a loop as a function-local array, which llvmpipe places in per-invocation
+/// scratch memory and fills on every call.
+#[inline]
+pub fn spring_offset(s: u32) -> SpringOffset {
+    let family = s >> 2;
+    let k = s & 3;
+    let sign = if k & 1 == 0 { 1 } else { -1 };
+    let (d_row, d_col) = if family == SHEAR {
+        (sign, if k < 2 { sign } else { -sign })
+    } else {
+        let reach = if family == STRUCTURAL { 1 } else { 2 };
+        if k < 2 { (0, sign * reach) } else { (sign * reach, 0) }
+    };
+    SpringOffset { d_row, d_col, family }
+}
+
 /// Below this length (m) a spring has no direction; it then exerts no force (guard for eq. 1).
 pub const MIN_SPRING_LENGTH: f32 = 1e-9;
 
@@ -107,8 +124,8 @@ pub fn acceleration(p: &SimParams, index: u32, pos: &[Vec4], vel: &[Vec4]) -> Ve
     // Integer division is scalarised on SIMD drivers (llvmpipe): once per particle.
     let (row, col) = (index / p.cols, index % p.cols);
     let mut s = 0;
-    while s < SPRINGS.len() {
-        let spring = SPRINGS[s];
+    while s < SPRINGS.len() as u32 {
+        let spring = spring_offset(s);
         // Off-grid springs pair the particle with itself: zero length, zero force, no branch.
         let j = match neighbour(p, row, col, spring) {
             Some(j) => j,
@@ -168,6 +185,14 @@ mod tests {
     fn coincident_particles_exert_no_force() {
         let f = spring_force(10.0, 1.0, 1.0, Vec3::ONE, Vec3::ZERO, Vec3::ONE, Vec3::X);
         assert_eq!(f, Vec3::ZERO);
+    }
+
+    #[test]
+    fn computed_offsets_equal_the_table() {
+        for (s, expected) in SPRINGS.iter().enumerate() {
+            let got = spring_offset(s as u32);
+            assert_eq!((got.d_row, got.d_col, got.family), (expected.d_row, expected.d_col, expected.family));
+        }
     }
 
     #[test]
