@@ -17,6 +17,11 @@ use drape_types::{ColliderParams, CollisionStatus, Health, SimParams};
 use glam::Vec4;
 use std::collections::HashMap;
 
+/// An error of the CPU executor (a schedule it cannot run).
+fn cpu_error(problem: impl Into<String>) -> Error {
+    Error::Kernel { kernel: "cpu".into(), problem: problem.into() }
+}
+
 /// A cloth simulation on the CPU with the kernels' own functions.
 pub struct CpuSimulation {
     params: SimParams,
@@ -91,10 +96,7 @@ impl CpuSimulation {
     }
 
     fn take(&mut self, id: BufferId) -> Result<Vec<Vec4>> {
-        self.buffers.remove(&id).ok_or_else(|| Error::Kernel {
-            kernel: "cpu".into(),
-            problem: format!("buffer {id:?} missing or bound twice"),
-        })
+        self.buffers.remove(&id).ok_or_else(|| cpu_error(format!("buffer {id:?} missing or bound twice")))
     }
 
     fn run(&mut self, step: &FrameStep) -> Result<()> {
@@ -108,25 +110,23 @@ impl CpuSimulation {
                 return Ok(());
             }
             FrameStep::Fill { buffer, .. } => {
-                return Err(Error::Kernel { kernel: "cpu".into(), problem: format!("cannot fill {buffer:?}") });
+                return Err(cpu_error(format!("cannot fill {buffer:?}")));
             }
             FrameStep::Skip { .. } => return Ok(()),
             FrameStep::Run(pass) => pass,
         };
-        // Params and health live outside the particle buffers; the rest are taken out and put back.
         // Only the particle buffers (X, V, stages, normals) are taken out and put back; params,
         // health, collider and collision status live in their own fields.
         let ids: Vec<BufferId> = pass.bindings.iter().copied().filter(|id| self.buffers.contains_key(id)).collect();
         let threads = self.params.particle_count;
-        let unsupported =
-            || Error::Kernel { kernel: "cpu".into(), problem: format!("{:?} needs a collider", pass.kernel) };
+        let unsupported = || cpu_error(format!("{:?} needs a collider", pass.kernel));
         let mut bound: Vec<Vec<Vec4>> = ids.iter().map(|&id| self.take(id)).collect::<Result<_>>()?;
         let p = self.params;
         match pass.kernel {
             KernelId::IntegrateStage => {
                 let stage = pass.push.map(|push| push[0]).unwrap_or(0);
                 let [x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev] = &mut bound[..] else {
-                    return Err(Error::Kernel { kernel: "cpu".into(), problem: "integrate binds 9 buffers".into() });
+                    return Err(cpu_error("integrate binds 9 buffers"));
                 };
                 let mut b = StageBuffers { x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev };
                 for i in 0..threads {
@@ -135,7 +135,7 @@ impl CpuSimulation {
             }
             KernelId::VertexNormals => {
                 let [x, normals] = &mut bound[..] else {
-                    return Err(Error::Kernel { kernel: "cpu".into(), problem: "normals binds 2 buffers".into() });
+                    return Err(cpu_error("normals binds 2 buffers"));
                 };
                 for i in 0..threads {
                     normals[i as usize] = vertex_normal_at(&p, i, x).extend(0.0);
@@ -143,7 +143,7 @@ impl CpuSimulation {
             }
             KernelId::CheckHealth => {
                 let [x, v] = &bound[..] else {
-                    return Err(Error::Kernel { kernel: "cpu".into(), problem: "health binds 2 buffers".into() });
+                    return Err(cpu_error("health binds 2 buffers"));
                 };
                 for i in 0..threads {
                     check_health_at(&p, i, x, v, &mut self.health);
@@ -151,16 +151,11 @@ impl CpuSimulation {
             }
             KernelId::CullCollision => {
                 let [x, x_prev] = &bound[..] else {
-                    return Err(Error::Kernel {
-                        kernel: "cpu".into(),
-                        problem: "cull binds 2 particle buffers".into(),
-                    });
+                    return Err(cpu_error("cull binds 2 particle buffers"));
                 };
                 let (c, tree) = self.collider.as_ref().ok_or_else(unsupported)?;
                 // One "workgroup" of lanes; min/max reduction is order independent.
-                let mut cloth = swept_bounds(x, x_prev, threads, 0, 1);
-                cloth.min.w = 0.0;
-                cloth.max.w = 0.0;
+                let cloth = swept_bounds(x, x_prev, threads, 0, 1);
                 let root = root_aabb(c, &tree.aabbs, &tree.spheres);
                 self.traverse = aabbs_overlap(&cloth, &root, c.thickness);
                 if self.traverse {
@@ -171,10 +166,7 @@ impl CpuSimulation {
             }
             KernelId::Collide => {
                 let [x, v, x_prev] = &mut bound[..] else {
-                    return Err(Error::Kernel {
-                        kernel: "cpu".into(),
-                        problem: "collide binds 3 particle buffers".into(),
-                    });
+                    return Err(cpu_error("collide binds 3 particle buffers"));
                 };
                 let (c, tree) = self.collider.as_ref().ok_or_else(unsupported)?;
                 if self.traverse {
@@ -187,10 +179,7 @@ impl CpuSimulation {
             }
             KernelId::CollideBruteForce => {
                 let [x, v, x_prev] = &mut bound[..] else {
-                    return Err(Error::Kernel {
-                        kernel: "cpu".into(),
-                        problem: "collide binds 3 particle buffers".into(),
-                    });
+                    return Err(cpu_error("collide binds 3 particle buffers"));
                 };
                 let (c, tree) = self.collider.as_ref().ok_or_else(unsupported)?;
                 for i in 0..threads {
@@ -198,10 +187,7 @@ impl CpuSimulation {
                 }
             }
             other => {
-                return Err(Error::Kernel {
-                    kernel: "cpu".into(),
-                    problem: format!("{other:?} is not part of a cloth frame"),
-                });
+                return Err(cpu_error(format!("{other:?} is not part of a cloth frame")));
             }
         }
         for (&id, data) in ids.iter().zip(bound) {

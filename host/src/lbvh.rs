@@ -4,7 +4,7 @@
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Engine, FrameTimings};
 use crate::program::{BufferId, lbvh_build, scan_levels};
-use drape_kernels::lbvh::{internal_node, morton_code, parent_slot, refit_from_leaf, sphere_aabb};
+use drape_kernels::lbvh::{build_node_at, morton_code, refit_from_leaf, sphere_aabb};
 use drape_kernels::sort::{RADIX, SORT_TILE, cpu_radix_sort};
 use drape_types::{AABB_WORDS, Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE};
 use glam::{Vec3, Vec4, Vec4Swizzles};
@@ -142,10 +142,7 @@ pub fn build_cpu(spheres: &[Vec4], params: &ColliderParams) -> Lbvh {
     let mut nodes = vec![BvhNode::default(); internal];
     let mut parents = vec![NO_NODE; (2 * n - 1) as usize];
     for i in 0..internal as u32 {
-        let node = internal_node(&codes, n, i);
-        nodes[i as usize] = node;
-        parents[parent_slot(node.left, n) as usize] = i;
-        parents[parent_slot(node.right, n) as usize] = i;
+        build_node_at(&codes, n, i, &mut nodes, &mut parents);
     }
     let mut flags = vec![0u32; internal];
     let mut words = vec![0u32; internal * AABB_WORDS as usize];

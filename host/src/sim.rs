@@ -168,6 +168,7 @@ pub struct Simulation {
     settings: SimSettings,
     stability: Stability,
     collision: CollisionMode,
+    collider_params: Option<drape_types::ColliderParams>,
     lbvh_timings: Option<FrameTimings>,
     frames_done: u64,
 }
@@ -202,6 +203,7 @@ impl Simulation {
 
         let mut collision = CollisionMode::None;
         let mut lbvh_timings = None;
+        let mut kept_params = None;
         if let Some(collider) = collider {
             let collider_params = lbvh::collider_params(&collider.spheres, collider.thickness, collider.friction)?;
             lbvh::allocate(&mut engine, &collider_params, &collider.spheres)?;
@@ -209,11 +211,22 @@ impl Simulation {
             engine.create(BufferId::DispatchArgs, size_of::<DispatchArgs>() as u64, MemoryLocation::GpuOnly)?;
             engine.create(BufferId::CollisionStatus, size_of::<CollisionStatus>() as u64, MemoryLocation::GpuToCpu)?;
             collision = if collider.use_bvh { CollisionMode::Bvh } else { CollisionMode::BruteForce };
+            kept_params = Some(collider_params);
         }
         let mut plan = settings.plan(&params, &stability);
         plan.collision = collision;
         let frame = engine.record(&cloth_frame(plan), settings.timestamps)?;
-        Ok(Simulation { frame, engine, params, settings, stability, collision, lbvh_timings, frames_done: 0 })
+        Ok(Simulation {
+            frame,
+            engine,
+            params,
+            settings,
+            stability,
+            collision,
+            collider_params: kept_params,
+            lbvh_timings,
+            frames_done: 0,
+        })
     }
 
     /// Runs one frame; returns its per-pass GPU timings, or `Error::Unstable` on blow-up.
@@ -257,11 +270,10 @@ impl Simulation {
     }
     /// The collider's LBVH as built on the GPU (None without a collider).
     pub fn collider_bvh(&self) -> Result<Option<lbvh::Lbvh>> {
-        if self.collision == CollisionMode::None {
-            return Ok(None);
+        match &self.collider_params {
+            Some(params) => Ok(Some(lbvh::download(&self.engine, params)?)),
+            None => Ok(None),
         }
-        let params: Vec<drape_types::ColliderParams> = self.engine.download(BufferId::Collider, 1)?;
-        Ok(Some(lbvh::download(&self.engine, &params[0])?))
     }
     /// GPU time of the LBVH build per stage (None without a collider).
     pub fn lbvh_timings(&self) -> Option<&FrameTimings> {

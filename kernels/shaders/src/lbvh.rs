@@ -116,6 +116,18 @@ pub fn parent_slot(child: u32, leaf_count: u32) -> u32 {
     if child & LEAF_BIT != 0 { leaf_count - 1 + (child & !LEAF_BIT) } else { child }
 }
 
+/// Internal node `i` (of `n` - 1): stores its children and links them to it; the root also marks
+/// itself parentless. The kernel runs it once per thread, the CPU twin in a loop.
+pub fn build_node_at(codes: &[u32], n: u32, i: u32, nodes: &mut [BvhNode], parents: &mut [u32]) {
+    let node = internal_node(codes, n, i);
+    nodes[i as usize] = node;
+    parents[parent_slot(node.left, n) as usize] = i;
+    parents[parent_slot(node.right, n) as usize] = i;
+    if i == 0 {
+        parents[0] = NO_NODE;
+    }
+}
+
 /// One thread per internal node: its children, and their parent links.
 #[spirv(compute(threads(256)))]
 pub fn build_nodes(
@@ -130,13 +142,7 @@ pub fn build_nodes(
     if i + 1 >= n {
         return;
     }
-    let node = internal_node(codes, n, i);
-    nodes[i as usize] = node;
-    parents[parent_slot(node.left, n) as usize] = i;
-    parents[parent_slot(node.right, n) as usize] = i;
-    if i == 0 {
-        parents[0] = NO_NODE;
-    }
+    build_node_at(codes, n, i, nodes, parents);
 }
 
 /// Bounds of a sphere (xyz centre, w radius).
