@@ -3,9 +3,7 @@
 //! build submission; the table gives medians of the stage split.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use drape::gpu::Engine;
-use drape::lbvh::{allocate, build_gpu, collider_params};
-use drape::program::lbvh_build;
+use drape::lbvh::GpuLbvh;
 use drape::timing::median;
 use drape::{Context, Validation};
 use glam::Vec4;
@@ -32,17 +30,15 @@ fn lbvh(c: &mut Criterion) {
     let mut table = Vec::new();
     for n in SIZES {
         let input = spheres(n);
-        let params = collider_params(&input, 0.0, 0.0).expect("params");
-        let mut engine = Engine::new(&ctx).expect("engine");
-        allocate(&mut engine, &params, &input).expect("buffers");
-        let untimed = engine.record(&lbvh_build(n), false).expect("record");
+        let mut lbvh = GpuLbvh::build(&ctx, &input, 0.0).expect("build");
+        let mut untimed = lbvh.build_frame(false).expect("record");
         group.bench_function(format!("{n} leaves"), |b| b.iter(|| untimed.submit().expect("build")));
         // Stage split from timestamps, medians over 5 builds.
         let mut stages: Vec<(&'static str, Vec<f64>)> = Vec::new();
         let mut walls = Vec::new();
         for _ in 0..5 {
             let start = Instant::now();
-            let t = build_gpu(&mut engine, &params).expect("build");
+            let t = lbvh.rebuild(true).expect("build");
             walls.push(start.elapsed().as_secs_f64() * 1e3);
             for (label, _, micros) in t.by_label() {
                 match stages.iter_mut().find(|(l, _)| *l == label) {

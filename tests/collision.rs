@@ -48,7 +48,7 @@ fn gpu_lbvh_is_valid_and_equals_the_cpu_twin() {
         let gpu = GpuLbvh::build(&ctx, spheres, 0.01).unwrap();
         let tree = gpu.download().unwrap();
         tree.validate(spheres).unwrap_or_else(|e| panic!("{name}: {e}"));
-        let cpu = build_cpu(spheres, &gpu.params);
+        let cpu = build_cpu(spheres, &gpu.params).unwrap();
         cpu.validate(spheres).unwrap_or_else(|e| panic!("{name} (cpu): {e}"));
         assert_eq!(tree, cpu, "{name}: GPU and CPU trees differ");
         // The radix sort is a stable sort by Morton code.
@@ -89,7 +89,7 @@ fn bvh_traversal_finds_the_brute_force_contacts() {
     for n in [1usize, 2, 3, 50, 2000] {
         let spheres = random_spheres(&mut rng, n, 1.0);
         let params = collider_params(&spheres, 0.02, 0.0).unwrap();
-        let tree = build_cpu(&spheres, &params);
+        let tree = build_cpu(&spheres, &params).unwrap();
         for _ in 0..2000 {
             let p1 = Vec3::new(rng.range(-1.2, 1.2), rng.range(-1.2, 1.2), rng.range(-1.2, 1.2));
             let p0 = p1 + Vec3::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), rng.range(-0.1, 0.1));

@@ -5,7 +5,6 @@ mod common;
 
 use common::{assert_validation_clean, context};
 use drape::gpu::reflect::reflect;
-use drape::kernels::KernelId;
 use drape::{ClothBuilder, SimSettings, Simulation};
 
 /// Each kernel's binding table (written once, in `drape::kernels`) equals what the SPIR-V
@@ -13,9 +12,9 @@ use drape::{ClothBuilder, SimSettings, Simulation};
 #[test]
 fn binding_tables_match_the_spirv() {
     let reflected = reflect(drape::KERNELS_SPV).unwrap();
-    assert_eq!(reflected.len(), KernelId::ALL.len(), "entry points: {:?}", reflected.keys());
-    for id in KernelId::ALL {
-        let spec = id.spec();
+    assert_eq!(reflected.len(), drape::kernels::ALL.len(), "entry points: {:?}", reflected.keys());
+    for kernel in drape::kernels::ALL {
+        let spec = kernel.spec;
         let entry = reflected.get(spec.entry).unwrap_or_else(|| panic!("no entry point {}", spec.entry));
         assert!(drape::ENTRY_POINTS.contains(&spec.entry));
         assert_eq!(entry.bindings.len(), spec.bindings.len(), "{}: binding count", spec.entry);
@@ -101,4 +100,52 @@ fn cli_rejects_invalid_values() {
         assert!(stderr.contains("error"), "{args:?}: {stderr}");
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
     }
+}
+
+/// Barriers come from declared accesses: independent steps share none, a read after a write, a
+/// write after a read and a write after a write each get one.
+#[test]
+fn barriers_follow_declared_reads_and_writes() {
+    use drape::graph::{Access, HazardTracker, Resources};
+    let mut resources = Resources::new();
+    let a = resources.device::<u32>("a", 4).id();
+    let b = resources.device::<u32>("b", 4).id();
+    let c = resources.device::<u32>("c", 4).id();
+    let mut hazards = HazardTracker::default();
+    assert!(!hazards.needs_barrier(&[(a, Access::Write)]), "first write");
+    assert!(!hazards.needs_barrier(&[(b, Access::Write)]), "independent write");
+    assert!(hazards.needs_barrier(&[(a, Access::Read), (c, Access::Write)]), "read after write");
+    assert!(!hazards.needs_barrier(&[(a, Access::Read)]), "read after read");
+    assert!(hazards.needs_barrier(&[(a, Access::Write)]), "write after read");
+    assert!(hazards.needs_barrier(&[(a, Access::Write)]), "write after write");
+    assert!(hazards.needs_barrier(&[(b, Access::IndirectRead), (a, Access::Read)]), "indirect read after write");
+}
+
+/// A recorded cloth frame has fewer barriers than commands: the resets at the start of the
+/// frame run without one, each dependent stage gets one.
+#[test]
+fn a_cloth_frame_records_only_the_barriers_its_data_needs() {
+    let ctx = context();
+    let cloth = ClothBuilder::new(16, 16).pin_top_corners().build().unwrap();
+    let settings = SimSettings { substeps: Some(3), normals: true, ..SimSettings::default() };
+    let mut sim = Simulation::new(&ctx, &cloth, settings).unwrap();
+    // fill health, 12 stages, normals, health check = 15 commands; the fill needs no barrier
+    // before stage 1, normals and the health check both only read x after stage 12.
+    assert_eq!(sim.barriers_per_frame(), 12, "one before each stage after the first, one before normals+health");
+    sim.step().unwrap();
+    assert_validation_clean(&ctx);
+}
+
+/// A recorded frame holds what it binds: it still runs after its engine is gone.
+#[test]
+fn a_recorded_frame_outlives_its_engine() {
+    let ctx = context();
+    let spheres: Vec<glam::Vec4> = (0..300).map(|i| glam::Vec4::new(i as f32, (i % 7) as f32, 0.0, 0.5)).collect();
+    let mut lbvh = drape::lbvh::GpuLbvh::build(&ctx, &spheres, 0.0).unwrap();
+    let mut frame = lbvh.build_frame(true).unwrap();
+    drop(lbvh);
+    let timings = frame.submit().unwrap();
+    assert!(timings.passes.iter().any(|p| p.label == "refit"));
+    drop(frame);
+    assert_validation_clean(&ctx);
 }

@@ -1,14 +1,14 @@
-//! The collider's LBVH: built on the GPU by `program::lbvh_build`, with a CPU twin made of the
-//! same kernel functions, and `validate()` for the tree invariants.
+//! The collider's LBVH: the build (`programs::lbvh`) run on the GPU or by the CPU executor, and
+//! `validate()` for the tree invariants.
 
+use crate::cpu::CpuExecutor;
 use crate::error::{Error, Result};
-use crate::gpu::{Context, Engine, FrameTimings};
-use crate::program::{BufferId, lbvh_build, scan_levels};
-use drape_kernels::lbvh::{build_node_at, morton_code, refit_from_leaf, sphere_aabb};
-use drape_kernels::sort::{RADIX, SORT_TILE, cpu_radix_sort};
-use drape_types::{AABB_WORDS, Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE};
+use crate::gpu::{Context, Engine, FrameTimings, RecordedFrame};
+use crate::graph::Resources;
+use crate::programs::lbvh::LbvhBuffers;
+use drape_kernels::lbvh::sphere_aabb;
+use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE};
 use glam::{Vec3, Vec4, Vec4Swizzles};
-use gpu_allocator::MemoryLocation;
 use std::sync::Arc;
 
 /// Largest supported leaf count (keeps every dispatch within 65,535 workgroups of 256).
@@ -67,97 +67,76 @@ pub struct Lbvh {
     pub aabbs: Vec<Aabb>,
 }
 
-/// Buffers the LBVH build needs, allocated in `engine` for `spheres`.
-pub fn allocate(engine: &mut Engine, params: &ColliderParams, spheres: &[Vec4]) -> Result<()> {
-    let n = params.leaf_count as u64;
-    let tiles = (params.leaf_count.div_ceil(SORT_TILE)).max(1);
-    engine.create_with(BufferId::Collider, std::slice::from_ref(params))?;
-    engine.create_with(BufferId::Spheres, spheres)?;
-    engine.create(BufferId::SortedSpheres, n * 16, MemoryLocation::GpuOnly)?;
-    for id in [BufferId::KeysA, BufferId::KeysB, BufferId::ValuesA, BufferId::ValuesB] {
-        engine.create(id, n * 4, MemoryLocation::GpuOnly)?;
-    }
-    engine.create(BufferId::Counts, (RADIX * tiles) as u64 * 4, MemoryLocation::GpuOnly)?;
-    for (level, blocks) in scan_levels(RADIX * tiles).into_iter().enumerate() {
-        engine.create(BufferId::ScanSums(level as u8), blocks as u64 * 4, MemoryLocation::GpuOnly)?;
-    }
-    let internal = (n - 1).max(1);
-    engine.create(BufferId::Nodes, internal * 16, MemoryLocation::GpuOnly)?;
-    engine.create(BufferId::Parents, (2 * n - 1) * 4, MemoryLocation::GpuOnly)?;
-    engine.create(BufferId::Flags, internal * 4, MemoryLocation::GpuOnly)?;
-    engine.create(BufferId::Aabbs, internal * AABB_WORDS as u64 * 4, MemoryLocation::GpuOnly)?;
-    Ok(())
-}
-
-/// Builds the LBVH on the GPU in `engine` (after `allocate`); returns per-stage GPU timings.
-pub fn build_gpu(engine: &mut Engine, params: &ColliderParams) -> Result<FrameTimings> {
-    let frame = engine.record(&lbvh_build(params.leaf_count), true)?;
-    frame.submit()
-}
-
-/// Reads the GPU-built tree back.
-pub fn download(engine: &Engine, params: &ColliderParams) -> Result<Lbvh> {
-    let n = params.leaf_count as usize;
-    let internal = n - 1;
+/// Reads a built tree back from the GPU.
+pub fn download(engine: &Engine, b: &LbvhBuffers) -> Result<Lbvh> {
+    let n = b.leaves as usize;
     Ok(Lbvh {
-        codes: engine.download(BufferId::KeysA, n)?,
-        order: engine.download(BufferId::ValuesA, n)?,
-        spheres: engine.download(BufferId::SortedSpheres, n)?,
-        nodes: engine.download(BufferId::Nodes, internal)?,
-        parents: if n > 1 { engine.download(BufferId::Parents, 2 * n - 1)? } else { vec![NO_NODE] },
-        aabbs: engine.download(BufferId::Aabbs, internal)?,
+        codes: engine.download(b.codes, n)?,
+        order: engine.download(b.order, n)?,
+        spheres: engine.download(b.sorted, n)?,
+        nodes: engine.download(b.nodes, n - 1)?,
+        parents: if n > 1 { engine.download(b.parents, 2 * n - 1)? } else { vec![NO_NODE] },
+        aabbs: engine.download(b.aabbs, n - 1)?,
     })
 }
 
 /// A standalone GPU LBVH (tests, benchmarks): builds on creation.
 pub struct GpuLbvh {
-    pub engine: Engine,
+    engine: Engine,
+    buffers: LbvhBuffers,
     pub params: ColliderParams,
+    /// GPU time per stage of the build.
     pub timings: FrameTimings,
 }
 
 impl GpuLbvh {
     pub fn build(ctx: &Arc<Context>, spheres: &[Vec4], thickness: f32) -> Result<Self> {
         let params = collider_params(spheres, thickness, 0.0)?;
+        let mut resources = Resources::new();
+        let buffers = LbvhBuffers::declare(&mut resources, "lbvh", params.leaf_count);
         let mut engine = Engine::new(ctx)?;
-        allocate(&mut engine, &params, spheres)?;
-        let timings = build_gpu(&mut engine, &params)?;
-        Ok(GpuLbvh { engine, params, timings })
+        engine.allocate(&resources)?;
+        engine.upload(buffers.collider, std::slice::from_ref(&params))?;
+        engine.upload(buffers.spheres, spheres)?;
+        let mut this = GpuLbvh { engine, buffers, params, timings: FrameTimings::default() };
+        this.rebuild(true)?;
+        Ok(this)
+    }
+
+    /// Builds again from the same spheres (benchmarks); returns the GPU time per stage when
+    /// `timed`.
+    pub fn rebuild(&mut self, timed: bool) -> Result<FrameTimings> {
+        self.timings = self.build_frame(timed)?.submit()?;
+        Ok(self.timings.clone())
+    }
+
+    /// The build recorded once, to submit any number of times.
+    pub fn build_frame(&mut self, timed: bool) -> Result<RecordedFrame> {
+        self.engine.record(&self.buffers.build_steps(), timed)
     }
 
     pub fn download(&self) -> Result<Lbvh> {
-        download(&self.engine, &self.params)
+        download(&self.engine, &self.buffers)
     }
 }
 
-/// CPU twin of the build, with the kernels' functions.
-pub fn build_cpu(spheres: &[Vec4], params: &ColliderParams) -> Lbvh {
-    let n = params.leaf_count;
-    let mut codes: Vec<u32> =
-        spheres.iter().map(|s| morton_code(s.xyz(), params.scene_min.xyz(), params.scene_max.xyz())).collect();
-    let mut order: Vec<u32> = (0..n).collect();
-    cpu_radix_sort(&mut codes, &mut order);
-    let sorted: Vec<Vec4> = order.iter().map(|&i| spheres[i as usize]).collect();
-    let internal = n.saturating_sub(1) as usize;
-    let mut nodes = vec![BvhNode::default(); internal];
-    let mut parents = vec![NO_NODE; (2 * n - 1) as usize];
-    for i in 0..internal as u32 {
-        build_node_at(&codes, n, i, &mut nodes, &mut parents);
-    }
-    let mut flags = vec![0u32; internal];
-    let mut words = vec![0u32; internal * AABB_WORDS as usize];
-    if n >= 2 {
-        for leaf in 0..n {
-            refit_from_leaf(leaf, n, &nodes, &parents, &sorted, &mut flags, &mut words);
-        }
-    }
-    let aabbs = words
-        .as_chunks::<{ AABB_WORDS as usize }>()
-        .0
-        .iter()
-        .map(|w| bytemuck::pod_read_unaligned::<Aabb>(bytemuck::cast_slice(w)))
-        .collect();
-    Lbvh { codes, order, spheres: sorted, nodes, parents, aabbs }
+/// CPU twin of the build: the same steps run by the CPU executor.
+pub fn build_cpu(spheres: &[Vec4], params: &ColliderParams) -> Result<Lbvh> {
+    let mut resources = Resources::new();
+    let b = LbvhBuffers::declare(&mut resources, "lbvh", params.leaf_count);
+    let mut cpu = CpuExecutor::new(&resources);
+    cpu.upload(b.collider, std::slice::from_ref(params))?;
+    cpu.upload(b.spheres, spheres)?;
+    cpu.run(&b.build_steps())?;
+    let n = b.leaves as usize;
+    Ok(Lbvh {
+        codes: cpu.read(b.codes, n)?,
+        order: cpu.read(b.order, n)?,
+        spheres: cpu.read(b.sorted, n)?,
+        nodes: cpu.read(b.nodes, n - 1)?,
+        parents: if n > 1 { cpu.read(b.parents, 2 * n - 1)? } else { vec![NO_NODE] },
+        aabbs: cpu.read(b.aabbs, n - 1)?,
+    })
 }
 
 fn contains(outer: &Aabb, inner: &Aabb) -> bool {

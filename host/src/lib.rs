@@ -19,14 +19,17 @@
 pub mod cloth;
 pub mod collider;
 pub mod cpu;
+mod cpu_sim;
 pub mod error;
 pub mod gpu;
+pub mod graph;
 pub mod kernels;
 pub mod lbvh;
 pub mod mesh;
 pub mod metrics;
 pub mod obj;
-pub mod program;
+mod program;
+pub mod programs;
 pub mod reference;
 pub mod scenes;
 pub mod sim;
@@ -34,7 +37,7 @@ pub mod stability;
 pub mod timing;
 
 pub use cloth::{Cloth, ClothBuilder};
-pub use cpu::CpuSimulation;
+pub use cpu_sim::CpuSimulation;
 pub use error::{Error, Result};
 pub use gpu::{Context, FrameTimings, Validation};
 pub use mesh::Mesh;

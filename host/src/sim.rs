@@ -5,11 +5,11 @@ use crate::cloth::Cloth;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Engine, FrameTimings, RecordedFrame};
 use crate::lbvh;
-use crate::program::{BufferId, CollisionMode, FramePlan, cloth_frame};
+use crate::program::ClothProgram;
+use crate::programs::cloth::FramePlan;
 use crate::stability::{self, DEFAULT_SAFETY, Stability};
-use drape_types::{CollisionStatus, DispatchArgs, Health, SimParams, integrator};
+use drape_types::{CollisionStatus, Health, SimParams, integrator};
 use glam::Vec4;
-use gpu_allocator::MemoryLocation;
 use std::sync::Arc;
 
 /// Time integration scheme.
@@ -103,13 +103,7 @@ impl SimSettings {
 
     /// The frame schedule for these settings.
     pub fn plan(&self, params: &SimParams, stability: &Stability) -> FramePlan {
-        FramePlan {
-            particles: params.particle_count,
-            substeps: stability.substeps,
-            integrator: params.integrator,
-            normals: self.normals,
-            collision: CollisionMode::None,
-        }
+        FramePlan { substeps: stability.substeps, integrator: params.integrator, normals: self.normals }
     }
 }
 
@@ -161,14 +155,14 @@ pub struct FrameReport {
 
 /// A cloth simulation on the GPU.
 pub struct Simulation {
-    // Field order is drop order: the recorded frame goes before the engine it refers to.
+    // Field order is drop order: the recorded frame goes before the engine (it holds what it
+    // binds anyway).
     frame: RecordedFrame,
     engine: Engine,
+    program: ClothProgram,
     params: SimParams,
     settings: SimSettings,
     stability: Stability,
-    collision: CollisionMode,
-    collider_params: Option<drape_types::ColliderParams>,
     lbvh_timings: Option<FrameTimings>,
     frames_done: u64,
 }
@@ -187,46 +181,18 @@ impl Simulation {
         collider: Option<&Collider>,
     ) -> Result<Self> {
         let (params, stability) = settings.resolve(cloth)?;
+        let program = ClothProgram::new(cloth, &params, settings.plan(&params, &stability), collider)?;
         let mut engine = Engine::new(ctx)?;
-        let vec4s = cloth.particle_count() as u64 * size_of::<Vec4>() as u64;
-        for id in [BufferId::V, BufferId::VA, BufferId::VB, BufferId::AccX, BufferId::AccV, BufferId::Normals] {
-            engine.create(id, vec4s, MemoryLocation::GpuOnly)?;
+        engine.allocate(&program.resources)?;
+        for (id, data) in &program.initial {
+            engine.upload_bytes(*id, data)?;
         }
-        engine.create_with(BufferId::Params, std::slice::from_ref(&params))?;
-        // Stage buffers start as copies of the state so pinned particles read sane values.
-        for id in [BufferId::X, BufferId::XA, BufferId::XB, BufferId::XPrev] {
-            engine.create_with(id, &cloth.positions)?;
-        }
-        engine.upload(BufferId::V, &cloth.velocities)?;
-        // Read by the host after every frame: keep them mapped.
-        engine.create(BufferId::Health, size_of::<Health>() as u64, MemoryLocation::GpuToCpu)?;
-
-        let mut collision = CollisionMode::None;
-        let mut lbvh_timings = None;
-        let mut kept_params = None;
-        if let Some(collider) = collider {
-            let collider_params = lbvh::collider_params(&collider.spheres, collider.thickness, collider.friction)?;
-            lbvh::allocate(&mut engine, &collider_params, &collider.spheres)?;
-            lbvh_timings = Some(lbvh::build_gpu(&mut engine, &collider_params)?);
-            engine.create(BufferId::DispatchArgs, size_of::<DispatchArgs>() as u64, MemoryLocation::GpuOnly)?;
-            engine.create(BufferId::CollisionStatus, size_of::<CollisionStatus>() as u64, MemoryLocation::GpuToCpu)?;
-            collision = if collider.use_bvh { CollisionMode::Bvh } else { CollisionMode::BruteForce };
-            kept_params = Some(collider_params);
-        }
-        let mut plan = settings.plan(&params, &stability);
-        plan.collision = collision;
-        let frame = engine.record(&cloth_frame(plan), settings.timestamps)?;
-        Ok(Simulation {
-            frame,
-            engine,
-            params,
-            settings,
-            stability,
-            collision,
-            collider_params: kept_params,
-            lbvh_timings,
-            frames_done: 0,
-        })
+        let lbvh_timings = match &program.collider {
+            Some(c) => Some(engine.record(&c.lbvh.build_steps(), true)?.submit()?),
+            None => None,
+        };
+        let frame = engine.record(&program.frame, settings.timestamps)?;
+        Ok(Simulation { frame, engine, program, params, settings, stability, lbvh_timings, frames_done: 0 })
     }
 
     /// Runs one frame; returns its per-pass GPU timings, or `Error::Unstable` on blow-up.
@@ -238,46 +204,48 @@ impl Simulation {
     pub fn step_report(&mut self) -> Result<FrameReport> {
         let timings = self.frame.submit()?;
         self.frames_done += 1;
-        let health: Health = self.engine.read_mapped(BufferId::Health)?;
+        let health: Health = self.engine.read_mapped(self.program.cloth.health)?;
         check_health(&health, self.frames_done, &self.settings, &self.stability)?;
         let mut report = FrameReport { timings, ..FrameReport::default() };
-        if self.collision != CollisionMode::None {
-            let status: CollisionStatus = self.engine.read_mapped(BufferId::CollisionStatus)?;
-            if status.overflows > 0 {
-                return Err(Error::TraversalOverflow { frame: self.frames_done, particles: status.overflows });
-            }
+        if let Some(c) = &self.program.collider {
+            let status: CollisionStatus = self.engine.read_mapped(c.contact.status)?;
+            check_collision(&status, self.frames_done)?;
             report.collision_ran = status.ran;
             report.collision_skipped = status.skipped;
         }
         Ok(report)
     }
 
-    fn read_vec4s(&self, id: BufferId) -> Result<Vec<Vec4>> {
-        self.engine.download(id, self.params.particle_count as usize)
+    fn read_vec4s(&self, buffer: crate::graph::Handle<Vec4>) -> Result<Vec<Vec4>> {
+        self.engine.download(buffer, self.params.particle_count as usize)
     }
 
     /// Positions (xyz, w = pin weight), read back from the GPU.
     pub fn positions(&self) -> Result<Vec<Vec4>> {
-        self.read_vec4s(BufferId::X)
+        self.read_vec4s(self.program.cloth.x)
     }
     /// Velocities, read back from the GPU.
     pub fn velocities(&self) -> Result<Vec<Vec4>> {
-        self.read_vec4s(BufferId::V)
+        self.read_vec4s(self.program.cloth.v)
     }
     /// Vertex normals of the last frame (zero before the first frame or with normals off).
     pub fn normals(&self) -> Result<Vec<Vec4>> {
-        self.read_vec4s(BufferId::Normals)
+        self.read_vec4s(self.program.cloth.normals)
     }
     /// The collider's LBVH as built on the GPU (None without a collider).
     pub fn collider_bvh(&self) -> Result<Option<lbvh::Lbvh>> {
-        match &self.collider_params {
-            Some(params) => Ok(Some(lbvh::download(&self.engine, params)?)),
+        match &self.program.collider {
+            Some(c) => Ok(Some(lbvh::download(&self.engine, &c.lbvh)?)),
             None => Ok(None),
         }
     }
     /// GPU time of the LBVH build per stage (None without a collider).
     pub fn lbvh_timings(&self) -> Option<&FrameTimings> {
         self.lbvh_timings.as_ref()
+    }
+    /// Memory barriers in one recorded frame (derived from the passes' reads and writes).
+    pub fn barriers_per_frame(&self) -> u32 {
+        self.frame.barrier_count()
     }
     pub fn params(&self) -> &SimParams {
         &self.params
@@ -294,4 +262,12 @@ impl Simulation {
     pub fn context(&self) -> &Arc<Context> {
         self.engine.context()
     }
+}
+
+/// Turns a traversal overflow into an error.
+pub(crate) fn check_collision(status: &CollisionStatus, frame: u64) -> Result<()> {
+    if status.overflows > 0 {
+        return Err(Error::TraversalOverflow { frame, particles: status.overflows });
+    }
+    Ok(())
 }

@@ -1,12 +1,11 @@
-//! Command buffers with their pool and fence (RAII), one-shot submissions, descriptor sets, and
-//! host <-> GPU transfers through staging buffers.
+//! Command buffers with their pool and fence (RAII), one-shot submissions, barriers and
+//! descriptor sets.
 
 use super::buffer::Buffer;
 use super::context::Context;
 use super::pipeline::Pipeline;
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
-use gpu_allocator::MemoryLocation;
 use std::sync::Arc;
 
 /// A primary command buffer, its pool and a fence to wait on its submission.
@@ -119,49 +118,6 @@ pub fn full_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
             &[],
         )
     };
-}
-
-/// Copies `data` into `dst` (any memory location) through a staging buffer.
-pub fn upload(ctx: &Arc<Context>, dst: &Buffer, data: &[u8]) -> Result<()> {
-    if data.len() as u64 > dst.size() {
-        return Err(Error::InvalidParameter {
-            name: "upload",
-            problem: format!("{} bytes into a {}-byte buffer", data.len(), dst.size()),
-        });
-    }
-    if data.is_empty() {
-        return Ok(());
-    }
-    let mut staging = Buffer::new(ctx, "staging upload", data.len() as u64, MemoryLocation::CpuToGpu)?;
-    let mapped = staging
-        .mapped_mut()
-        .ok_or(Error::Kernel { kernel: "upload".into(), problem: "staging buffer is not host visible".into() })?;
-    mapped[..data.len()].copy_from_slice(data);
-    let region = [vk::BufferCopy::default().size(data.len() as u64)];
-    one_shot(ctx, |device, cmd| unsafe {
-        // SAFETY: recording; both buffers are alive until the submission completes.
-        device.cmd_copy_buffer(cmd, staging.handle, dst.handle, &region);
-    })
-}
-
-/// Reads `len` bytes from the start of `src` through a staging buffer.
-pub fn download(ctx: &Arc<Context>, src: &Buffer, len: u64) -> Result<Vec<u8>> {
-    let len = len.min(src.size());
-    if len == 0 {
-        return Ok(Vec::new());
-    }
-    let staging = Buffer::new(ctx, "staging download", len, MemoryLocation::GpuToCpu)?;
-    let region = [vk::BufferCopy::default().size(len)];
-    one_shot(ctx, |device, cmd| unsafe {
-        // SAFETY: recording; both buffers outlive the submission. The barrier makes earlier
-        // submissions' shader writes visible to the copy (queue submission order).
-        full_barrier(device, cmd);
-        device.cmd_copy_buffer(cmd, src.handle, staging.handle, &region);
-    })?;
-    let mapped = staging
-        .mapped()
-        .ok_or(Error::Kernel { kernel: "download".into(), problem: "staging buffer is not host visible".into() })?;
-    Ok(mapped[..len as usize].to_vec())
 }
 
 /// A descriptor pool from which sets are allocated; all sets die with it.

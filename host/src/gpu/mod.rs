@@ -1,5 +1,6 @@
-//! The Vulkan engine: context, buffers, pipelines, command recording and timing. Every handle is
-//! owned by exactly one RAII wrapper that holds an `Arc<Context>`.
+//! The Vulkan executor: context, buffers, pipelines, command recording and timing. Every handle
+//! is owned by exactly one RAII wrapper that holds an `Arc<Context>`. It runs the description
+//! layer's step lists (`crate::graph`) and knows nothing of cloths or colliders.
 
 pub mod buffer;
 pub mod commands;
@@ -8,9 +9,10 @@ pub mod engine;
 pub mod pipeline;
 pub mod recording;
 pub mod reflect;
+mod staging;
 
 pub use buffer::Buffer;
 pub use context::{Context, DeviceInfo, Validation};
 pub use engine::Engine;
-pub use pipeline::{BindingSpec, KernelSpec, Pipeline, ShaderModule};
+pub use pipeline::{Pipeline, ShaderModule};
 pub use recording::{Command, FrameTimings, PassTiming, RecordedFrame};

@@ -3,30 +3,10 @@
 
 use super::context::Context;
 use crate::error::{Error, Result, VkContext};
+use crate::graph::KernelSpec;
 use ash::vk;
 use std::ffi::CString;
 use std::sync::Arc;
-
-/// One storage-buffer binding of a kernel (index = position in `KernelSpec::bindings`).
-#[derive(Copy, Clone, Debug)]
-pub struct BindingSpec {
-    /// The kernel parameter's name (checked against the SPIR-V's OpName).
-    pub name: &'static str,
-    /// Whether the kernel writes it (`&mut`).
-    pub writable: bool,
-}
-
-/// A kernel's binding table, written once: descriptor set 0, bindings 0..n in order.
-#[derive(Copy, Clone, Debug)]
-pub struct KernelSpec {
-    /// Entry point name (the Rust fn name in `kernels/shaders`).
-    pub entry: &'static str,
-    pub bindings: &'static [BindingSpec],
-    /// Push constant bytes (0 = none).
-    pub push_constant_size: u32,
-    /// Threads per workgroup along x.
-    pub workgroup_size: u32,
-}
 
 /// The shader module holding every entry point.
 pub struct ShaderModule {

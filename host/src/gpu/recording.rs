@@ -1,7 +1,8 @@
 //! A frame recorded as a list of named passes, with a timestamp query around each dispatch, and
 //! the per-pass GPU timing read back from those queries.
 
-use super::commands::{CommandBuffer, full_barrier};
+use super::buffer::Buffer;
+use super::commands::{CommandBuffer, DescriptorArena, full_barrier};
 use super::context::Context;
 use super::pipeline::Pipeline;
 use crate::error::{Result, VkContext};
@@ -22,6 +23,8 @@ pub enum Command<'a> {
     },
     /// Fill a whole buffer with a 32-bit value (e.g. reset counters).
     Fill { buffer: vk::Buffer, value: u32 },
+    /// Make every earlier write visible to every later command (derived from declared accesses).
+    Barrier,
     /// A pass the scene does not need: not recorded, but reported as skipped.
     Skipped { label: &'static str },
 }
@@ -88,20 +91,33 @@ impl Drop for QueryPool {
     }
 }
 
+/// What a recorded frame binds: it holds them, so nothing it refers to can be destroyed while
+/// the frame exists (dropping the engine that made it is fine).
+pub struct FrameBindings {
+    pub arena: DescriptorArena,
+    pub pipelines: Vec<Arc<Pipeline>>,
+    pub buffers: Vec<Arc<Buffer>>,
+}
+
 /// A frame's commands, recorded once and submitted as often as needed.
 pub struct RecordedFrame {
-    ctx: Arc<Context>,
+    // Field order is drop order: the command buffer (waited on at every submit) goes first,
+    // then what it binds.
     cmd: CommandBuffer,
     queries: Option<QueryPool>,
+    _bindings: FrameBindings,
+    ctx: Arc<Context>,
     labels: Vec<&'static str>,
     skipped: Vec<&'static str>,
+    barriers: u32,
 }
 
 impl RecordedFrame {
-    /// Records `commands` with a full memory barrier after each one; the last barrier also makes
+    /// Records `commands` (barriers included, as the caller placed them); a final barrier makes
     /// shader writes visible to the host (readback of mapped buffers after the wait).
     /// With `timed`, a timestamp query brackets each dispatch (when the queue supports them).
-    pub fn record(ctx: &Arc<Context>, commands: &[Command], timed: bool) -> Result<Self> {
+    pub fn record(ctx: &Arc<Context>, commands: &[Command], bindings: FrameBindings, timed: bool) -> Result<Self> {
+        let barriers = commands.iter().filter(|c| matches!(c, Command::Barrier)).count() as u32;
         let labels: Vec<&'static str> = commands
             .iter()
             .filter_map(|c| if let Command::Dispatch { label, .. } = c { Some(*label) } else { None })
@@ -156,9 +172,9 @@ impl RecordedFrame {
                         Command::Fill { buffer, value } => {
                             device.cmd_fill_buffer(cb, *buffer, 0, vk::WHOLE_SIZE, *value);
                         }
-                        Command::Skipped { .. } => continue,
+                        Command::Barrier => full_barrier(device, cb),
+                        Command::Skipped { .. } => {}
                     }
-                    full_barrier(device, cb);
                 }
                 let to_host = [vk::MemoryBarrier::default()
                     .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
@@ -174,11 +190,16 @@ impl RecordedFrame {
                 );
             }
         })?;
-        Ok(RecordedFrame { ctx: ctx.clone(), cmd, queries, labels, skipped })
+        Ok(RecordedFrame { cmd, queries, _bindings: bindings, ctx: ctx.clone(), labels, skipped, barriers })
+    }
+
+    /// Barriers recorded in the frame (derived from the passes' declared accesses).
+    pub fn barrier_count(&self) -> u32 {
+        self.barriers
     }
 
     /// Runs the frame on the GPU, waits, and returns each pass's GPU time.
-    pub fn submit(&self) -> Result<FrameTimings> {
+    pub fn submit(&mut self) -> Result<FrameTimings> {
         self.cmd.submit_and_wait()?;
         let mut passes: Vec<PassTiming> = self.labels.iter().map(|&label| PassTiming { label, micros: None }).collect();
         if let Some(q) = &self.queries {

@@ -1,0 +1,88 @@
+//! LBVH build kernels (`drape_kernels::lbvh`): Morton codes, leaf gather, Karras nodes, refit.
+
+use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use drape_kernels::lbvh::{build_node_at, morton_code, refit_from_leaf};
+use drape_types::{BvhNode, ColliderParams};
+use glam::{Vec4, Vec4Swizzles};
+
+const fn read(name: &'static str) -> BindingSpec {
+    BindingSpec::read(name)
+}
+const fn write(name: &'static str) -> BindingSpec {
+    BindingSpec::write(name)
+}
+const THREADS: u32 = 256;
+
+const fn spec(entry: &'static str, bindings: &'static [BindingSpec]) -> KernelSpec {
+    KernelSpec { entry, bindings, push_constant_size: 0, workgroup_size: THREADS }
+}
+
+pub static MORTON_CODES: Kernel = Kernel {
+    spec: spec("lbvh::morton_codes", &[read("collider"), read("spheres"), write("keys"), write("values")]),
+    cpu: morton_cpu,
+};
+pub static GATHER_LEAVES: Kernel = Kernel {
+    spec: spec("lbvh::gather_leaves", &[read("collider"), read("spheres"), read("order"), write("sorted")]),
+    cpu: gather_cpu,
+};
+pub static BUILD_NODES: Kernel = Kernel {
+    spec: spec("lbvh::build_nodes", &[read("collider"), read("codes"), write("nodes"), write("parents")]),
+    cpu: build_nodes_cpu,
+};
+pub static REFIT: Kernel = Kernel {
+    spec: spec(
+        "lbvh::refit",
+        &[read("collider"), read("nodes"), read("parents"), read("sorted"), write("flags"), write("aabbs")],
+    ),
+    cpu: refit_cpu,
+};
+
+fn morton_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [collider, spheres, keys, values] = d.bindings()?;
+    let c: ColliderParams = collider.first()?;
+    let (spheres, keys) = (spheres.slice::<Vec4>(), keys.slice_mut::<u32>());
+    let values = values.slice_mut::<u32>();
+    for i in 0..threads.min(c.leaf_count) {
+        keys[i as usize] = morton_code(spheres[i as usize].xyz(), c.scene_min.xyz(), c.scene_max.xyz());
+        values[i as usize] = i;
+    }
+    Ok(())
+}
+
+fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [collider, spheres, order, sorted] = d.bindings()?;
+    let c: ColliderParams = collider.first()?;
+    let (spheres, order, sorted) = (spheres.slice::<Vec4>(), order.slice::<u32>(), sorted.slice_mut::<Vec4>());
+    for i in 0..threads.min(c.leaf_count) {
+        sorted[i as usize] = spheres[order[i as usize] as usize];
+    }
+    Ok(())
+}
+
+fn build_nodes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [collider, codes, nodes, parents] = d.bindings()?;
+    let n = collider.first::<ColliderParams>()?.leaf_count;
+    let (codes, nodes, parents) = (codes.slice::<u32>(), nodes.slice_mut::<BvhNode>(), parents.slice_mut::<u32>());
+    for i in 0..threads.min(n.saturating_sub(1)) {
+        build_node_at(codes, n, i, nodes, parents);
+    }
+    Ok(())
+}
+
+fn refit_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [collider, nodes, parents, sorted, flags, aabbs] = d.bindings()?;
+    let n = collider.first::<ColliderParams>()?.leaf_count;
+    if n < 2 {
+        return Ok(());
+    }
+    let (nodes, parents, sorted) = (nodes.slice::<BvhNode>(), parents.slice::<u32>(), sorted.slice::<Vec4>());
+    let (flags, words) = (flags.slice_mut::<u32>(), aabbs.slice_mut::<u32>());
+    for leaf in 0..threads.min(n) {
+        refit_from_leaf(leaf, n, nodes, parents, sorted, flags, words);
+    }
+    Ok(())
+}

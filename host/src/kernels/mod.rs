@@ -1,0 +1,30 @@
+//! Every kernel drape dispatches, one file per kernel family: its binding tables (written once,
+//! checked against the SPIR-V by `tests/engine.rs`) and its CPU adapter, which runs the kernel's
+//! own functions from `drape-kernels` over host buffers. Adding a kernel means adding it to its
+//! family's file and to `ALL`.
+
+pub mod collide;
+pub mod integrate;
+pub mod lbvh;
+pub mod normals;
+pub mod sort;
+
+use crate::graph::Kernel;
+
+/// Every kernel in the SPIR-V module.
+pub const ALL: [&Kernel; 14] = [
+    &integrate::INTEGRATE_STAGE,
+    &normals::VERTEX_NORMALS,
+    &normals::CHECK_HEALTH,
+    &sort::RADIX_COUNT,
+    &sort::RADIX_SCATTER,
+    &sort::SCAN_BLOCKS,
+    &sort::SCAN_ADD,
+    &lbvh::MORTON_CODES,
+    &lbvh::GATHER_LEAVES,
+    &lbvh::BUILD_NODES,
+    &lbvh::REFIT,
+    &collide::COLLIDE,
+    &collide::COLLIDE_BRUTE_FORCE,
+    &collide::CULL_COLLISION,
+];

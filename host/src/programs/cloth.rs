@@ -1,0 +1,137 @@
+//! One frame of a cloth: per substep the integration stages (and the contact, if any), then the
+//! vertex normals and the blow-up check.
+
+use super::contact::ContactBuffers;
+use super::lbvh::LbvhBuffers;
+use crate::graph::{Dispatch, Handle, Resources, Step};
+use crate::kernels::integrate::INTEGRATE_STAGE;
+use crate::kernels::normals::{CHECK_HEALTH, VERTEX_NORMALS};
+use drape_types::{Health, SimParams, StagePush, integrator};
+use glam::Vec4;
+
+/// The buffers of one cloth.
+pub struct ClothBuffers {
+    pub particles: u32,
+    pub params: Handle<SimParams>,
+    /// State: positions (w = pin weight) and velocities.
+    pub x: Handle<Vec4>,
+    pub v: Handle<Vec4>,
+    /// Ping-pong intermediate states of the Runge-Kutta stages.
+    pub xa: Handle<Vec4>,
+    pub va: Handle<Vec4>,
+    pub xb: Handle<Vec4>,
+    pub vb: Handle<Vec4>,
+    /// Weighted sums of the stage derivatives.
+    pub acc_x: Handle<Vec4>,
+    pub acc_v: Handle<Vec4>,
+    /// Positions at the start of the substep.
+    pub x_prev: Handle<Vec4>,
+    pub normals: Handle<Vec4>,
+    /// Blow-up detector, read by the host after every frame.
+    pub health: Handle<Health>,
+}
+
+impl ClothBuffers {
+    pub fn declare(resources: &mut Resources, name: &str, particles: u32) -> Self {
+        let mut vec4s = |what: &str| resources.device::<Vec4>(format!("{name}: {what}"), particles);
+        let (x, v, xa, va, xb, vb) =
+            (vec4s("x"), vec4s("v"), vec4s("x stage a"), vec4s("v stage a"), vec4s("x stage b"), vec4s("v stage b"));
+        let (acc_x, acc_v, x_prev, normals) = (vec4s("acc x"), vec4s("acc v"), vec4s("x prev"), vec4s("normals"));
+        ClothBuffers {
+            particles,
+            params: resources.device(format!("{name}: params"), 1),
+            x,
+            v,
+            xa,
+            va,
+            xb,
+            vb,
+            acc_x,
+            acc_v,
+            x_prev,
+            normals,
+            health: resources.readback(format!("{name}: health")),
+        }
+    }
+
+    fn stage(
+        &self,
+        label: &'static str,
+        stage: u32,
+        input: (Handle<Vec4>, Handle<Vec4>),
+        output: (Handle<Vec4>, Handle<Vec4>),
+    ) -> Step {
+        let push = StagePush { stage, _pad: [0; 3] };
+        let bindings = vec![
+            self.params.id(),
+            self.x.id(),
+            self.v.id(),
+            input.0.id(),
+            input.1.id(),
+            output.0.id(),
+            output.1.id(),
+            self.acc_x.id(),
+            self.acc_v.id(),
+            self.x_prev.id(),
+        ];
+        Step::run_with(label, &INTEGRATE_STAGE, bindings, bytemuck::cast(push), Dispatch::Threads(self.particles))
+    }
+}
+
+/// What a cloth frame does.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub struct FramePlan {
+    pub substeps: u32,
+    /// `integrator::RK4` or `integrator::SEMI_IMPLICIT_EULER`.
+    pub integrator: u32,
+    pub normals: bool,
+}
+
+/// The steps of one frame of `cloth`, colliding with `contact` after every substep.
+pub fn frame_steps(
+    plan: FramePlan,
+    cloth: &ClothBuffers,
+    contact: Option<(&ContactBuffers, &LbvhBuffers)>,
+) -> Vec<Step> {
+    let a = (cloth.xa, cloth.va);
+    let b = (cloth.xb, cloth.vb);
+    let mut steps = vec![Step::fill(cloth.health, 0)];
+    if let Some((c, _)) = contact {
+        steps.push(Step::fill(c.status, 0));
+    }
+    for substep in 0..plan.substeps {
+        if plan.integrator == integrator::SEMI_IMPLICIT_EULER {
+            steps.push(cloth.stage("euler: evaluate", 0, b, a));
+            steps.push(cloth.stage("euler: commit", 3, b, a));
+        } else {
+            // Stage s reads the previous stage's output: A and B swap roles each stage.
+            steps.push(cloth.stage("rk4: k1", 0, b, a));
+            steps.push(cloth.stage("rk4: k2", 1, a, b));
+            steps.push(cloth.stage("rk4: k3", 2, b, a));
+            steps.push(cloth.stage("rk4: k4 + update", 3, a, b));
+        }
+        match contact {
+            Some((c, collider)) => c.substep_steps(cloth, collider, &mut steps),
+            // A skipped pass is listed once, not once per substep.
+            None if substep == 0 => steps.push(Step::Skip { label: "collide" }),
+            None => {}
+        }
+    }
+    if plan.normals {
+        steps.push(Step::run(
+            "normals",
+            &VERTEX_NORMALS,
+            vec![cloth.params.id(), cloth.x.id(), cloth.normals.id()],
+            Dispatch::Threads(cloth.particles),
+        ));
+    } else {
+        steps.push(Step::Skip { label: "normals" });
+    }
+    steps.push(Step::run(
+        "health check",
+        &CHECK_HEALTH,
+        vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), cloth.health.id()],
+        Dispatch::Threads(cloth.particles),
+    ));
+    steps
+}
