@@ -39,9 +39,9 @@ pub mod timing;
 pub use cloth::{Cloth, ClothBuilder};
 pub use cpu_sim::CpuSimulation;
 pub use error::{Error, Result};
-pub use gpu::{Context, FrameTimings, Validation};
+pub use gpu::{Context, ExternalDevice, FrameTimings, Validation};
 pub use mesh::Mesh;
-pub use sim::{Collider, FrameReport, Integrator, SimSettings, Simulation};
+pub use sim::{Collider, FrameReport, Integrator, SimSettings, Simulation, VertexBuffers};
 pub use stability::Stability;
 
 include!(concat!(env!("OUT_DIR"), "/kernels_spv.rs"));

@@ -1,5 +1,7 @@
 //! Triangle meshes: OBJ loading with line-numbered diagnostics, procedural shapes (icosphere,
 //! torus) and the benchmark placement of a model in the scene.
+// The OBJ line scanner is only used by `load_obj` (feature `obj`).
+#![cfg_attr(not(feature = "obj"), allow(dead_code))]
 
 use crate::error::{Error, Result};
 use glam::{Mat4, Vec3};
@@ -33,6 +35,8 @@ impl Mesh {
     /// coordinates, a face index that is 0 or refers to a vertex not defined above the line
     /// (negative indices count back from the last vertex), faces with fewer than 3 vertices.
     /// Only then does tobj parse the same text. Every failure is `Error::Mesh` naming the file.
+    /// Needs the `obj` feature (on by default).
+    #[cfg(feature = "obj")]
     pub fn load_obj(path: &Path) -> Result<Mesh> {
         let error = |problem: String| Error::Mesh { path: path.to_path_buf(), problem };
         let bytes = std::fs::read(path).map_err(|e| error(format!("cannot read the file: {e}")))?;

@@ -30,7 +30,8 @@ pub(crate) struct ClothProgram {
 impl ClothProgram {
     pub fn new(cloth: &Cloth, params: &SimParams, plan: FramePlan, collider: Option<&Collider>) -> Result<Self> {
         let mut resources = Resources::new();
-        let buffers = ClothBuffers::declare(&mut resources, "cloth", params.particle_count);
+        let triangles = cloth.triangles();
+        let buffers = ClothBuffers::declare(&mut resources, "cloth", params.particle_count, triangles.len() as u32);
         let bytes = |data: &[glam::Vec4]| bytemuck::cast_slice::<_, u8>(data).to_vec();
         let mut initial = vec![(buffers.params.id(), bytemuck::bytes_of(params).to_vec())];
         // Stage buffers start as copies of the state so pinned particles read sane values.
@@ -38,6 +39,7 @@ impl ClothProgram {
             initial.push((h.id(), bytes(&cloth.positions)));
         }
         initial.push((buffers.v.id(), bytes(&cloth.velocities)));
+        initial.push((buffers.indices.id(), bytemuck::cast_slice::<_, u8>(&triangles).to_vec()));
         let collider = match collider {
             Some(c) => {
                 let params = collider_params(&c.spheres, c.thickness, c.friction)?;

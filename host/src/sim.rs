@@ -243,6 +243,77 @@ impl Simulation {
     pub fn lbvh_timings(&self) -> Option<&FrameTimings> {
         self.lbvh_timings.as_ref()
     }
+    /// The cloth's vertex and index buffers, for a renderer to bind.
+    pub fn vertex_buffers(&self) -> Result<VertexBuffers> {
+        let cloth = &self.program.cloth;
+        Ok(VertexBuffers {
+            positions: self.engine.buffer(cloth.x.id())?.handle,
+            normals: self.engine.buffer(cloth.normals.id())?.handle,
+            indices: self.engine.buffer(cloth.indices.id())?.handle,
+            vertex_count: cloth.particles,
+            index_count: cloth.indices.len(),
+            offset: 0,
+            stride: size_of::<Vec4>() as u32,
+            format: ash::vk::Format::R32G32B32A32_SFLOAT,
+            index_type: ash::vk::IndexType::UINT32,
+        })
+    }
+
+    /// Sets gravity (m/s^2) from the next frame on. Nothing is re-recorded or allocated.
+    pub fn set_gravity(&mut self, gravity: glam::Vec3) -> Result<()> {
+        finite_vec("gravity", gravity)?;
+        self.params.gravity = gravity.extend(0.0);
+        self.upload_params()
+    }
+
+    /// Sets the constant external force on every free particle (N), e.g. wind.
+    pub fn set_external_force(&mut self, force: glam::Vec3) -> Result<()> {
+        finite_vec("external_force", force)?;
+        self.params.external_force = force.extend(0.0);
+        self.upload_params()
+    }
+
+    /// Sets the collider's contact thickness (m) and Coulomb friction coefficient.
+    pub fn set_contact(&mut self, thickness: f32, friction: f32) -> Result<()> {
+        let c = self.program.collider.as_ref().ok_or(Error::InvalidParameter {
+            name: "contact",
+            problem: "this simulation has no collider; create it with `Simulation::with_collider`".into(),
+        })?;
+        let mut params: drape_types::ColliderParams = self.engine.download(c.lbvh.collider, 1)?[0];
+        let checked = lbvh::collider_params(&[Vec4::ZERO], thickness, friction)?;
+        params.thickness = checked.thickness;
+        params.friction = checked.friction;
+        self.engine.upload(c.lbvh.collider, &[params])
+    }
+
+    /// Teleports the cloth: new positions (xyz; w is kept, so pins stay) and velocities.
+    pub fn set_state(&mut self, positions: &[glam::Vec3], velocities: &[glam::Vec3]) -> Result<()> {
+        let n = self.params.particle_count as usize;
+        if positions.len() != n || velocities.len() != n {
+            return Err(Error::InvalidParameter {
+                name: "state",
+                problem: format!(
+                    "expected {n} positions and velocities, got {} and {}",
+                    positions.len(),
+                    velocities.len()
+                ),
+            });
+        }
+        if !positions.iter().chain(velocities).all(|p| p.is_finite()) {
+            return Err(Error::InvalidParameter { name: "state", problem: "values must be finite".into() });
+        }
+        let old = self.positions()?;
+        let x: Vec<Vec4> = positions.iter().zip(&old).map(|(p, o)| p.extend(o.w)).collect();
+        let v: Vec<Vec4> =
+            velocities.iter().zip(&old).map(|(v, o)| if o.w == 0.0 { Vec4::ZERO } else { v.extend(0.0) }).collect();
+        self.engine.upload(self.program.cloth.x, &x)?;
+        self.engine.upload(self.program.cloth.v, &v)
+    }
+
+    fn upload_params(&mut self) -> Result<()> {
+        self.engine.upload(self.program.cloth.params, std::slice::from_ref(&self.params))
+    }
+
     /// Memory barriers in one recorded frame (derived from the passes' reads and writes).
     pub fn barriers_per_frame(&self) -> u32 {
         self.frame.barrier_count()
@@ -261,6 +332,36 @@ impl Simulation {
     }
     pub fn context(&self) -> &Arc<Context> {
         self.engine.context()
+    }
+}
+
+/// Where a renderer finds a cloth's vertex data: buffers created with vertex- and index-buffer
+/// usage, the same for the simulation's whole life. Both vertex buffers hold one
+/// `R32G32B32A32_SFLOAT` per particle at offset 0, stride 16 (positions: xyz, w = pin weight;
+/// normals: xyz, w = 0); the index buffer is a `UINT32` triangle list.
+///
+/// Synchronization: each frame ends with a barrier that makes its writes available to the
+/// vertex input, compute and transfer stages of every later command on the queue, and to the
+/// host; `step()` returns after the frame completed.
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct VertexBuffers {
+    pub positions: ash::vk::Buffer,
+    pub normals: ash::vk::Buffer,
+    pub indices: ash::vk::Buffer,
+    pub vertex_count: u32,
+    pub index_count: u32,
+    pub offset: u64,
+    pub stride: u32,
+    pub format: ash::vk::Format,
+    pub index_type: ash::vk::IndexType,
+}
+
+fn finite_vec(name: &'static str, v: glam::Vec3) -> Result<()> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::InvalidParameter { name, problem: format!("must be finite, got {v}") })
     }
 }
 

@@ -22,7 +22,10 @@ impl Buffer {
         let info = vk::BufferCreateInfo::default()
             .size(size)
             .usage(
+                // Vertex and index usage: a renderer binds the cloth's buffers directly.
                 vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::VERTEX_BUFFER
+                    | vk::BufferUsageFlags::INDEX_BUFFER
                     | vk::BufferUsageFlags::INDIRECT_BUFFER
                     | vk::BufferUsageFlags::TRANSFER_SRC
                     | vk::BufferUsageFlags::TRANSFER_DST,

@@ -42,6 +42,8 @@ type ValidationLog = Mutex<Vec<String>>;
 pub struct DeviceInfo {
     pub name: String,
     pub driver: String,
+    /// Discrete, integrated, virtual GPU or CPU driver.
+    pub device_type: vk::PhysicalDeviceType,
     /// Nanoseconds per timestamp tick.
     pub timestamp_period_ns: f32,
     /// Valid bits of the compute queue's timestamps (0 = no timestamps).
@@ -61,6 +63,34 @@ pub struct Context {
     pub(crate) queue_family: u32,
     allocator: Mutex<Option<Allocator>>,
     info: DeviceInfo,
+    /// Whether drape created the instance and device (and so destroys them); false for an
+    /// imported device, which drape never destroys.
+    owns_device: bool,
+}
+
+/// The caller's Vulkan objects, handed to `Context::import`.
+#[non_exhaustive]
+pub struct ExternalDevice {
+    pub entry: ash::Entry,
+    pub instance: ash::Instance,
+    pub physical_device: vk::PhysicalDevice,
+    pub device: ash::Device,
+    /// A queue family with compute support, and the index of the queue in it drape submits to.
+    pub queue_family: u32,
+    pub queue_index: u32,
+}
+
+impl ExternalDevice {
+    pub fn new(
+        entry: ash::Entry,
+        instance: ash::Instance,
+        physical_device: vk::PhysicalDevice,
+        device: ash::Device,
+        queue_family: u32,
+        queue_index: u32,
+    ) -> Self {
+        ExternalDevice { entry, instance, physical_device, device, queue_family, queue_index }
+    }
 }
 
 unsafe extern "system" fn debug_callback(
@@ -75,14 +105,14 @@ unsafe extern "system" fn debug_callback(
         data.as_ref().and_then(|d| d.message_as_c_str()).map(|m| m.to_string_lossy().into_owned()).unwrap_or_default()
     };
     if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
-        eprintln!("[vulkan validation error] {message}");
+        log::error!(target: "drape::vulkan", "validation: {message}");
         if let Some(log) = unsafe { (user as *const ValidationLog).as_ref() }
             && let Ok(mut log) = log.lock()
         {
             log.push(message);
         }
     } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
-        eprintln!("[vulkan validation warning] {message}");
+        log::warn!(target: "drape::vulkan", "validation: {message}");
     }
     vk::FALSE
 }
@@ -179,6 +209,7 @@ impl Context {
             allocation_sizes: Default::default(),
         })?;
         let (entry, instance, debug) = partial.into_parts();
+        log::info!("drape device: {} ({:?}, {})", info.name, info.device_type, info.driver);
         Ok(Arc::new(Context {
             _entry: entry,
             instance,
@@ -189,7 +220,84 @@ impl Context {
             queue_family,
             allocator: Mutex::new(Some(allocator)),
             info,
+            owns_device: true,
         }))
+    }
+
+    /// drape on the caller's instance, physical device, device and queue. drape never destroys
+    /// them; dropping the last `Arc<Context>` (after every simulation made from it) only frees
+    /// drape's own memory. Errors name a missing feature or a queue family without compute.
+    ///
+    /// # Safety
+    /// The handles must be valid and come from one another (the device from `physical_device`
+    /// of `instance`, created with a queue `queue_index` in `queue_family` and with the Vulkan
+    /// 1.2 features `vulkanMemoryModel` and `vulkanMemoryModelDeviceScope` enabled), and they
+    /// must outlive the returned context and everything made from it. drape submits to the
+    /// queue from the thread that calls `step()`; the caller must not use the same queue at the
+    /// same time (Vulkan's external synchronization rule for queues).
+    pub unsafe fn import(external: ExternalDevice) -> Result<Arc<Self>> {
+        let ExternalDevice { entry, instance, physical_device, device, queue_family, queue_index } = external;
+        // SAFETY (queries): the caller guarantees valid handles.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical_device) };
+        let family = families.get(queue_family as usize).ok_or_else(|| Error::InvalidParameter {
+            name: "queue_family",
+            problem: format!("the device has {} queue families, got index {queue_family}", families.len()),
+        })?;
+        let info = device_info(&instance, physical_device, family.timestamp_valid_bits);
+        if !family.queue_flags.contains(vk::QueueFlags::COMPUTE) {
+            return Err(Error::MissingFeature {
+                device: info.name,
+                feature: "compute support in the given queue family (pick a family with VK_QUEUE_COMPUTE_BIT)",
+            });
+        }
+        if queue_index >= family.queue_count {
+            return Err(Error::InvalidParameter {
+                name: "queue_index",
+                problem: format!(
+                    "queue family {queue_family} has {} queues, got index {queue_index}",
+                    family.queue_count
+                ),
+            });
+        }
+        check_features(&instance, physical_device, &info.name)?;
+        // SAFETY: the caller guarantees the queue exists (checked against the family above).
+        let queue = unsafe { device.get_device_queue(queue_family, queue_index) };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })?;
+        log::info!("drape on an imported device: {} ({:?})", info.name, info.device_type);
+        Ok(Arc::new(Context {
+            _entry: entry,
+            instance,
+            debug: None,
+            validation_log: Box::default(),
+            device,
+            queue: Mutex::new(queue),
+            queue_family,
+            allocator: Mutex::new(Some(allocator)),
+            info,
+            owns_device: false,
+        }))
+    }
+
+    /// Whether drape created (and will destroy) the instance and device.
+    pub fn owns_device(&self) -> bool {
+        self.owns_device
+    }
+
+    /// The device drape runs on (the caller's, when imported).
+    pub fn device(&self) -> &ash::Device {
+        &self.device
+    }
+
+    /// The queue family drape submits to.
+    pub fn queue_family(&self) -> u32 {
+        self.queue_family
     }
 
     /// What runs the kernels.
@@ -228,9 +336,16 @@ impl Drop for Context {
     fn drop(&mut self) {
         // SAFETY: every object created from this device holds an Arc<Context>, so none is left.
         unsafe {
-            let _ = self.device.device_wait_idle();
+            if self.owns_device {
+                let _ = self.device.device_wait_idle();
+            }
             // The allocator frees its memory blocks through the device: drop it first.
             self.allocator().take();
+            if !self.owns_device {
+                // The caller's instance and device: never destroyed here (drape's own
+                // submissions were all waited on).
+                return;
+            }
             self.device.destroy_device(None);
             if let Some((utils, messenger)) = self.debug.take() {
                 utils.destroy_debug_utils_messenger(messenger, None);
@@ -273,42 +388,85 @@ impl Drop for PartialContext {
     }
 }
 
-/// First physical device with a compute queue and the Vulkan memory model features.
+/// Preference of a device type when drape creates the device: a discrete GPU over an
+/// integrated one over a virtual one over a CPU driver (lavapipe).
+fn type_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+/// The best physical device (see `type_rank`) with a compute queue and the Vulkan memory model
+/// features.
 fn pick_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice, u32, DeviceInfo)> {
     // SAFETY: plain queries on a valid instance.
     let devices = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
     let mut missing: Option<Error> = None;
+    let mut best: Option<(u32, vk::PhysicalDevice, u32, DeviceInfo)> = None;
     for pd in devices {
-        let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
-        let Some((family, props)) =
-            families.iter().enumerate().find(|(_, f)| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
-        else {
-            continue;
-        };
-        let mut driver = vk::PhysicalDeviceDriverProperties::default();
-        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
-        unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
-        let properties = props2.properties;
-        let name = properties.device_name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let driver_info = driver.driver_info_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
-        let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
-        unsafe { instance.get_physical_device_features2(pd, &mut f2) };
-        if f12.vulkan_memory_model == 0 || f12.vulkan_memory_model_device_scope == 0 {
-            missing = Some(Error::MissingFeature {
-                device: name,
-                feature: "vulkanMemoryModel + vulkanMemoryModelDeviceScope",
-            });
-            continue;
+        match describe_device(instance, pd) {
+            Ok((family, info, rank)) => {
+                if best.as_ref().is_none_or(|(r, ..)| rank < *r) {
+                    best = Some((rank, pd, family, info));
+                }
+            }
+            Err(e @ Error::MissingFeature { .. }) => missing = Some(e),
+            Err(_) => {}
         }
-        let info = DeviceInfo {
-            name,
-            driver: driver_info,
-            timestamp_period_ns: properties.limits.timestamp_period,
-            timestamp_valid_bits: props.timestamp_valid_bits,
-            max_workgroup_count_x: properties.limits.max_compute_work_group_count[0],
-        };
-        return Ok((pd, family as u32, info));
     }
-    Err(missing.unwrap_or(Error::NoComputeDevice))
+    match best {
+        Some((_, pd, family, info)) => Ok((pd, family, info)),
+        None => Err(missing.unwrap_or(Error::NoComputeDevice)),
+    }
+}
+
+/// A device's compute queue family, properties and type rank, or what it lacks.
+pub(crate) fn describe_device(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<(u32, DeviceInfo, u32)> {
+    // SAFETY: plain queries on a valid instance and one of its physical devices.
+    let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    let (family, props) = families
+        .iter()
+        .enumerate()
+        .find(|(_, f)| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+        .ok_or(Error::NoComputeDevice)?;
+    let info = device_info(instance, pd, props.timestamp_valid_bits);
+    check_features(instance, pd, &info.name)?;
+    let rank = type_rank(info.device_type);
+    Ok((family as u32, info, rank))
+}
+
+/// Properties of `pd` that the host needs.
+pub(crate) fn device_info(instance: &ash::Instance, pd: vk::PhysicalDevice, timestamp_valid_bits: u32) -> DeviceInfo {
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+    // SAFETY: plain query on a valid physical device.
+    unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+    let properties = props2.properties;
+    DeviceInfo {
+        name: properties.device_name_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+        driver: driver.driver_info_as_c_str().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+        device_type: properties.device_type,
+        timestamp_period_ns: properties.limits.timestamp_period,
+        timestamp_valid_bits,
+        max_workgroup_count_x: properties.limits.max_compute_work_group_count[0],
+    }
+}
+
+/// Errors naming the Vulkan 1.2 features the kernels need that `pd` does not support.
+pub(crate) fn check_features(instance: &ash::Instance, pd: vk::PhysicalDevice, name: &str) -> Result<()> {
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
+    // SAFETY: plain query on a valid physical device.
+    unsafe { instance.get_physical_device_features2(pd, &mut f2) };
+    if f12.vulkan_memory_model == 0 || f12.vulkan_memory_model_device_scope == 0 {
+        return Err(Error::MissingFeature {
+            device: name.into(),
+            feature: "vulkanMemoryModel + vulkanMemoryModelDeviceScope",
+        });
+    }
+    Ok(())
 }

@@ -176,15 +176,26 @@ impl RecordedFrame {
                         Command::Skipped { .. } => {}
                     }
                 }
-                let to_host = [vk::MemoryBarrier::default()
+                // The frame's results are visible to the host (mapped status) and to whatever
+                // the queue runs next: vertex input of a renderer, compute, transfers.
+                let after = [vk::MemoryBarrier::default()
                     .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::HOST_READ)];
+                    .dst_access_mask(
+                        vk::AccessFlags::HOST_READ
+                            | vk::AccessFlags::VERTEX_ATTRIBUTE_READ
+                            | vk::AccessFlags::INDEX_READ
+                            | vk::AccessFlags::SHADER_READ
+                            | vk::AccessFlags::TRANSFER_READ,
+                    )];
                 device.cmd_pipeline_barrier(
                     cb,
                     vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-                    vk::PipelineStageFlags::HOST,
+                    vk::PipelineStageFlags::HOST
+                        | vk::PipelineStageFlags::VERTEX_INPUT
+                        | vk::PipelineStageFlags::COMPUTE_SHADER
+                        | vk::PipelineStageFlags::TRANSFER,
                     vk::DependencyFlags::empty(),
-                    &to_host,
+                    &after,
                     &[],
                     &[],
                 );

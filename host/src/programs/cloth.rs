@@ -27,12 +27,14 @@ pub struct ClothBuffers {
     /// Positions at the start of the substep.
     pub x_prev: Handle<Vec4>,
     pub normals: Handle<Vec4>,
+    /// Triangle list of the cloth (3 u32 per triangle), for renderers.
+    pub indices: Handle<u32>,
     /// Blow-up detector, read by the host after every frame.
     pub health: Handle<Health>,
 }
 
 impl ClothBuffers {
-    pub fn declare(resources: &mut Resources, name: &str, particles: u32) -> Self {
+    pub fn declare(resources: &mut Resources, name: &str, particles: u32, triangles: u32) -> Self {
         let mut vec4s = |what: &str| resources.device::<Vec4>(format!("{name}: {what}"), particles);
         let (x, v, xa, va, xb, vb) =
             (vec4s("x"), vec4s("v"), vec4s("x stage a"), vec4s("v stage a"), vec4s("x stage b"), vec4s("v stage b"));
@@ -50,6 +52,7 @@ impl ClothBuffers {
             acc_v,
             x_prev,
             normals,
+            indices: resources.device(format!("{name}: triangle indices"), 3 * triangles),
             health: resources.readback(format!("{name}: health")),
         }
     }

@@ -1,0 +1,204 @@
+//! The integrator's view: drape on a device the caller created, buffers a renderer binds, and
+//! runtime changes without a rebuild.
+
+mod common;
+
+use ash::vk;
+use common::{assert_validation_clean, context};
+use drape::{ClothBuilder, Context, ExternalDevice, SimSettings, Simulation};
+use glam::{Vec3, Vec4};
+use std::ffi::c_void;
+use std::sync::Mutex;
+
+/// Validation errors seen by the test's own messenger (the caller owns validation here).
+static CALLER_VALIDATION: Mutex<Vec<String>> = Mutex::new(Vec::new());
+
+unsafe extern "system" fn caller_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    _user: *mut c_void,
+) -> vk::Bool32 {
+    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        let message = unsafe { data.as_ref().and_then(|d| d.message_as_c_str()) }
+            .map(|m| m.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        CALLER_VALIDATION.lock().unwrap().push(message);
+    }
+    vk::FALSE
+}
+
+/// What an engine creates itself: instance (validation on), device with the features drape
+/// documents, one compute-capable queue.
+struct CallerDevice {
+    entry: ash::Entry,
+    instance: ash::Instance,
+    messenger: (ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT),
+    physical: vk::PhysicalDevice,
+    device: ash::Device,
+    family: u32,
+}
+
+impl CallerDevice {
+    fn new() -> Self {
+        unsafe {
+            let entry = ash::Entry::load().expect("Vulkan loader");
+            let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_2);
+            let layers = [c"VK_LAYER_KHRONOS_validation".as_ptr()];
+            let extensions = [ash::ext::debug_utils::NAME.as_ptr()];
+            let info = vk::InstanceCreateInfo::default()
+                .application_info(&app)
+                .enabled_layer_names(&layers)
+                .enabled_extension_names(&extensions);
+            let instance = entry.create_instance(&info, None).expect("instance with validation");
+            let utils = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION,
+                )
+                .pfn_user_callback(Some(caller_callback));
+            let messenger = utils.create_debug_utils_messenger(&messenger_info, None).unwrap();
+            let physical = instance.enumerate_physical_devices().unwrap()[0];
+            let family = instance
+                .get_physical_device_queue_family_properties(physical)
+                .iter()
+                .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+                .unwrap() as u32;
+            let priorities = [1.0];
+            let queues =
+                [vk::DeviceQueueCreateInfo::default().queue_family_index(family).queue_priorities(&priorities)];
+            let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
+                .vulkan_memory_model(true)
+                .vulkan_memory_model_device_scope(true);
+            let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queues).push_next(&mut f12);
+            let device = instance.create_device(physical, &device_info, None).unwrap();
+            CallerDevice { entry, instance, messenger: (utils, messenger), physical, device, family }
+        }
+    }
+
+    fn import(&self) -> std::sync::Arc<Context> {
+        let external = ExternalDevice::new(
+            self.entry.clone(),
+            self.instance.clone(),
+            self.physical,
+            self.device.clone(),
+            self.family,
+            0,
+        );
+        // SAFETY: handles from `CallerDevice::new`, destroyed only after the context is dropped.
+        unsafe { Context::import(external) }.expect("import")
+    }
+}
+
+impl Drop for CallerDevice {
+    fn drop(&mut self) {
+        unsafe {
+            self.device.destroy_device(None);
+            self.messenger.0.destroy_debug_utils_messenger(self.messenger.1, None);
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+fn cloth() -> drape::Cloth {
+    ClothBuilder::new(12, 12).pin_top_corners().build().unwrap()
+}
+
+/// drape on the caller's device steps a cloth exactly as on its own device, and leaves the
+/// caller's device alive and usable when dropped.
+#[test]
+fn an_imported_device_steps_a_cloth_and_survives_drape() {
+    let caller = CallerDevice::new();
+    let ctx = caller.import();
+    assert!(!ctx.owns_device());
+    let settings = SimSettings { substeps: Some(4), ..SimSettings::default() };
+    let mut sim = Simulation::new(&ctx, &cloth(), settings).unwrap();
+    for _ in 0..10 {
+        sim.step().unwrap();
+    }
+    let imported = sim.positions().unwrap();
+    drop(sim);
+    drop(ctx);
+
+    let own = context();
+    let mut reference = Simulation::new(&own, &cloth(), settings).unwrap();
+    for _ in 0..10 {
+        reference.step().unwrap();
+    }
+    assert_eq!(imported, reference.positions().unwrap(), "same driver, same kernels: same bits");
+    assert_validation_clean(&own);
+
+    // The caller's device still works: drape destroyed nothing of it.
+    unsafe {
+        let fence = caller.device.create_fence(&vk::FenceCreateInfo::default(), None).unwrap();
+        caller.device.destroy_fence(fence, None);
+        caller.device.device_wait_idle().unwrap();
+    }
+    let errors = std::mem::take(&mut *CALLER_VALIDATION.lock().unwrap());
+    assert!(errors.is_empty(), "validation errors:\n{}", errors.join("\n"));
+}
+
+/// A queue family index the device does not have is an error naming it, not a crash.
+#[test]
+fn importing_a_wrong_queue_family_is_an_error() {
+    let caller = CallerDevice::new();
+    let external = ExternalDevice::new(
+        caller.entry.clone(),
+        caller.instance.clone(),
+        caller.physical,
+        caller.device.clone(),
+        99,
+        0,
+    );
+    let err = unsafe { Context::import(external) }.err().expect("family 99 must be refused");
+    assert!(err.to_string().contains("queue_family"), "{err}");
+}
+
+/// Vertex buffers keep their handles across frames and describe the cloth's triangles.
+#[test]
+fn vertex_buffers_are_stable_and_describe_the_cloth() {
+    let ctx = context();
+    let mut sim = Simulation::new(&ctx, &cloth(), SimSettings::default()).unwrap();
+    let before = sim.vertex_buffers().unwrap();
+    sim.step().unwrap();
+    assert_eq!(sim.vertex_buffers().unwrap(), before);
+    assert_eq!(before.vertex_count, 144);
+    assert_eq!(before.index_count, 6 * 11 * 11);
+    assert_eq!((before.offset, before.stride, before.format), (0, 16, vk::Format::R32G32B32A32_SFLOAT));
+    assert_ne!(before.positions, before.normals);
+    assert_validation_clean(&ctx);
+}
+
+/// Gravity, wind and the state change between frames without a rebuild, and take effect.
+#[test]
+fn runtime_changes_take_effect() {
+    let ctx = context();
+    let free = ClothBuilder::new(8, 8).build().unwrap();
+    let mut sim = Simulation::new(&ctx, &free, SimSettings::default()).unwrap();
+    let start = sim.positions().unwrap();
+    // No gravity, at rest: the cloth stays where it is.
+    sim.set_gravity(Vec3::ZERO).unwrap();
+    for _ in 0..5 {
+        sim.step().unwrap();
+    }
+    let still = sim.positions().unwrap();
+    assert!(common::max_distance(&start, &still) < 1e-5, "moved {}", common::max_distance(&start, &still));
+    // Wind along +x: every particle moves +x.
+    sim.set_external_force(Vec3::new(0.01, 0.0, 0.0)).unwrap();
+    for _ in 0..5 {
+        sim.step().unwrap();
+    }
+    let blown = sim.positions().unwrap();
+    assert!(blown.iter().zip(&still).all(|(b, s)| b.x > s.x), "wind had no effect");
+    // Teleport: positions and velocities are what was set.
+    let moved: Vec<Vec3> = start.iter().map(|p| p.truncate() + Vec3::Y).collect();
+    sim.set_state(&moved, &vec![Vec3::ZERO; moved.len()]).unwrap();
+    assert_eq!(sim.positions().unwrap(), moved.iter().map(|p| p.extend(1.0)).collect::<Vec<Vec4>>());
+    assert!(sim.velocities().unwrap().iter().all(|v| *v == Vec4::ZERO));
+    // Bad values are refused.
+    assert!(sim.set_gravity(Vec3::NAN).is_err());
+    assert!(sim.set_state(&moved[1..], &[]).is_err());
+    assert!(sim.set_contact(0.01, 0.5).is_err(), "no collider");
+    assert_validation_clean(&ctx);
+}
