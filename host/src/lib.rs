@@ -41,7 +41,7 @@ pub use cpu_sim::CpuSimulation;
 pub use error::{Error, Result};
 pub use gpu::{Context, ExternalDevice, FrameTimings, Validation};
 pub use mesh::Mesh;
-pub use sim::{Collider, FrameReport, Integrator, SimSettings, Simulation, VertexBuffers};
+pub use sim::{Collider, FrameReport, Integrator, MemoryReport, SimSettings, Simulation, VertexBuffers};
 pub use stability::Stability;
 
 include!(concat!(env!("OUT_DIR"), "/kernels_spv.rs"));

@@ -186,6 +186,7 @@ fn run(args: &Args) -> drape::Result<()> {
     };
     let mut sim = Simulation::with_collider(&ctx, &cloth, settings, collider.as_ref())?;
     print_setup(args, &sim, &settings);
+    println!("GPU memory ({} barriers per frame):\n{}", sim.barriers_per_frame(), sim.memory_report());
     if let Some(t) = sim.lbvh_timings() {
         println!("LBVH build on the GPU: {:.3} ms", t.total_micros() / 1e3);
         for (label, n, micros) in t.by_label() {

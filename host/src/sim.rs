@@ -314,6 +314,20 @@ impl Simulation {
         self.engine.upload(self.program.cloth.params, std::slice::from_ref(&self.params))
     }
 
+    /// Bytes of GPU buffers per part of the simulation (cloth, collider, contact), and what
+    /// the allocator holds on the whole context.
+    pub fn memory_report(&self) -> MemoryReport {
+        let mut parts: Vec<(String, u64)> = Vec::new();
+        for desc in self.program.resources.descs() {
+            let part = desc.name.split(':').next().unwrap_or("other").to_string();
+            match parts.iter_mut().find(|(p, _)| *p == part) {
+                Some((_, bytes)) => *bytes += desc.bytes,
+                None => parts.push((part, desc.bytes)),
+            }
+        }
+        MemoryReport { parts, allocator: self.context().allocator_stats() }
+    }
+
     /// Memory barriers in one recorded frame (derived from the passes' reads and writes).
     pub fn barriers_per_frame(&self) -> u32 {
         self.frame.barrier_count()
@@ -332,6 +346,33 @@ impl Simulation {
     }
     pub fn context(&self) -> &Arc<Context> {
         self.engine.context()
+    }
+}
+
+/// GPU memory of a simulation.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct MemoryReport {
+    /// (part, bytes of its buffers), e.g. ("cloth", ..), ("collider", ..), ("contact", ..).
+    pub parts: Vec<(String, u64)>,
+    /// The context's allocator: allocations, memory blocks and their sizes.
+    pub allocator: crate::gpu::AllocatorStats,
+}
+
+impl std::fmt::Display for MemoryReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (part, bytes) in &self.parts {
+            writeln!(f, "  {part:<10} {:>10.1} KiB", *bytes as f64 / 1024.0)?;
+        }
+        let a = &self.allocator;
+        write!(
+            f,
+            "  allocator  {} allocations, {:.1} KiB used in {} blocks of {:.1} MiB total",
+            a.allocations,
+            a.allocated_bytes as f64 / 1024.0,
+            a.blocks,
+            a.capacity_bytes as f64 / (1024.0 * 1024.0)
+        )
     }
 }
 

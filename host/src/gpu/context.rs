@@ -206,7 +206,7 @@ impl Context {
             physical_device,
             debug_settings: Default::default(),
             buffer_device_address: false,
-            allocation_sizes: Default::default(),
+            allocation_sizes: allocation_sizes(),
         })?;
         let (entry, instance, debug) = partial.into_parts();
         log::info!("drape device: {} ({:?}, {})", info.name, info.device_type, info.driver);
@@ -268,7 +268,7 @@ impl Context {
             physical_device,
             debug_settings: Default::default(),
             buffer_device_address: false,
-            allocation_sizes: Default::default(),
+            allocation_sizes: allocation_sizes(),
         })?;
         log::info!("drape on an imported device: {} ({:?})", info.name, info.device_type);
         Ok(Arc::new(Context {
@@ -283,6 +283,22 @@ impl Context {
             info,
             owns_device: false,
         }))
+    }
+
+    /// What drape's memory allocator holds now.
+    pub fn allocator_stats(&self) -> AllocatorStats {
+        match self.allocator().as_ref() {
+            Some(a) => {
+                let r = a.generate_report();
+                AllocatorStats {
+                    allocations: r.allocations.len(),
+                    blocks: r.blocks.len(),
+                    capacity_bytes: r.total_capacity_bytes,
+                    allocated_bytes: r.total_allocated_bytes,
+                }
+            }
+            None => AllocatorStats::default(),
+        }
     }
 
     /// Whether drape created (and will destroy) the instance and device.
@@ -386,6 +402,28 @@ impl Drop for PartialContext {
             self.instance.destroy_instance(None);
         }
     }
+}
+
+/// Memory blocks start small (a 64^2 cloth with its collider needs a few MiB, not the
+/// allocator's default 256 MiB block) and double as a simulation grows.
+fn allocation_sizes() -> gpu_allocator::AllocationSizes {
+    const MIB: u64 = 1024 * 1024;
+    gpu_allocator::AllocationSizes::new(8 * MIB, 4 * MIB)
+        .with_max_device_memblock_size(256 * MIB)
+        .with_max_host_memblock_size(64 * MIB)
+}
+
+/// What drape's allocator holds on a context.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+#[non_exhaustive]
+pub struct AllocatorStats {
+    /// Live allocations (buffers, staging).
+    pub allocations: usize,
+    /// Vulkan memory blocks, and their total size.
+    pub blocks: usize,
+    pub capacity_bytes: u64,
+    /// Bytes used by live allocations.
+    pub allocated_bytes: u64,
 }
 
 /// Preference of a device type when drape creates the device: a discrete GPU over an

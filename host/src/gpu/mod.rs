@@ -12,7 +12,7 @@ pub mod reflect;
 mod staging;
 
 pub use buffer::Buffer;
-pub use context::{Context, DeviceInfo, ExternalDevice, Validation};
+pub use context::{AllocatorStats, Context, DeviceInfo, ExternalDevice, Validation};
 pub use engine::Engine;
 pub use pipeline::{Pipeline, ShaderModule};
 pub use recording::{Command, FrameTimings, PassTiming, RecordedFrame};
