@@ -1,7 +1,7 @@
 //! Triangle meshes: OBJ loading with line-numbered diagnostics, procedural shapes (icosphere,
 //! torus) and the benchmark placement of a model in the scene.
 // The OBJ line scanner is only used by `load_obj` (feature `obj`).
-#![cfg_attr(not(feature = "obj"), allow(dead_code))]
+#![cfg_attr(not(feature = "obj"), allow(dead_code, unused_imports))]
 
 use crate::error::{Error, Result};
 use glam::{Mat4, Vec3};
