@@ -50,10 +50,18 @@ impl CpuExecutor {
 
     /// The first `count` elements of `buffer`.
     pub fn read<T: bytemuck::Pod>(&self, buffer: Handle<T>, count: usize) -> Result<Vec<T>> {
+        <Self as crate::graph::ReadBuffers>::read(self, buffer, count)
+    }
+}
+
+impl crate::graph::ReadBuffers for CpuExecutor {
+    fn read<T: bytemuck::Pod>(&self, buffer: Handle<T>, count: usize) -> Result<Vec<T>> {
         let all = self.get(buffer.id())?.slice::<T>();
         all.get(..count).map(<[T]>::to_vec).ok_or_else(|| cpu_error(format!("{buffer:?} holds fewer than {count}")))
     }
+}
 
+impl CpuExecutor {
     /// Runs `steps` in order.
     pub fn run(&mut self, steps: &[Step]) -> Result<()> {
         steps.iter().try_for_each(|step| self.run_step(step))

@@ -4,7 +4,7 @@
 use crate::cpu::CpuExecutor;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Engine, FrameTimings, RecordedFrame};
-use crate::graph::Resources;
+use crate::graph::{ReadBuffers, Resources};
 use crate::programs::lbvh::LbvhBuffers;
 use drape_kernels::lbvh::sphere_aabb;
 use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE};
@@ -67,17 +67,22 @@ pub struct Lbvh {
     pub aabbs: Vec<Aabb>,
 }
 
-/// Reads a built tree back from the GPU.
-pub fn download(engine: &Engine, b: &LbvhBuffers) -> Result<Lbvh> {
+/// Reads a built tree back from either executor.
+fn read_tree(executor: &impl ReadBuffers, b: &LbvhBuffers) -> Result<Lbvh> {
     let n = b.leaves as usize;
     Ok(Lbvh {
-        codes: engine.download(b.codes, n)?,
-        order: engine.download(b.order, n)?,
-        spheres: engine.download(b.sorted, n)?,
-        nodes: engine.download(b.nodes, n - 1)?,
-        parents: if n > 1 { engine.download(b.parents, 2 * n - 1)? } else { vec![NO_NODE] },
-        aabbs: engine.download(b.aabbs, n - 1)?,
+        codes: executor.read(b.codes, n)?,
+        order: executor.read(b.order, n)?,
+        spheres: executor.read(b.sorted, n)?,
+        nodes: executor.read(b.nodes, n - 1)?,
+        parents: if n > 1 { executor.read(b.parents, 2 * n - 1)? } else { vec![NO_NODE] },
+        aabbs: executor.read(b.aabbs, n - 1)?,
     })
+}
+
+/// Reads a built tree back from the GPU.
+pub fn download(engine: &Engine, b: &LbvhBuffers) -> Result<Lbvh> {
+    read_tree(engine, b)
 }
 
 /// A standalone GPU LBVH (tests, benchmarks): builds on creation.
@@ -128,15 +133,7 @@ pub fn build_cpu(spheres: &[Vec4], params: &ColliderParams) -> Result<Lbvh> {
     cpu.upload(b.collider, std::slice::from_ref(params))?;
     cpu.upload(b.spheres, spheres)?;
     cpu.run(&b.build_steps())?;
-    let n = b.leaves as usize;
-    Ok(Lbvh {
-        codes: cpu.read(b.codes, n)?,
-        order: cpu.read(b.order, n)?,
-        spheres: cpu.read(b.sorted, n)?,
-        nodes: cpu.read(b.nodes, n - 1)?,
-        parents: if n > 1 { cpu.read(b.parents, 2 * n - 1)? } else { vec![NO_NODE] },
-        aabbs: cpu.read(b.aabbs, n - 1)?,
-    })
+    read_tree(&cpu, &b)
 }
 
 fn contains(outer: &Aabb, inner: &Aabb) -> bool {

@@ -200,14 +200,7 @@ impl Context {
         partial.device = Some(device.clone());
         // SAFETY: the family was created with one queue.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
-        let allocator = Allocator::new(&AllocatorCreateDesc {
-            instance: partial.instance.clone(),
-            device: device.clone(),
-            physical_device,
-            debug_settings: Default::default(),
-            buffer_device_address: false,
-            allocation_sizes: allocation_sizes(),
-        })?;
+        let allocator = new_allocator(&partial.instance, &device, physical_device)?;
         let (entry, instance, debug) = partial.into_parts();
         log::info!("drape device: {} ({:?}, {})", info.name, info.device_type, info.driver);
         Ok(Arc::new(Context {
@@ -262,14 +255,7 @@ impl Context {
         check_features(&instance, physical_device, &info.name)?;
         // SAFETY: the caller guarantees the queue exists (checked against the family above).
         let queue = unsafe { device.get_device_queue(queue_family, queue_index) };
-        let allocator = Allocator::new(&AllocatorCreateDesc {
-            instance: instance.clone(),
-            device: device.clone(),
-            physical_device,
-            debug_settings: Default::default(),
-            buffer_device_address: false,
-            allocation_sizes: allocation_sizes(),
-        })?;
+        let allocator = new_allocator(&instance, &device, physical_device)?;
         log::info!("drape on an imported device: {} ({:?})", info.name, info.device_type);
         Ok(Arc::new(Context {
             _entry: entry,
@@ -411,6 +397,22 @@ fn allocation_sizes() -> gpu_allocator::AllocationSizes {
     gpu_allocator::AllocationSizes::new(8 * MIB, 4 * MIB)
         .with_max_device_memblock_size(256 * MIB)
         .with_max_host_memblock_size(64 * MIB)
+}
+
+/// drape's memory allocator on a device.
+fn new_allocator(
+    instance: &ash::Instance,
+    device: &ash::Device,
+    physical_device: vk::PhysicalDevice,
+) -> Result<Allocator> {
+    Ok(Allocator::new(&AllocatorCreateDesc {
+        instance: instance.clone(),
+        device: device.clone(),
+        physical_device,
+        debug_settings: Default::default(),
+        buffer_device_address: false,
+        allocation_sizes: allocation_sizes(),
+    })?)
 }
 
 /// What drape's allocator holds on a context.

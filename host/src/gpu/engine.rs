@@ -13,6 +13,12 @@ use gpu_allocator::MemoryLocation;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
+impl crate::graph::ReadBuffers for Engine {
+    fn read<T: bytemuck::Pod>(&self, buffer: Handle<T>, count: usize) -> Result<Vec<T>> {
+        self.download(buffer, count)
+    }
+}
+
 /// Buffers and pipelines of one simulation (or standalone LBVH build).
 pub struct Engine {
     pipelines: HashMap<&'static str, Arc<Pipeline>>,

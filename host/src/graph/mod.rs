@@ -11,5 +11,5 @@ mod step;
 
 pub use host::{HostBuffer, HostDispatch};
 pub use kernel::{BindingSpec, CpuKernelFn, Kernel, KernelSpec};
-pub use resources::{BufferDesc, BufferId, Handle, Memory, Resources};
+pub use resources::{BufferDesc, BufferId, Handle, Memory, ReadBuffers, Resources};
 pub use step::{Access, Dispatch, HazardTracker, Pass, Step};

@@ -122,3 +122,9 @@ impl Resources {
         self.descs.iter().map(|d| d.bytes).sum()
     }
 }
+
+/// An executor whose buffers can be read back (the Vulkan and the CPU executor).
+pub trait ReadBuffers {
+    /// The first `count` elements of `buffer`.
+    fn read<T: bytemuck::Pod>(&self, buffer: Handle<T>, count: usize) -> crate::Result<Vec<T>>;
+}
