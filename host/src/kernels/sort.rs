@@ -1,10 +1,8 @@
-//! Radix sort and scan kernels (`drape_kernels::sort`). Their CPU adapters run one workgroup at
-//! a time, phase by phase between the kernel's barriers, with the kernel's own functions.
+//! Radix sort and scan kernels (`drape_kernels::sort`). Their CPU adapters run the kernels'
+//! per-workgroup CPU twins one workgroup at a time.
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
-use drape_kernels::sort::{
-    PACKED_WORDS, RADIX, SCAN_BLOCK, SCAN_ITEMS, SORT_TILE, count_index, digit, local_rank, pack_digits, scan_step,
-};
+use drape_kernels::sort::{SCAN_BLOCK, SCAN_ITEMS, SORT_TILE, cpu_count_tile, cpu_scan_block, cpu_scatter_tile};
 use drape_types::SortPush;
 
 const PUSH: u32 = size_of::<SortPush>() as u32;
@@ -61,18 +59,8 @@ fn radix_count_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let push: SortPush = d.push_as();
     let workgroups = d.workgroups;
     let [keys, counts] = d.bindings()?;
-    let (keys, counts) = (keys.slice::<u32>(), counts.slice_mut::<u32>());
-    for group in 0..workgroups {
-        let mut histogram = [0u32; RADIX as usize];
-        for lane in 0..SORT_TILE {
-            let i = group * SORT_TILE + lane;
-            if i < push.count {
-                histogram[digit(keys[i as usize], push.shift) as usize] += 1;
-            }
-        }
-        for lane in 0..RADIX {
-            counts[count_index(lane, group, push.tiles) as usize] = histogram[lane as usize];
-        }
+    for tile in 0..workgroups {
+        cpu_count_tile(keys.slice(), counts.slice_mut(), &push, tile);
     }
     Ok(())
 }
@@ -83,27 +71,8 @@ fn radix_scatter_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let [keys_in, values_in, offsets, keys_out, values_out] = d.bindings()?;
     let (keys_in, values_in, offsets) = (keys_in.slice::<u32>(), values_in.slice::<u32>(), offsets.slice::<u32>());
     let (keys_out, values_out) = (keys_out.slice_mut::<u32>(), values_out.slice_mut::<u32>());
-    for group in 0..workgroups {
-        let mut digits = [0u32; SORT_TILE as usize];
-        for lane in 0..SORT_TILE {
-            let i = group * SORT_TILE + lane;
-            if i < push.count {
-                digits[lane as usize] = digit(keys_in[i as usize], push.shift);
-            }
-        }
-        let mut packed = [0u32; PACKED_WORDS];
-        for (word, slot) in packed.iter_mut().enumerate() {
-            *slot = pack_digits(&digits, word as u32);
-        }
-        for lane in 0..SORT_TILE {
-            let i = group * SORT_TILE + lane;
-            if i < push.count {
-                let mine = digits[lane as usize];
-                let dest = offsets[count_index(mine, group, push.tiles) as usize] + local_rank(&packed, lane, mine);
-                keys_out[dest as usize] = keys_in[i as usize];
-                values_out[dest as usize] = values_in[i as usize];
-            }
-        }
+    for tile in 0..workgroups {
+        cpu_scatter_tile(keys_in, values_in, offsets, keys_out, values_out, &push, tile);
     }
     Ok(())
 }
@@ -112,35 +81,8 @@ fn scan_blocks_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let push: SortPush = d.push_as();
     let workgroups = d.workgroups;
     let [data, sums] = d.bindings()?;
-    let (data, sums) = (data.slice_mut::<u32>(), sums.slice_mut::<u32>());
-    for group in 0..workgroups {
-        let base = |lane: u32| group * SCAN_BLOCK + lane * SCAN_ITEMS;
-        let mut own = [0u32; SCAN_THREADS as usize];
-        for lane in 0..SCAN_THREADS {
-            own[lane as usize] =
-                (0..SCAN_ITEMS).filter(|k| base(lane) + k < push.count).map(|k| data[(base(lane) + k) as usize]).sum();
-        }
-        let mut totals = own;
-        let mut stride = 1;
-        while stride < SCAN_THREADS {
-            let previous = totals;
-            for lane in 0..SCAN_THREADS {
-                totals[lane as usize] = scan_step(&previous, lane, stride);
-            }
-            stride *= 2;
-        }
-        for lane in 0..SCAN_THREADS {
-            let mut running = totals[lane as usize] - own[lane as usize];
-            for k in 0..SCAN_ITEMS {
-                let i = base(lane) + k;
-                if i < push.count {
-                    let value = data[i as usize];
-                    data[i as usize] = running;
-                    running += value;
-                }
-            }
-        }
-        sums[group as usize] = totals[SCAN_THREADS as usize - 1];
+    for block in 0..workgroups {
+        cpu_scan_block(data.slice_mut(), sums.slice_mut(), push.count, block);
     }
     Ok(())
 }

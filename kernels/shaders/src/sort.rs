@@ -215,41 +215,97 @@ pub fn scan_add(
     }
 }
 
+/// CPU twin of one `radix_count` workgroup: tile `tile`'s digit histogram into `counts`.
+#[cfg(not(target_arch = "spirv"))]
+pub fn cpu_count_tile(keys: &[u32], counts: &mut [u32], push: &SortPush, tile: u32) {
+    let mut histogram = [0u32; RADIX as usize];
+    for lane in 0..SORT_TILE {
+        let i = tile * SORT_TILE + lane;
+        if i < push.count {
+            histogram[digit(keys[i as usize], push.shift) as usize] += 1;
+        }
+    }
+    for lane in 0..RADIX {
+        counts[count_index(lane, tile, push.tiles) as usize] = histogram[lane as usize];
+    }
+}
+
+/// CPU twin of one `radix_scatter` workgroup, with the kernel's packed-digit rank.
+#[cfg(not(target_arch = "spirv"))]
+#[allow(clippy::too_many_arguments)]
+pub fn cpu_scatter_tile(
+    keys_in: &[u32],
+    values_in: &[u32],
+    offsets: &[u32],
+    keys_out: &mut [u32],
+    values_out: &mut [u32],
+    push: &SortPush,
+    tile: u32,
+) {
+    let mut digits = [0u32; SORT_TILE as usize];
+    for lane in 0..SORT_TILE {
+        let i = tile * SORT_TILE + lane;
+        if i < push.count {
+            digits[lane as usize] = digit(keys_in[i as usize], push.shift);
+        }
+    }
+    let mut packed = [0u32; PACKED_WORDS];
+    for (word, slot) in packed.iter_mut().enumerate() {
+        *slot = pack_digits(&digits, word as u32);
+    }
+    for lane in 0..SORT_TILE {
+        let i = tile * SORT_TILE + lane;
+        if i < push.count {
+            let mine = digits[lane as usize];
+            let dest = offsets[count_index(mine, tile, push.tiles) as usize] + local_rank(&packed, lane, mine);
+            keys_out[dest as usize] = keys_in[i as usize];
+            values_out[dest as usize] = values_in[i as usize];
+        }
+    }
+}
+
+/// CPU twin of one `scan_blocks` workgroup: block `block` of the first `count` entries of
+/// `data` scanned in place (exclusive), its total into `sums[block]`.
+#[cfg(not(target_arch = "spirv"))]
+pub fn cpu_scan_block(data: &mut [u32], sums: &mut [u32], count: u32, block: u32) {
+    let base = |lane: u32| block * SCAN_BLOCK + lane * SCAN_ITEMS;
+    let mut own = [0u32; 256];
+    for lane in 0..256u32 {
+        own[lane as usize] =
+            (0..SCAN_ITEMS).filter(|k| base(lane) + k < count).map(|k| data[(base(lane) + k) as usize]).sum();
+    }
+    let mut totals = own;
+    let mut stride = 1;
+    while stride < 256 {
+        let previous = totals;
+        for lane in 0..256u32 {
+            totals[lane as usize] = scan_step(&previous, lane, stride);
+        }
+        stride *= 2;
+    }
+    for lane in 0..256u32 {
+        let mut running = totals[lane as usize] - own[lane as usize];
+        for k in 0..SCAN_ITEMS {
+            let i = base(lane) + k;
+            if i < count {
+                let value = data[i as usize];
+                data[i as usize] = running;
+                running += value;
+            }
+        }
+    }
+    sums[block as usize] = totals[255];
+}
+
 /// CPU twin of the multi-level scan (`scan_blocks`, then recursively the sums, then
-/// `scan_add`), with the kernels' own per-thread functions.
+/// `scan_add`), workgroup by workgroup.
 #[cfg(not(target_arch = "spirv"))]
 pub fn cpu_exclusive_scan(data: &mut [u32]) {
     let count = data.len() as u32;
     let blocks = count.div_ceil(SCAN_BLOCK).max(1);
     let mut sums = vec![0u32; blocks as usize];
     for block in 0..blocks {
-        let mut totals = [0u32; 256];
-        let base = |lane: u32| block * SCAN_BLOCK + lane * SCAN_ITEMS;
-        for lane in 0..256u32 {
-            totals[lane as usize] =
-                (0..SCAN_ITEMS).filter(|k| base(lane) + k < count).map(|k| data[(base(lane) + k) as usize]).sum();
-        }
-        let own = totals;
-        let mut stride = 1;
-        while stride < 256 {
-            let previous = totals;
-            for lane in 0..256u32 {
-                totals[lane as usize] = scan_step(&previous, lane, stride);
-            }
-            stride *= 2;
-        }
-        for lane in 0..256u32 {
-            let mut running = totals[lane as usize] - own[lane as usize];
-            for k in 0..SCAN_ITEMS {
-                let i = base(lane) + k;
-                if i < count {
-                    let value = data[i as usize];
-                    data[i as usize] = running;
-                    running += value;
-                }
-            }
-        }
-        sums[block as usize] = totals[255];
+        cpu_scan_block(data, &mut sums, count, block);
     }
     if blocks > 1 {
         cpu_exclusive_scan(&mut sums);
@@ -265,35 +321,16 @@ pub fn cpu_radix_sort(keys: &mut Vec<u32>, values: &mut Vec<u32>) {
     let count = keys.len() as u32;
     let tiles = count.div_ceil(SORT_TILE).max(1);
     for pass in 0..4 {
-        let shift = pass * 8;
+        let push = SortPush { shift: pass * 8, count, tiles, _pad: 0 };
         let mut counts = vec![0u32; (RADIX * tiles) as usize];
-        for (i, &key) in keys.iter().enumerate() {
-            counts[count_index(digit(key, shift), i as u32 / SORT_TILE, tiles) as usize] += 1;
+        for tile in 0..tiles {
+            cpu_count_tile(keys, &mut counts, &push, tile);
         }
         cpu_exclusive_scan(&mut counts);
         let mut keys_out = vec![0u32; keys.len()];
         let mut values_out = vec![0u32; keys.len()];
         for tile in 0..tiles {
-            let mut digits = [0u32; SORT_TILE as usize];
-            for lane in 0..SORT_TILE {
-                let i = tile * SORT_TILE + lane;
-                if i < count {
-                    digits[lane as usize] = digit(keys[i as usize], shift);
-                }
-            }
-            let mut packed = [0u32; PACKED_WORDS];
-            for (word, slot) in packed.iter_mut().enumerate() {
-                *slot = pack_digits(&digits, word as u32);
-            }
-            for lane in 0..SORT_TILE {
-                let i = tile * SORT_TILE + lane;
-                if i < count {
-                    let d = digits[lane as usize];
-                    let dest = counts[count_index(d, tile, tiles) as usize] + local_rank(&packed, lane, d);
-                    keys_out[dest as usize] = keys[i as usize];
-                    values_out[dest as usize] = values[i as usize];
-                }
-            }
+            cpu_scatter_tile(keys, values, &counts, &mut keys_out, &mut values_out, &push, tile);
         }
         *keys = keys_out;
         *values = values_out;
