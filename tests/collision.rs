@@ -179,7 +179,7 @@ fn collision_gpu_equals_cpu_and_bvh_equals_brute_force() {
     let centre = x[12 * 24 + 12].truncate();
     let top = 0.3 + 0.06 + 0.005;
     assert!(centre.y > top - 0.02 && centre.y < top + 0.05, "centre particle at {centre}");
-    let tree = gpu.collider_bvh().unwrap().unwrap();
+    let tree = gpu.collider_bvh(0).unwrap().unwrap();
     tree.validate(&collider.spheres).unwrap();
     drop((gpu, gpu_brute));
     assert_validation_clean(&ctx);

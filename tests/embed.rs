@@ -199,7 +199,7 @@ fn runtime_changes_take_effect() {
     // Bad values are refused.
     assert!(sim.set_gravity(Vec3::NAN).is_err());
     assert!(sim.set_state(&moved[1..], &[]).is_err());
-    assert!(sim.set_contact(0.01, 0.5).is_err(), "no collider");
+    assert!(sim.set_contact(0, 0.01, 0.5).is_err(), "no collider");
     assert_validation_clean(&ctx);
 }
 

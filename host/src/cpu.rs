@@ -73,6 +73,7 @@ impl CpuExecutor {
                 self.get_mut(*buffer)?.fill(*value);
                 Ok(())
             }
+            Step::Write { buffer, offset, bytes } => self.get_mut(*buffer)?.write_at(*offset, bytes).map_err(cpu_error),
             Step::Skip { .. } => Ok(()),
             Step::Run(pass) => self.run_pass(pass),
         }

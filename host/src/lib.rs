@@ -18,6 +18,7 @@
 
 pub mod cloth;
 pub mod collider;
+mod controls;
 pub mod cpu;
 mod cpu_sim;
 pub mod error;
@@ -38,10 +39,11 @@ pub mod timing;
 
 pub use cloth::{Cloth, ClothBuilder};
 pub use cpu_sim::CpuSimulation;
+pub use drape_types::RigidPose;
 pub use error::{Error, Result};
 pub use gpu::{Context, ExternalDevice, FrameTimings, Validation};
 pub use mesh::Mesh;
-pub use sim::{Collider, FrameReport, Integrator, MemoryReport, SimSettings, Simulation, VertexBuffers};
+pub use sim::{Collider, FrameReport, Integrator, MemoryReport, SimSettings, Simulation, VertexBuffers, rigid_pose};
 pub use stability::Stability;
 
 include!(concat!(env!("OUT_DIR"), "/kernels_spv.rs"));

@@ -1,5 +1,5 @@
-//! A simulation's work as data: the buffers of its cloth (and collider), the initial contents
-//! of each, the LBVH build and the frame's steps. The GPU `Simulation` and the `CpuSimulation`
+//! A simulation's work as data: the buffers of its cloth and colliders, the initial contents of
+//! each, the LBVH builds and the frame's steps. The GPU `Simulation` and the `CpuSimulation`
 //! both run exactly this.
 
 use crate::cloth::Cloth;
@@ -7,28 +7,21 @@ use crate::error::Result;
 use crate::graph::{BufferId, Resources, Step};
 use crate::lbvh::collider_params;
 use crate::programs::cloth::{ClothBuffers, FramePlan, frame_steps};
-use crate::programs::contact::{ContactBuffers, ContactMode};
-use crate::programs::lbvh::LbvhBuffers;
+use crate::programs::contact::{ColliderBuffers, ContactMode};
 use crate::sim::Collider;
-use drape_types::SimParams;
-
-/// One collider: its LBVH and contact buffers.
-pub(crate) struct ColliderProgram {
-    pub lbvh: LbvhBuffers,
-    pub contact: ContactBuffers,
-}
+use drape_types::{ColliderPose, SimParams};
 
 pub(crate) struct ClothProgram {
     pub resources: Resources,
     pub cloth: ClothBuffers,
-    pub collider: Option<ColliderProgram>,
+    pub colliders: Vec<ColliderBuffers>,
     /// Buffer contents to upload before anything runs.
     pub initial: Vec<(BufferId, Vec<u8>)>,
     pub frame: Vec<Step>,
 }
 
 impl ClothProgram {
-    pub fn new(cloth: &Cloth, params: &SimParams, plan: FramePlan, collider: Option<&Collider>) -> Result<Self> {
+    pub fn new(cloth: &Cloth, params: &SimParams, plan: FramePlan, colliders: &[Collider]) -> Result<Self> {
         let mut resources = Resources::new();
         let triangles = cloth.triangles();
         let buffers = ClothBuffers::declare(&mut resources, "cloth", params.particle_count, triangles.len() as u32);
@@ -40,19 +33,29 @@ impl ClothProgram {
         }
         initial.push((buffers.v.id(), bytes(&cloth.velocities)));
         initial.push((buffers.indices.id(), bytemuck::cast_slice::<_, u8>(&triangles).to_vec()));
-        let collider = match collider {
-            Some(c) => {
-                let params = collider_params(&c.spheres, c.thickness, c.friction)?;
-                let lbvh = LbvhBuffers::declare(&mut resources, "collider", params.leaf_count);
-                let mode = if c.use_bvh { ContactMode::Bvh } else { ContactMode::BruteForce };
-                let contact = ContactBuffers::declare(&mut resources, "contact", mode);
-                initial.push((lbvh.collider.id(), bytemuck::bytes_of(&params).to_vec()));
-                initial.push((lbvh.spheres.id(), bytes(&c.spheres)));
-                Some(ColliderProgram { lbvh, contact })
-            }
-            None => None,
-        };
-        let frame = frame_steps(plan, &buffers, collider.as_ref().map(|c| (&c.contact, &c.lbvh)));
-        Ok(ClothProgram { resources, cloth: buffers, collider, initial, frame })
+        let mut collider_buffers = Vec::with_capacity(colliders.len());
+        for (i, c) in colliders.iter().enumerate() {
+            let params = collider_params(&c.spheres, c.thickness, c.friction)?;
+            let name = if i == 0 { "collider".to_string() } else { format!("collider {i}") };
+            let mode = if c.use_bvh { ContactMode::Bvh } else { ContactMode::BruteForce };
+            let b = ColliderBuffers::declare(&mut resources, &name, params.leaf_count, mode);
+            initial.push((b.lbvh.collider.id(), bytemuck::bytes_of(&params).to_vec()));
+            initial.push((b.lbvh.spheres.id(), bytes(&c.spheres)));
+            let pose = ColliderPose { previous: c.pose, current: c.pose };
+            initial.push((b.pose.id(), bytemuck::bytes_of(&pose).to_vec()));
+            collider_buffers.push(b);
+        }
+        let frame = frame_steps(plan, &buffers, &collider_buffers);
+        Ok(ClothProgram { resources, cloth: buffers, colliders: collider_buffers, initial, frame })
+    }
+
+    /// Every collider's LBVH build, in one list.
+    pub fn build_steps(&self) -> Vec<Step> {
+        self.colliders.iter().flat_map(|c| c.lbvh.build_steps()).collect()
+    }
+
+    /// Every collider's refit (what a frame that deforms colliders may add).
+    pub fn refit_steps(&self) -> Vec<Step> {
+        self.colliders.iter().flat_map(|c| c.lbvh.refit_steps()).collect()
     }
 }

@@ -2,13 +2,17 @@
 //! on the GPU between frames; positions, velocities and normals are read back only when asked.
 
 use crate::cloth::Cloth;
+use crate::controls::Controls;
 use crate::error::{Error, Result};
-use crate::gpu::{Context, Engine, FrameTimings, RecordedFrame};
-use crate::lbvh;
+use crate::gpu::commands::full_barrier;
+use crate::gpu::recording::{acquire_from_producers, encode, release_to_consumers};
+use crate::gpu::status_ring::StatusRing;
+use crate::gpu::{Command, Context, Engine, FrameTimings, RecordedFrame};
+use crate::lbvh::{self, collider_params};
 use crate::program::ClothProgram;
 use crate::programs::cloth::FramePlan;
 use crate::stability::{self, DEFAULT_SAFETY, Stability};
-use drape_types::{CollisionStatus, Health, SimParams, integrator};
+use drape_types::{CollisionStatus, Health, RigidPose, SimParams, integrator};
 use glam::Vec4;
 use std::sync::Arc;
 
@@ -66,6 +70,19 @@ impl SimSettings {
     /// Checks the settings and chooses the substep for `cloth`; returns the params to upload.
     pub fn resolve(&self, cloth: &Cloth) -> Result<(SimParams, Stability)> {
         let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
+        let n = cloth.params.rows as usize * cloth.params.cols as usize;
+        if cloth.positions.len() != n || cloth.velocities.len() != n || cloth.params.particle_count as usize != n {
+            return bad("cloth", format!("state arrays must hold rows x cols = {n} particles"));
+        }
+        if !cloth.positions.iter().chain(&cloth.velocities).all(|p| p.is_finite()) {
+            return bad("cloth", "positions and velocities must be finite".into());
+        }
+        self.resolve_params(&cloth.params)
+    }
+
+    /// Checks the settings and chooses the substep for a cloth's `params`.
+    pub fn resolve_params(&self, params: &SimParams) -> Result<(SimParams, Stability)> {
+        let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
         if !(self.frame_dt.is_finite() && self.frame_dt > 0.0) {
             return bad("frame_dt", format!("must be finite and > 0, got {}", self.frame_dt));
         }
@@ -75,17 +92,10 @@ impl SimSettings {
         if self.substeps == Some(0) || self.substeps.is_some_and(|s| s > 100_000) {
             return bad("substeps", format!("must be in 1..=100000, got {:?}", self.substeps));
         }
-        let n = cloth.params.rows as usize * cloth.params.cols as usize;
-        if cloth.positions.len() != n || cloth.velocities.len() != n || cloth.params.particle_count as usize != n {
-            return bad("cloth", format!("state arrays must hold rows x cols = {n} particles"));
-        }
-        if !cloth.positions.iter().chain(&cloth.velocities).all(|p| p.is_finite()) {
-            return bad("cloth", "positions and velocities must be finite".into());
-        }
         if self.max_stretch.is_nan() || self.max_stretch <= 1.0 {
             return bad("max_stretch", format!("must be > 1, got {}", self.max_stretch));
         }
-        let stability = stability::choose(cloth, self.integrator.id(), self.frame_dt, self.substeps, self.safety);
+        let stability = stability::choose_for(params, self.integrator.id(), self.frame_dt, self.substeps, self.safety);
         if stability.substeps > 100_000 {
             return bad(
                 "stiffness/mass",
@@ -95,7 +105,7 @@ impl SimSettings {
                 ),
             );
         }
-        let mut params = cloth.params;
+        let mut params = *params;
         params.integrator = self.integrator.id();
         params.substep = stability.substep;
         Ok((params, stability))
@@ -126,8 +136,8 @@ pub(crate) fn check_health(health: &Health, frame: u64, settings: &SimSettings, 
     })
 }
 
-/// A rigid collider: spheres (xyz centre, w radius, e.g. from `collider::voxel_spheres`) and
-/// the contact thickness (m).
+/// A collider: spheres (xyz centre, w radius, e.g. from `collider::voxel_spheres`) in the
+/// collider's own frame, its initial pose in the world, and the contact thickness (m).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Collider {
     pub spheres: Vec<Vec4>,
@@ -136,33 +146,54 @@ pub struct Collider {
     pub friction: f32,
     /// Traverse the LBVH (true) or test every sphere (the brute-force baseline).
     pub use_bvh: bool,
+    /// Where the collider's frame is in the world at the start (identity: spheres are in world
+    /// coordinates). Move it per frame with `Simulation::set_collider_pose`.
+    pub pose: RigidPose,
 }
 
 impl Collider {
     pub fn new(spheres: Vec<Vec4>, thickness: f32) -> Self {
-        Collider { spheres, thickness, friction: 0.0, use_bvh: true }
+        Collider { spheres, thickness, friction: 0.0, use_bvh: true, pose: RigidPose::IDENTITY }
     }
+
+    /// The same collider starting at `rotation`, `translation`.
+    pub fn with_pose(mut self, rotation: glam::Quat, translation: glam::Vec3) -> Self {
+        self.pose = rigid_pose(rotation, translation);
+        self
+    }
+}
+
+/// A `RigidPose` from glam types.
+pub fn rigid_pose(rotation: glam::Quat, translation: glam::Vec3) -> RigidPose {
+    RigidPose { rotation: Vec4::from(rotation), translation: translation.extend(0.0) }
 }
 
 /// What a frame reports besides timings.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FrameReport {
     pub timings: FrameTimings,
-    /// Substeps whose collision traversal ran / was skipped by the root-box test.
+    /// Substeps whose collision traversal ran / was skipped by the root-box test (all
+    /// colliders together).
     pub collision_ran: u32,
     pub collision_skipped: u32,
 }
 
+/// Frames recorded into callers' command buffers whose status can be pending at once.
+const STATUS_SLOTS: usize = 8;
+
 /// A cloth simulation on the GPU.
 pub struct Simulation {
-    // Field order is drop order: the recorded frame goes before the engine (it holds what it
-    // binds anyway).
+    // Field order is drop order: the status ring goes first (it waits for frames recorded into
+    // callers' command buffers that are still running), then the frame, then what it binds.
+    status: StatusRing,
     frame: RecordedFrame,
+    /// The frame's passes, encoded once (again when the substep count changes).
+    frame_commands: Vec<Command>,
+    /// drape's own command buffer holds outdated leading writes, or an outdated frame.
+    own_frame_stale: bool,
     engine: Engine,
     program: ClothProgram,
-    params: SimParams,
-    settings: SimSettings,
-    stability: Stability,
+    controls: Controls,
     lbvh_timings: Option<FrameTimings>,
     frames_done: u64,
 }
@@ -170,7 +201,7 @@ pub struct Simulation {
 impl Simulation {
     /// Uploads `cloth` and records its frame (no collider).
     pub fn new(ctx: &Arc<Context>, cloth: &Cloth, settings: SimSettings) -> Result<Self> {
-        Self::with_collider(ctx, cloth, settings, None)
+        Self::with_colliders(ctx, cloth, settings, &[])
     }
 
     /// Uploads `cloth`, builds the collider's LBVH on the GPU (if any) and records the frame.
@@ -180,47 +211,158 @@ impl Simulation {
         settings: SimSettings,
         collider: Option<&Collider>,
     ) -> Result<Self> {
+        Self::with_colliders(ctx, cloth, settings, collider.map(std::slice::from_ref).unwrap_or(&[]))
+    }
+
+    /// Uploads `cloth`, builds every collider's LBVH on the GPU and records the frame; the
+    /// cloth collides with each collider after every substep, in order.
+    pub fn with_colliders(
+        ctx: &Arc<Context>,
+        cloth: &Cloth,
+        settings: SimSettings,
+        colliders: &[Collider],
+    ) -> Result<Self> {
         let (params, stability) = settings.resolve(cloth)?;
-        let program = ClothProgram::new(cloth, &params, settings.plan(&params, &stability), collider)?;
+        let program = ClothProgram::new(cloth, &params, settings.plan(&params, &stability), colliders)?;
         let mut engine = Engine::new(ctx)?;
         engine.allocate(&program.resources)?;
         for (id, data) in &program.initial {
             engine.upload_bytes(*id, data)?;
         }
-        let lbvh_timings = match &program.collider {
-            Some(c) => Some(engine.record(&c.lbvh.build_steps(), true)?.submit()?),
-            None => None,
-        };
-        let frame = engine.record(&program.frame, settings.timestamps)?;
-        Ok(Simulation { frame, engine, program, params, settings, stability, lbvh_timings, frames_done: 0 })
+        let lbvh_timings =
+            if colliders.is_empty() { None } else { Some(engine.record(&program.build_steps(), true)?.submit()?) };
+        let bindings = engine.bind(&[&program.frame, &program.refit_steps()])?;
+        let frame_commands = engine.encode(&bindings, &program.frame)?;
+        let frame = RecordedFrame::new(ctx, bindings, &frame_commands, settings.timestamps)?;
+        let status = StatusRing::new(ctx, STATUS_SLOTS, 16 * (1 + colliders.len() as u64))?;
+        let collider_controls: Vec<_> = program
+            .colliders
+            .iter()
+            .zip(colliders)
+            .map(|(_, c)| collider_params(&c.spheres, c.thickness, c.friction).map(|p| (p, c.pose)))
+            .collect::<Result<_>>()?;
+        let controls = Controls::new(params, settings, stability, &collider_controls);
+        Ok(Simulation {
+            status,
+            frame,
+            frame_commands,
+            own_frame_stale: false,
+            engine,
+            program,
+            controls,
+            lbvh_timings,
+            frames_done: 0,
+        })
     }
 
-    /// Runs one frame; returns its per-pass GPU timings, or `Error::Unstable` on blow-up.
+    /// Runs one frame in drape's own command buffer and waits for it; returns its per-pass GPU
+    /// timings, or `Error::Unstable` on blow-up.
     pub fn step(&mut self) -> Result<FrameTimings> {
         Ok(self.step_report()?.timings)
     }
 
     /// Runs one frame; returns its timings and collision counters.
     pub fn step_report(&mut self) -> Result<FrameReport> {
+        let leading = self.controls.begin_frame(&self.program);
+        if !leading.is_empty() || self.own_frame_stale {
+            let mut writes = self.engine.encode(self.frame.bindings(), &leading)?;
+            if !writes.is_empty() {
+                writes.push(Command::Barrier);
+            }
+            self.frame.rerecord(&[&writes, &self.frame_commands])?;
+            // A frame that starts with writes must not replay them next time.
+            self.own_frame_stale = !leading.is_empty();
+        }
         let timings = self.frame.submit()?;
         self.frames_done += 1;
         let health: Health = self.engine.read_mapped(self.program.cloth.health)?;
-        check_health(&health, self.frames_done, &self.settings, &self.stability)?;
+        check_health(&health, self.frames_done, &self.controls.settings, &self.controls.stability)?;
         let mut report = FrameReport { timings, ..FrameReport::default() };
-        if let Some(c) = &self.program.collider {
+        for c in &self.program.colliders {
             let status: CollisionStatus = self.engine.read_mapped(c.contact.status)?;
             check_collision(&status, self.frames_done)?;
-            report.collision_ran = status.ran;
-            report.collision_skipped = status.skipped;
+            report.collision_ran += status.ran;
+            report.collision_skipped += status.skipped;
         }
         Ok(report)
     }
 
-    fn read_vec4s(&self, buffer: crate::graph::Handle<Vec4>) -> Result<Vec<Vec4>> {
-        self.engine.download(buffer, self.params.particle_count as usize)
+    /// Records one frame (every substep, contact, normals, blow-up check) into the caller's
+    /// command buffer `cmd`; nothing is submitted and nothing waits.
+    ///
+    /// Synchronization, all on drape's queue (`Context::queue_family`, the queue given to
+    /// `Context::import`): the frame begins with a barrier that orders it after earlier
+    /// vertex-input, vertex-shader, compute, transfer and host-write work on the queue (a
+    /// renderer that read last frame's positions, say); it ends with one that makes its writes
+    /// available to later vertex input (`VERTEX_ATTRIBUTE_READ`, `INDEX_READ`), vertex and
+    /// compute shaders (`SHADER_READ`), transfers and the host. The blow-up and
+    /// traversal-overflow status is copied to a ring drape reads without stalling: the next
+    /// `record` (or `poll_status`) reports a failed frame as the same `Error::Unstable` /
+    /// `Error::TraversalOverflow` as `step`, once that frame has finished on the GPU (one frame
+    /// late with double buffering). At most 8 recorded frames may be unfinished at once.
+    ///
+    /// # Safety
+    /// - `cmd` is a primary command buffer in the recording state, allocated on drape's device
+    ///   from a pool of `Context::queue_family()`, and is submitted exactly once, to drape's
+    ///   queue, before this simulation is dropped.
+    /// - Nothing else uses the queue while drape's calls that touch it run (`step`, uploads,
+    ///   read-backs, `poll_status`, drop): Vulkan requires external synchronization of a queue.
+    /// - Dropping the simulation waits for the queue when recorded frames are unfinished;
+    ///   a command buffer recorded here must not be submitted after that.
+    pub unsafe fn record(&mut self, cmd: ash::vk::CommandBuffer) -> Result<()> {
+        self.poll_status()?;
+        let leading = self.controls.begin_frame(&self.program);
+        let writes = self.engine.encode(self.frame.bindings(), &leading)?;
+        // The own command buffer may hold writes this frame supersedes.
+        self.own_frame_stale = true;
+        let device = &self.engine.context().device;
+        let frame = self.frames_done + 1;
+        let mut sources = vec![&**self.engine.buffer(self.program.cloth.health.id())?];
+        for c in &self.program.colliders {
+            sources.push(&**self.engine.buffer(c.contact.status.id())?);
+        }
+        // SAFETY: the caller's contract for `cmd`; every handle comes from `self.frame`'s
+        // bindings or the engine, which live until the ring's drop waits for the queue.
+        unsafe {
+            acquire_from_producers(device, cmd);
+            encode(device, cmd, &writes, None);
+            if !writes.is_empty() {
+                full_barrier(device, cmd);
+            }
+            encode(device, cmd, &self.frame_commands, None);
+            release_to_consumers(device, cmd);
+            self.status.record(cmd, &sources, frame)?;
+        }
+        self.frames_done = frame;
+        Ok(())
     }
 
-    /// Positions (xyz, w = pin weight), read back from the GPU.
+    /// Reads the status of frames recorded with `record` that have finished on the GPU, without
+    /// waiting; returns how many were read, or the first failure (`Error::Unstable`,
+    /// `Error::TraversalOverflow`) with its frame number.
+    pub fn poll_status(&mut self) -> Result<u32> {
+        let mut read = 0;
+        while let Some((frame, bytes)) = self.status.poll()? {
+            read += 1;
+            let health: Health = bytemuck::pod_read_unaligned(&bytes[..16]);
+            check_health(&health, frame, &self.controls.settings, &self.controls.stability)?;
+            for chunk in bytes[16..].chunks_exact(16) {
+                check_collision(&bytemuck::pod_read_unaligned(chunk), frame)?;
+            }
+        }
+        Ok(read)
+    }
+
+    /// Frames recorded with `record` whose status has not been read yet.
+    pub fn frames_in_flight(&self) -> usize {
+        self.status.pending()
+    }
+
+    fn read_vec4s(&self, buffer: crate::graph::Handle<Vec4>) -> Result<Vec<Vec4>> {
+        self.engine.download(buffer, self.params().particle_count as usize)
+    }
+
+    /// Positions (xyz, w = pin weight), read back from the GPU (after every submitted frame).
     pub fn positions(&self) -> Result<Vec<Vec4>> {
         self.read_vec4s(self.program.cloth.x)
     }
@@ -232,14 +374,14 @@ impl Simulation {
     pub fn normals(&self) -> Result<Vec<Vec4>> {
         self.read_vec4s(self.program.cloth.normals)
     }
-    /// The collider's LBVH as built on the GPU (None without a collider).
-    pub fn collider_bvh(&self) -> Result<Option<lbvh::Lbvh>> {
-        match &self.program.collider {
+    /// Collider `index`'s LBVH as built (and refit) on the GPU, in the collider's own frame.
+    pub fn collider_bvh(&self, index: usize) -> Result<Option<lbvh::Lbvh>> {
+        match self.program.colliders.get(index) {
             Some(c) => Ok(Some(lbvh::download(&self.engine, &c.lbvh)?)),
             None => Ok(None),
         }
     }
-    /// GPU time of the LBVH build per stage (None without a collider).
+    /// GPU time of the LBVH builds per stage (None without a collider).
     pub fn lbvh_timings(&self) -> Option<&FrameTimings> {
         self.lbvh_timings.as_ref()
     }
@@ -259,59 +401,23 @@ impl Simulation {
         })
     }
 
-    /// Sets gravity (m/s^2) from the next frame on. Nothing is re-recorded or allocated.
-    pub fn set_gravity(&mut self, gravity: glam::Vec3) -> Result<()> {
-        finite_vec("gravity", gravity)?;
-        self.params.gravity = gravity.extend(0.0);
-        self.upload_params()
-    }
-
-    /// Sets the constant external force on every free particle (N), e.g. wind.
-    pub fn set_external_force(&mut self, force: glam::Vec3) -> Result<()> {
-        finite_vec("external_force", force)?;
-        self.params.external_force = force.extend(0.0);
-        self.upload_params()
-    }
-
-    /// Sets the collider's contact thickness (m) and Coulomb friction coefficient.
-    pub fn set_contact(&mut self, thickness: f32, friction: f32) -> Result<()> {
-        let c = self.program.collider.as_ref().ok_or(Error::InvalidParameter {
-            name: "contact",
-            problem: "this simulation has no collider; create it with `Simulation::with_collider`".into(),
-        })?;
-        let mut params: drape_types::ColliderParams = self.engine.download(c.lbvh.collider, 1)?[0];
-        let checked = lbvh::collider_params(&[Vec4::ZERO], thickness, friction)?;
-        params.thickness = checked.thickness;
-        params.friction = checked.friction;
-        self.engine.upload(c.lbvh.collider, &[params])
+    /// After a change of the substep count: the frame's passes encoded again.
+    fn replan(&mut self, substeps_changed: bool) -> Result<()> {
+        if substeps_changed {
+            self.program.frame = self.controls.frame_steps(&self.program);
+            self.frame_commands = self.engine.encode(self.frame.bindings(), &self.program.frame)?;
+            self.own_frame_stale = true;
+        }
+        Ok(())
     }
 
     /// Teleports the cloth: new positions (xyz; w is kept, so pins stay) and velocities.
+    /// Uploads at once (ordered after every frame submitted so far).
     pub fn set_state(&mut self, positions: &[glam::Vec3], velocities: &[glam::Vec3]) -> Result<()> {
-        let n = self.params.particle_count as usize;
-        if positions.len() != n || velocities.len() != n {
-            return Err(Error::InvalidParameter {
-                name: "state",
-                problem: format!(
-                    "expected {n} positions and velocities, got {} and {}",
-                    positions.len(),
-                    velocities.len()
-                ),
-            });
-        }
-        if !positions.iter().chain(velocities).all(|p| p.is_finite()) {
-            return Err(Error::InvalidParameter { name: "state", problem: "values must be finite".into() });
-        }
         let old = self.positions()?;
-        let x: Vec<Vec4> = positions.iter().zip(&old).map(|(p, o)| p.extend(o.w)).collect();
-        let v: Vec<Vec4> =
-            velocities.iter().zip(&old).map(|(v, o)| if o.w == 0.0 { Vec4::ZERO } else { v.extend(0.0) }).collect();
+        let (x, v) = teleported(&old, positions, velocities)?;
         self.engine.upload(self.program.cloth.x, &x)?;
         self.engine.upload(self.program.cloth.v, &v)
-    }
-
-    fn upload_params(&mut self) -> Result<()> {
-        self.engine.upload(self.program.cloth.params, std::slice::from_ref(&self.params))
     }
 
     /// Bytes of GPU buffers per part of the simulation (cloth, collider, contact), and what
@@ -328,18 +434,18 @@ impl Simulation {
         MemoryReport { parts, allocator: self.context().allocator_stats() }
     }
 
-    /// Memory barriers in one recorded frame (derived from the passes' reads and writes).
+    /// Memory barriers in drape's own recorded frame (derived from the passes' reads and writes).
     pub fn barriers_per_frame(&self) -> u32 {
         self.frame.barrier_count()
     }
     pub fn params(&self) -> &SimParams {
-        &self.params
+        &self.controls.params
     }
     pub fn stability(&self) -> &Stability {
-        &self.stability
+        &self.controls.stability
     }
     pub fn settings(&self) -> &SimSettings {
-        &self.settings
+        &self.controls.settings
     }
     pub fn frames_done(&self) -> u64 {
         self.frames_done
@@ -347,6 +453,29 @@ impl Simulation {
     pub fn context(&self) -> &Arc<Context> {
         self.engine.context()
     }
+}
+
+crate::controls::runtime_setters!(Simulation);
+
+/// New positions and velocities for a teleport, keeping each particle's pin weight.
+pub(crate) fn teleported(
+    old: &[Vec4],
+    positions: &[glam::Vec3],
+    velocities: &[glam::Vec3],
+) -> Result<(Vec<Vec4>, Vec<Vec4>)> {
+    let n = old.len();
+    if positions.len() != n || velocities.len() != n {
+        return Err(Error::InvalidParameter {
+            name: "state",
+            problem: format!("expected {n} positions and velocities, got {} and {}", positions.len(), velocities.len()),
+        });
+    }
+    if !positions.iter().chain(velocities).all(|p| p.is_finite()) {
+        return Err(Error::InvalidParameter { name: "state", problem: "values must be finite".into() });
+    }
+    let x = positions.iter().zip(old).map(|(p, o)| p.extend(o.w)).collect();
+    let v = velocities.iter().zip(old).map(|(v, o)| if o.w == 0.0 { Vec4::ZERO } else { v.extend(0.0) }).collect();
+    Ok((x, v))
 }
 
 /// GPU memory of a simulation.
@@ -382,8 +511,9 @@ impl std::fmt::Display for MemoryReport {
 /// normals: xyz, w = 0); the index buffer is a `UINT32` triangle list.
 ///
 /// Synchronization: each frame ends with a barrier that makes its writes available to the
-/// vertex input, compute and transfer stages of every later command on the queue, and to the
-/// host; `step()` returns after the frame completed.
+/// vertex input, vertex/compute shader and transfer stages of every later command on the
+/// queue, and to the host; `step()` returns after the frame completed (see `record` for frames
+/// in the caller's command buffer).
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 #[non_exhaustive]
 pub struct VertexBuffers {
@@ -396,14 +526,6 @@ pub struct VertexBuffers {
     pub stride: u32,
     pub format: ash::vk::Format,
     pub index_type: ash::vk::IndexType,
-}
-
-fn finite_vec(name: &'static str, v: glam::Vec3) -> Result<()> {
-    if v.is_finite() {
-        Ok(())
-    } else {
-        Err(Error::InvalidParameter { name, problem: format!("must be finite, got {v}") })
-    }
 }
 
 /// Turns a traversal overflow into an error.

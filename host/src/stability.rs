@@ -65,8 +65,19 @@ pub fn max_stable_substep(p: &SimParams, integrator_kind: u32) -> f32 {
 
 /// Substeps per frame: `requested`, or the fewest that keep `safety * max_substep`.
 pub fn choose(cloth: &Cloth, integrator_kind: u32, frame_dt: f32, requested: Option<u32>, safety: f32) -> Stability {
-    let (omega, gamma) = spectral_bounds(&cloth.params);
-    let max_substep = max_stable_substep(&cloth.params, integrator_kind);
+    choose_for(&cloth.params, integrator_kind, frame_dt, requested, safety)
+}
+
+/// `choose` for a cloth's parameters.
+pub fn choose_for(
+    params: &SimParams,
+    integrator_kind: u32,
+    frame_dt: f32,
+    requested: Option<u32>,
+    safety: f32,
+) -> Stability {
+    let (omega, gamma) = spectral_bounds(params);
+    let max_substep = max_stable_substep(params, integrator_kind);
     let substeps = requested.unwrap_or_else(|| {
         let n = (frame_dt / (safety * max_substep)).ceil();
         if n.is_finite() { (n as u32).max(1) } else { 1 }

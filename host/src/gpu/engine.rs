@@ -104,51 +104,69 @@ impl Engine {
         Ok(pipeline)
     }
 
-    /// Records `steps` into a frame that can be submitted any number of times. The frame holds
-    /// its descriptor sets, pipelines and buffers; dropping it frees its descriptor pool.
-    pub fn record(&mut self, steps: &[Step], timed: bool) -> Result<RecordedFrame> {
-        // One descriptor set per distinct (kernel, bindings).
-        let mut distinct: Vec<(&'static str, &[BufferId])> = Vec::new();
-        let mut pipelines: Vec<Arc<Pipeline>> = Vec::new();
-        for step in steps {
+    /// Descriptor sets for every pass of every list in `step_lists` (one per distinct kernel
+    /// and bindings), with the pipelines and buffers they use. Frames encoded from them hold
+    /// them; dropping the last holder frees the descriptor pool.
+    pub fn bind(&mut self, step_lists: &[&[Step]]) -> Result<Arc<FrameBindings>> {
+        let mut distinct: Vec<(&'static str, Vec<BufferId>)> = Vec::new();
+        let mut pipelines: HashMap<&'static str, Arc<Pipeline>> = HashMap::new();
+        for step in step_lists.iter().flat_map(|s| s.iter()) {
             if let Step::Run(pass) = step {
-                let key = (pass.kernel.spec.entry, &pass.bindings[..]);
+                let key = (pass.kernel.spec.entry, pass.bindings.clone());
                 if !distinct.contains(&key) {
                     distinct.push(key);
                 }
-                let p = self.pipeline(pass.kernel)?;
-                if !pipelines.iter().any(|q| Arc::ptr_eq(q, &p)) {
-                    pipelines.push(p);
-                }
+                let pipeline = self.pipeline(pass.kernel)?;
+                pipelines.insert(pass.kernel.spec.entry, pipeline);
             }
         }
         let total_bindings: usize = distinct.iter().map(|(_, b)| b.len()).sum();
         let arena = DescriptorArena::new(&self.ctx, distinct.len() as u32, total_bindings as u32)?;
         let mut sets = HashMap::new();
-        let mut used: Vec<BufferId> = Vec::new();
-        for &(entry, ids) in &distinct {
-            let pipeline = &self.pipelines[entry];
+        for (entry, ids) in distinct {
             let bound: Vec<&Buffer> = ids.iter().map(|id| self.buffer(*id).map(|b| &**b)).collect::<Result<_>>()?;
-            sets.insert((entry, ids), arena.bind(pipeline, &bound)?);
+            let set = arena.bind(&pipelines[entry], &bound)?;
+            sets.insert((entry, ids), set);
         }
+        // Every buffer of the engine: writes and fills may touch buffers no pass binds.
+        let buffers = self.buffers.clone();
+        Ok(Arc::new(FrameBindings { sets, pipelines, buffers, _arena: arena }))
+    }
+
+    /// `steps` as commands over `bindings` (which must cover every pass), with a barrier
+    /// wherever a step reads or writes what an earlier one wrote, or writes what it read.
+    pub fn encode(&self, bindings: &FrameBindings, steps: &[Step]) -> Result<Vec<Command>> {
+        let handle = |id: BufferId| {
+            bindings.buffers.get(id.index()).map(|b| b.handle).ok_or_else(|| engine_error(format!("{id:?} not bound")))
+        };
         let mut hazards = HazardTracker::default();
         let mut commands = Vec::with_capacity(steps.len() * 2);
         for step in steps {
-            for (id, _) in step.accesses() {
-                if !used.contains(&id) {
-                    used.push(id);
-                }
-            }
             if hazards.needs_barrier(&step.accesses()) {
                 commands.push(Command::Barrier);
             }
             commands.push(match step {
-                Step::Fill { buffer, value } => Command::Fill { buffer: self.buffer(*buffer)?.handle, value: *value },
+                Step::Fill { buffer, value } => Command::Fill { buffer: handle(*buffer)?, value: *value },
+                Step::Write { buffer, offset, bytes } => {
+                    if offset % 4 != 0 || bytes.len() % 4 != 0 {
+                        return Err(engine_error(format!(
+                            "write of {} bytes at {offset}: not 4-byte aligned",
+                            bytes.len()
+                        )));
+                    }
+                    Command::Write { buffer: handle(*buffer)?, offset: *offset, bytes: bytes.clone() }
+                }
                 Step::Skip { label } => Command::Skipped { label },
                 Step::Run(pass) => {
-                    let pipeline = &self.pipelines[pass.kernel.spec.entry];
+                    let entry = pass.kernel.spec.entry;
+                    let pipeline =
+                        bindings.pipelines.get(entry).ok_or_else(|| engine_error(format!("`{entry}` not bound")))?;
+                    let set = *bindings
+                        .sets
+                        .get(&(entry, pass.bindings.clone()))
+                        .ok_or_else(|| engine_error(format!("pass `{}` was not bound", pass.label)))?;
                     let (groups, indirect) = match pass.dispatch {
-                        Dispatch::Indirect(args) => (0, Some(self.buffer(args.id())?.handle)),
+                        Dispatch::Indirect(args) => (0, Some(handle(args.id())?)),
                         direct => (direct.direct_workgroups(pass.kernel.spec.workgroup_size).unwrap_or(0), None),
                     };
                     if groups > self.ctx.info().max_workgroup_count_x {
@@ -163,8 +181,9 @@ impl Engine {
                     }
                     Command::Dispatch {
                         label: pass.label,
-                        pipeline,
-                        set: sets[&(pass.kernel.spec.entry, &pass.bindings[..])],
+                        pipeline: pipeline.pipeline,
+                        layout: pipeline.layout,
+                        set,
                         push: pass.push.map(|p| bytemuck::bytes_of(&p).to_vec()).unwrap_or_default(),
                         groups,
                         indirect,
@@ -172,7 +191,14 @@ impl Engine {
                 }
             });
         }
-        let buffers = used.iter().map(|&id| self.buffer(id).cloned()).collect::<Result<_>>()?;
-        RecordedFrame::record(&self.ctx, &commands, FrameBindings { arena, pipelines, buffers }, timed)
+        Ok(commands)
+    }
+
+    /// Binds and encodes `steps` into a frame of drape's own that can be submitted any number
+    /// of times.
+    pub fn record(&mut self, steps: &[Step], timed: bool) -> Result<RecordedFrame> {
+        let bindings = self.bind(&[steps])?;
+        let commands = self.encode(&bindings, steps)?;
+        RecordedFrame::new(&self.ctx, bindings, &commands, timed)
     }
 }

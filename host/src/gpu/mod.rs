@@ -10,9 +10,10 @@ pub mod pipeline;
 pub mod recording;
 pub mod reflect;
 mod staging;
+pub(crate) mod status_ring;
 
 pub use buffer::Buffer;
 pub use context::{AllocatorStats, Context, DeviceInfo, ExternalDevice, Validation};
 pub use engine::Engine;
 pub use pipeline::{Pipeline, ShaderModule};
-pub use recording::{Command, FrameTimings, PassTiming, RecordedFrame};
+pub use recording::{Command, FrameBindings, FrameTimings, PassTiming, RecordedFrame};

@@ -6,15 +6,20 @@ use super::commands::{CommandBuffer, DescriptorArena, full_barrier};
 use super::context::Context;
 use super::pipeline::Pipeline;
 use crate::error::{Result, VkContext};
+use crate::graph::BufferId;
 use ash::vk;
+use std::collections::HashMap;
 use std::sync::Arc;
 
-/// One step of a recorded frame.
-pub enum Command<'a> {
+/// One command of a frame, with the raw handles it uses. The handles stay valid as long as the
+/// `FrameBindings` that the commands were encoded from (every holder keeps an `Arc` of them).
+#[derive(Clone, Debug)]
+pub enum Command {
     /// A compute dispatch, timed under `label`.
     Dispatch {
         label: &'static str,
-        pipeline: &'a Pipeline,
+        pipeline: vk::Pipeline,
+        layout: vk::PipelineLayout,
         set: vk::DescriptorSet,
         push: Vec<u8>,
         groups: u32,
@@ -23,10 +28,135 @@ pub enum Command<'a> {
     },
     /// Fill a whole buffer with a 32-bit value (e.g. reset counters).
     Fill { buffer: vk::Buffer, value: u32 },
+    /// Write host bytes into a buffer inline (`vkCmdUpdateBuffer`, in chunks of 64 KiB).
+    Write { buffer: vk::Buffer, offset: u64, bytes: Vec<u8> },
     /// Make every earlier write visible to every later command (derived from declared accesses).
     Barrier,
     /// A pass the scene does not need: not recorded, but reported as skipped.
     Skipped { label: &'static str },
+}
+
+/// Largest `vkCmdUpdateBuffer` (spec limit).
+const MAX_UPDATE_BYTES: usize = 65536;
+
+/// Records `commands` into `cb`, with a timestamp pair around each dispatch when `queries` is
+/// given (pool, first query; the pool must hold two per dispatch and be reset before). Returns
+/// the next free query.
+///
+/// # Safety
+/// `cb` is in the recording state on `device`; every handle in `commands` is alive and stays
+/// alive until the command buffer has finished executing.
+pub(crate) unsafe fn encode(
+    device: &ash::Device,
+    cb: vk::CommandBuffer,
+    commands: &[Command],
+    queries: Option<(vk::QueryPool, u32)>,
+) -> u32 {
+    let mut query = queries.map_or(0, |(_, first)| first);
+    let queries = queries.map(|(pool, _)| pool);
+    // SAFETY: the caller's contract.
+    unsafe {
+        for command in commands {
+            match command {
+                Command::Dispatch { pipeline, layout, set, push, groups, indirect, .. } => {
+                    device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, *pipeline);
+                    device.cmd_bind_descriptor_sets(cb, vk::PipelineBindPoint::COMPUTE, *layout, 0, &[*set], &[]);
+                    if !push.is_empty() {
+                        device.cmd_push_constants(cb, *layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+                    }
+                    if let Some(pool) = queries {
+                        device.cmd_write_timestamp(cb, vk::PipelineStageFlags::TOP_OF_PIPE, pool, query);
+                    }
+                    match indirect {
+                        Some(args) => device.cmd_dispatch_indirect(cb, *args, 0),
+                        None => device.cmd_dispatch(cb, *groups, 1, 1),
+                    }
+                    if let Some(pool) = queries {
+                        device.cmd_write_timestamp(cb, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, query + 1);
+                    }
+                    query += 2;
+                }
+                Command::Fill { buffer, value } => device.cmd_fill_buffer(cb, *buffer, 0, vk::WHOLE_SIZE, *value),
+                Command::Write { buffer, offset, bytes } => {
+                    for (i, chunk) in bytes.chunks(MAX_UPDATE_BYTES).enumerate() {
+                        let at = offset + (i * MAX_UPDATE_BYTES) as u64;
+                        device.cmd_update_buffer(cb, *buffer, at, chunk);
+                    }
+                }
+                Command::Barrier => full_barrier(device, cb),
+                Command::Skipped { .. } => {}
+            }
+        }
+    }
+    query
+}
+
+/// Makes a frame's results visible to the host (mapped status) and to whatever the queue runs
+/// next: vertex input of a renderer, compute, transfers.
+///
+/// # Safety
+/// `cb` is in the recording state on `device`.
+pub(crate) unsafe fn release_to_consumers(device: &ash::Device, cb: vk::CommandBuffer) {
+    let after = [vk::MemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+        .dst_access_mask(
+            vk::AccessFlags::HOST_READ
+                | vk::AccessFlags::VERTEX_ATTRIBUTE_READ
+                | vk::AccessFlags::INDEX_READ
+                | vk::AccessFlags::SHADER_READ
+                | vk::AccessFlags::TRANSFER_READ,
+        )];
+    // SAFETY: the caller's contract.
+    unsafe {
+        device.cmd_pipeline_barrier(
+            cb,
+            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::HOST
+                | vk::PipelineStageFlags::VERTEX_INPUT
+                | vk::PipelineStageFlags::VERTEX_SHADER
+                | vk::PipelineStageFlags::COMPUTE_SHADER
+                | vk::PipelineStageFlags::TRANSFER,
+            vk::DependencyFlags::empty(),
+            &after,
+            &[],
+            &[],
+        )
+    };
+}
+
+/// Orders a frame after what the queue ran before it: the caller's renderer reading the vertex
+/// buffers (write-after-read), host writes, and earlier compute and transfers.
+///
+/// # Safety
+/// `cb` is in the recording state on `device`.
+pub(crate) unsafe fn acquire_from_producers(device: &ash::Device, cb: vk::CommandBuffer) {
+    let before = [vk::MemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::HOST_WRITE)
+        .dst_access_mask(
+            vk::AccessFlags::SHADER_READ
+                | vk::AccessFlags::SHADER_WRITE
+                | vk::AccessFlags::TRANSFER_READ
+                | vk::AccessFlags::TRANSFER_WRITE
+                | vk::AccessFlags::INDIRECT_COMMAND_READ,
+        )];
+    // SAFETY: the caller's contract.
+    unsafe {
+        device.cmd_pipeline_barrier(
+            cb,
+            vk::PipelineStageFlags::HOST
+                | vk::PipelineStageFlags::VERTEX_INPUT
+                | vk::PipelineStageFlags::VERTEX_SHADER
+                | vk::PipelineStageFlags::COMPUTE_SHADER
+                | vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::COMPUTE_SHADER
+                | vk::PipelineStageFlags::TRANSFER
+                | vk::PipelineStageFlags::DRAW_INDIRECT,
+            vk::DependencyFlags::empty(),
+            &before,
+            &[],
+            &[],
+        )
+    };
 }
 
 /// GPU time of one pass.
@@ -91,117 +221,92 @@ impl Drop for QueryPool {
     }
 }
 
-/// What a recorded frame binds: it holds them, so nothing it refers to can be destroyed while
-/// the frame exists (dropping the engine that made it is fine).
+/// What frames bind: descriptor sets for every (kernel, bindings) pair of some step lists, the
+/// pipelines and the buffers. Frames hold an `Arc` of it, so nothing a frame refers to can be
+/// destroyed while the frame exists (dropping the engine that made it is fine).
 pub struct FrameBindings {
-    pub arena: DescriptorArena,
-    pub pipelines: Vec<Arc<Pipeline>>,
-    pub buffers: Vec<Arc<Buffer>>,
+    pub(crate) sets: HashMap<(&'static str, Vec<BufferId>), vk::DescriptorSet>,
+    pub(crate) pipelines: HashMap<&'static str, Arc<Pipeline>>,
+    pub(crate) buffers: Vec<Arc<Buffer>>,
+    // Dropped after the sets it holds are no longer referenced (field order).
+    pub(crate) _arena: DescriptorArena,
 }
 
-/// A frame's commands, recorded once and submitted as often as needed.
+/// A frame's commands in drape's own command buffer, re-recorded when its commands change and
+/// submitted as often as needed.
 pub struct RecordedFrame {
     // Field order is drop order: the command buffer (waited on at every submit) goes first,
     // then what it binds.
     cmd: CommandBuffer,
     queries: Option<QueryPool>,
-    _bindings: FrameBindings,
+    bindings: Arc<FrameBindings>,
     ctx: Arc<Context>,
+    timed: bool,
     labels: Vec<&'static str>,
     skipped: Vec<&'static str>,
     barriers: u32,
 }
 
 impl RecordedFrame {
-    /// Records `commands` (barriers included, as the caller placed them); a final barrier makes
-    /// shader writes visible to the host (readback of mapped buffers after the wait).
-    /// With `timed`, a timestamp query brackets each dispatch (when the queue supports them).
-    pub fn record(ctx: &Arc<Context>, commands: &[Command], bindings: FrameBindings, timed: bool) -> Result<Self> {
-        let barriers = commands.iter().filter(|c| matches!(c, Command::Barrier)).count() as u32;
-        let labels: Vec<&'static str> = commands
-            .iter()
-            .filter_map(|c| if let Command::Dispatch { label, .. } = c { Some(*label) } else { None })
-            .collect();
-        let skipped = commands
-            .iter()
-            .filter_map(|c| if let Command::Skipped { label } = c { Some(*label) } else { None })
-            .collect();
-        let timed = timed && ctx.info().timestamp_valid_bits > 0;
-        let queries = if timed { Some(QueryPool::new(ctx, labels.len() as u32)?) } else { None };
-        let mut cmd = CommandBuffer::new(ctx)?;
-        cmd.record(|device, cb| {
-            // SAFETY (closure): recording into `cb`; every handle used outlives the frame
-            // (the owner keeps pipelines, sets and buffers alive as long as the frame).
-            unsafe {
-                if let Some(q) = &queries {
-                    device.cmd_reset_query_pool(cb, q.pool, 0, q.count);
-                }
-                let mut query = 0;
-                for command in commands {
-                    match command {
-                        Command::Dispatch { pipeline, set, push, groups, indirect, .. } => {
-                            device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pipeline.pipeline);
-                            device.cmd_bind_descriptor_sets(
-                                cb,
-                                vk::PipelineBindPoint::COMPUTE,
-                                pipeline.layout,
-                                0,
-                                &[*set],
-                                &[],
-                            );
-                            if !push.is_empty() {
-                                device.cmd_push_constants(cb, pipeline.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
-                            }
-                            if let Some(q) = &queries {
-                                device.cmd_write_timestamp(cb, vk::PipelineStageFlags::TOP_OF_PIPE, q.pool, query);
-                            }
-                            match indirect {
-                                Some(args) => device.cmd_dispatch_indirect(cb, *args, 0),
-                                None => device.cmd_dispatch(cb, *groups, 1, 1),
-                            }
-                            if let Some(q) = &queries {
-                                device.cmd_write_timestamp(
-                                    cb,
-                                    vk::PipelineStageFlags::BOTTOM_OF_PIPE,
-                                    q.pool,
-                                    query + 1,
-                                );
-                            }
-                            query += 2;
-                        }
-                        Command::Fill { buffer, value } => {
-                            device.cmd_fill_buffer(cb, *buffer, 0, vk::WHOLE_SIZE, *value);
-                        }
-                        Command::Barrier => full_barrier(device, cb),
-                        Command::Skipped { .. } => {}
-                    }
-                }
-                // The frame's results are visible to the host (mapped status) and to whatever
-                // the queue runs next: vertex input of a renderer, compute, transfers.
-                let after = [vk::MemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
-                    .dst_access_mask(
-                        vk::AccessFlags::HOST_READ
-                            | vk::AccessFlags::VERTEX_ATTRIBUTE_READ
-                            | vk::AccessFlags::INDEX_READ
-                            | vk::AccessFlags::SHADER_READ
-                            | vk::AccessFlags::TRANSFER_READ,
-                    )];
-                device.cmd_pipeline_barrier(
-                    cb,
-                    vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-                    vk::PipelineStageFlags::HOST
-                        | vk::PipelineStageFlags::VERTEX_INPUT
-                        | vk::PipelineStageFlags::COMPUTE_SHADER
-                        | vk::PipelineStageFlags::TRANSFER,
-                    vk::DependencyFlags::empty(),
-                    &after,
-                    &[],
-                    &[],
-                );
+    /// Records `commands` (encoded from `bindings`); a final barrier makes the results visible
+    /// to the host and to later vertex input, compute and transfers. With `timed`, a timestamp
+    /// query brackets each dispatch (when the queue supports them).
+    pub fn new(ctx: &Arc<Context>, bindings: Arc<FrameBindings>, commands: &[Command], timed: bool) -> Result<Self> {
+        let mut frame = RecordedFrame {
+            cmd: CommandBuffer::new(ctx)?,
+            queries: None,
+            bindings,
+            ctx: ctx.clone(),
+            timed: timed && ctx.info().timestamp_valid_bits > 0,
+            labels: Vec::new(),
+            skipped: Vec::new(),
+            barriers: 0,
+        };
+        frame.rerecord(&[commands])?;
+        Ok(frame)
+    }
+
+    /// Replaces the recorded commands (same bindings; the concatenation of `segments`), e.g.
+    /// when a frame starts with new parameter writes. Reuses the command buffer; the query pool
+    /// only grows.
+    pub fn rerecord(&mut self, segments: &[&[Command]]) -> Result<()> {
+        let commands = || segments.iter().flat_map(|s| s.iter());
+        self.barriers = commands().filter(|c| matches!(c, Command::Barrier)).count() as u32;
+        self.labels.clear();
+        self.skipped.clear();
+        for c in commands() {
+            match c {
+                Command::Dispatch { label, .. } => self.labels.push(label),
+                Command::Skipped { label } => self.skipped.push(label),
+                _ => {}
             }
-        })?;
-        Ok(RecordedFrame { cmd, queries, _bindings: bindings, ctx: ctx.clone(), labels, skipped, barriers })
+        }
+        let needed = self.labels.len() as u32 * 2;
+        if self.timed && self.queries.as_ref().is_none_or(|q| q.count < needed) {
+            self.queries = None;
+            self.queries = Some(QueryPool::new(&self.ctx, self.labels.len() as u32)?);
+        }
+        let queries = self.queries.as_ref().map(|q| (q.pool, q.count));
+        self.cmd.record(|device, cb| {
+            // SAFETY (closure): recording into `cb`; every handle comes from `self.bindings`,
+            // which this frame holds as long as the command buffer.
+            unsafe {
+                if let Some((pool, count)) = queries {
+                    device.cmd_reset_query_pool(cb, pool, 0, count);
+                }
+                acquire_from_producers(device, cb);
+                let mut query = 0;
+                for segment in segments {
+                    query = encode(device, cb, segment, queries.map(|(pool, _)| (pool, query)));
+                }
+                release_to_consumers(device, cb);
+            }
+        })
+    }
+
+    /// What the recorded commands bind.
+    pub fn bindings(&self) -> &Arc<FrameBindings> {
+        &self.bindings
     }
 
     /// Barriers recorded in the frame (derived from the passes' declared accesses).
@@ -214,18 +319,20 @@ impl RecordedFrame {
         self.cmd.submit_and_wait()?;
         let mut passes: Vec<PassTiming> = self.labels.iter().map(|&label| PassTiming { label, micros: None }).collect();
         if let Some(q) = &self.queries {
-            let mut stamps = vec![0u64; q.count as usize];
-            // SAFETY: all queries were written by the completed submission.
-            unsafe {
-                self.ctx
-                    .device
-                    .get_query_pool_results(
-                        q.pool,
-                        0,
-                        &mut stamps,
-                        vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-                    )
-                    .vk("vkGetQueryPoolResults")?;
+            let mut stamps = vec![0u64; passes.len() * 2];
+            if !stamps.is_empty() {
+                // SAFETY: the queries of every dispatch were written by the completed submission.
+                unsafe {
+                    self.ctx
+                        .device
+                        .get_query_pool_results(
+                            q.pool,
+                            0,
+                            &mut stamps,
+                            vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                        )
+                        .vk("vkGetQueryPoolResults")?;
+                }
             }
             let info = self.ctx.info();
             let mask = if info.timestamp_valid_bits >= 64 { u64::MAX } else { (1u64 << info.timestamp_valid_bits) - 1 };

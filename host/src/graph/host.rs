@@ -49,11 +49,17 @@ impl HostBuffer {
 
     /// Writes `data` at the start.
     pub fn write(&mut self, data: &[u8]) -> Result<(), String> {
+        self.write_at(0, data)
+    }
+
+    /// Writes `data` from byte `offset` on.
+    pub fn write_at(&mut self, offset: u64, data: &[u8]) -> Result<(), String> {
         let target = self.bytes_mut();
-        if data.len() > target.len() {
-            return Err(format!("{} bytes into a {}-byte buffer", data.len(), target.len()));
+        let end = offset as usize + data.len();
+        if end > target.len() {
+            return Err(format!("{} bytes at offset {offset} into a {}-byte buffer", data.len(), target.len()));
         }
-        target[..data.len()].copy_from_slice(data);
+        target[offset as usize..end].copy_from_slice(data);
         Ok(())
     }
 

@@ -33,6 +33,33 @@ pub enum Access {
     Write,
     /// Read as indirect dispatch arguments.
     IndirectRead,
+    /// Write of `len` bytes at `offset` only (host writes of single values): writes to disjoint
+    /// ranges of one buffer need no barrier between them.
+    WriteBytes {
+        offset: u64,
+        len: u64,
+    },
+}
+
+impl Access {
+    fn writes(self) -> bool {
+        matches!(self, Access::Write | Access::WriteBytes { .. })
+    }
+
+    /// The bytes touched (`None` = the whole buffer).
+    fn range(self) -> Option<(u64, u64)> {
+        match self {
+            Access::WriteBytes { offset, len } => Some((offset, offset + len)),
+            _ => None,
+        }
+    }
+
+    fn overlaps(self, other: Access) -> bool {
+        match (self.range(), other.range()) {
+            (Some((a0, a1)), Some((b0, b1))) => a0 < b1 && b0 < a1,
+            _ => true,
+        }
+    }
 }
 
 /// One dispatch.
@@ -55,6 +82,14 @@ pub enum Step {
     Fill {
         buffer: BufferId,
         value: u32,
+    },
+    /// Write `bytes` into a buffer at `offset` (a host value that changed between frames:
+    /// parameters, a collider's pose, a pinned particle). Recorded inline (`vkCmdUpdateBuffer`),
+    /// so it is ordered with the frame on the queue and needs no staging or wait.
+    Write {
+        buffer: BufferId,
+        offset: u64,
+        bytes: Vec<u8>,
     },
     Run(Pass),
     /// A pass the scene does not need: not recorded, reported as skipped.
@@ -84,10 +119,22 @@ impl Step {
         Step::Fill { buffer: buffer.id(), value }
     }
 
+    /// Writes `data` into `buffer` from element `index` on.
+    pub fn write<T: bytemuck::Pod>(buffer: Handle<T>, index: u32, data: &[T]) -> Step {
+        Step::Write {
+            buffer: buffer.id(),
+            offset: index as u64 * size_of::<T>() as u64,
+            bytes: bytemuck::cast_slice(data).to_vec(),
+        }
+    }
+
     /// Every buffer this step touches and how: what executors derive barriers from.
     pub fn accesses(&self) -> Vec<(BufferId, Access)> {
         match self {
             Step::Fill { buffer, .. } => vec![(*buffer, Access::Write)],
+            Step::Write { buffer, offset, bytes } => {
+                vec![(*buffer, Access::WriteBytes { offset: *offset, len: bytes.len() as u64 })]
+            }
             Step::Skip { .. } => Vec::new(),
             Step::Run(pass) => {
                 let mut out: Vec<(BufferId, Access)> = pass
@@ -110,24 +157,26 @@ impl Step {
 /// read since (write-after-read). A barrier covers every earlier command, so both sets reset.
 #[derive(Default)]
 pub struct HazardTracker {
-    written: Vec<BufferId>,
+    written: Vec<(BufferId, Access)>,
     read: Vec<BufferId>,
 }
 
 impl HazardTracker {
     /// Whether `accesses` must wait for earlier steps; then records them.
     pub fn needs_barrier(&mut self, accesses: &[(BufferId, Access)]) -> bool {
-        let hazard = accesses
-            .iter()
-            .any(|&(id, access)| self.written.contains(&id) || (access == Access::Write && self.read.contains(&id)));
+        let hazard = accesses.iter().any(|&(id, access)| {
+            self.written.iter().any(|&(w, earlier)| w == id && earlier.overlaps(access))
+                || (access.writes() && self.read.contains(&id))
+        });
         if hazard {
             self.written.clear();
             self.read.clear();
         }
         for &(id, access) in accesses {
-            match access {
-                Access::Write => self.written.push(id),
-                Access::Read | Access::IndirectRead => self.read.push(id),
+            if access.writes() {
+                self.written.push((id, access));
+            } else {
+                self.read.push(id);
             }
         }
         hazard

@@ -1,8 +1,7 @@
 //! One frame of a cloth: per substep the integration stages (and the contact, if any), then the
 //! vertex normals and the blow-up check.
 
-use super::contact::ContactBuffers;
-use super::lbvh::LbvhBuffers;
+use super::contact::ColliderBuffers;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::integrate::INTEGRATE_STAGE;
 use crate::kernels::normals::{CHECK_HEALTH, VERTEX_NORMALS};
@@ -90,17 +89,13 @@ pub struct FramePlan {
     pub normals: bool,
 }
 
-/// The steps of one frame of `cloth`, colliding with `contact` after every substep.
-pub fn frame_steps(
-    plan: FramePlan,
-    cloth: &ClothBuffers,
-    contact: Option<(&ContactBuffers, &LbvhBuffers)>,
-) -> Vec<Step> {
+/// The steps of one frame of `cloth`, colliding with each of `colliders` after every substep.
+pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[ColliderBuffers]) -> Vec<Step> {
     let a = (cloth.xa, cloth.va);
     let b = (cloth.xb, cloth.vb);
     let mut steps = vec![Step::fill(cloth.health, 0)];
-    if let Some((c, _)) = contact {
-        steps.push(Step::fill(c.status, 0));
+    for c in colliders {
+        steps.push(Step::fill(c.contact.status, 0));
     }
     for substep in 0..plan.substeps {
         if plan.integrator == integrator::SEMI_IMPLICIT_EULER {
@@ -113,11 +108,12 @@ pub fn frame_steps(
             steps.push(cloth.stage("rk4: k3", 2, b, a));
             steps.push(cloth.stage("rk4: k4 + update", 3, a, b));
         }
-        match contact {
-            Some((c, collider)) => c.substep_steps(cloth, collider, &mut steps),
-            // A skipped pass is listed once, not once per substep.
-            None if substep == 0 => steps.push(Step::Skip { label: "collide" }),
-            None => {}
+        for c in colliders {
+            c.substep_steps(cloth, (substep, plan.substeps), &mut steps);
+        }
+        // A skipped pass is listed once, not once per substep.
+        if colliders.is_empty() && substep == 0 {
+            steps.push(Step::Skip { label: "collide" });
         }
     }
     if plan.normals {

@@ -6,7 +6,7 @@ use super::cloth::ClothBuffers;
 use super::lbvh::LbvhBuffers;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::collide::{COLLIDE, COLLIDE_BRUTE_FORCE, CULL_COLLISION};
-use drape_types::{CollisionStatus, DispatchArgs};
+use drape_types::{ColliderPose, CollisionStatus, ContactPush, DispatchArgs};
 
 /// Label of the collision traversal pass.
 pub const COLLIDE_LABEL: &str = "collide (BVH)";
@@ -20,6 +20,30 @@ pub enum ContactMode {
     Bvh,
     /// Test every sphere for every particle (baseline for benchmarks and tests).
     BruteForce,
+}
+
+/// One collider as a cloth frame sees it: its LBVH (built in the collider's own frame), its
+/// pose at the frame's start and end, and the contact's buffers.
+pub struct ColliderBuffers {
+    pub lbvh: LbvhBuffers,
+    pub pose: Handle<ColliderPose>,
+    pub contact: ContactBuffers,
+}
+
+impl ColliderBuffers {
+    /// Buffers of a collider with `leaves` leaves; `name` prefixes their debug names.
+    pub fn declare(resources: &mut Resources, name: &str, leaves: u32, mode: ContactMode) -> Self {
+        ColliderBuffers {
+            lbvh: LbvhBuffers::declare(resources, name, leaves),
+            pose: resources.device(format!("{name}: pose"), 1),
+            contact: ContactBuffers::declare(resources, &format!("{name} contact"), mode),
+        }
+    }
+
+    /// The contact passes of substep `span.0` of `span.1`.
+    pub fn substep_steps(&self, cloth: &ClothBuffers, span: (u32, u32), out: &mut Vec<Step>) {
+        self.contact.substep_steps(cloth, &self.lbvh, self.pose, span, out);
+    }
 }
 
 /// The contact's own buffers (one cloth against one collider).
@@ -39,17 +63,32 @@ impl ContactBuffers {
         }
     }
 
-    /// The contact passes of one substep.
-    pub fn substep_steps(&self, cloth: &ClothBuffers, collider: &LbvhBuffers, out: &mut Vec<Step>) {
+    /// The contact passes of substep `substep` of `substeps`, against the collider whose LBVH
+    /// (in its own frame) is `collider` and whose frame-start and frame-end poses are in `pose`.
+    fn substep_steps(
+        &self,
+        cloth: &ClothBuffers,
+        collider: &LbvhBuffers,
+        pose: Handle<ColliderPose>,
+        (substep, substeps): (u32, u32),
+        out: &mut Vec<Step>,
+    ) {
         let c = collider;
+        let span = ContactPush {
+            from: substep as f32 / substeps as f32,
+            to: (substep + 1) as f32 / substeps as f32,
+            _pad: [0; 2],
+        };
+        let push: [u32; 4] = bytemuck::cast(span);
         match self.mode {
             ContactMode::Bvh => {
-                out.push(Step::run(
+                out.push(Step::run_with(
                     CULL_LABEL,
                     &CULL_COLLISION,
                     vec![
                         cloth.params.id(),
                         c.collider.id(),
+                        pose.id(),
                         c.aabbs.id(),
                         c.sorted.id(),
                         cloth.x.id(),
@@ -57,14 +96,16 @@ impl ContactBuffers {
                         self.args.id(),
                         self.status.id(),
                     ],
+                    push,
                     Dispatch::Workgroups(1),
                 ));
-                out.push(Step::run(
+                out.push(Step::run_with(
                     COLLIDE_LABEL,
                     &COLLIDE,
                     vec![
                         cloth.params.id(),
                         c.collider.id(),
+                        pose.id(),
                         c.nodes.id(),
                         c.aabbs.id(),
                         c.sorted.id(),
@@ -73,13 +114,23 @@ impl ContactBuffers {
                         cloth.x_prev.id(),
                         self.status.id(),
                     ],
+                    push,
                     Dispatch::Indirect(self.args),
                 ));
             }
-            ContactMode::BruteForce => out.push(Step::run(
+            ContactMode::BruteForce => out.push(Step::run_with(
                 "collide (brute force)",
                 &COLLIDE_BRUTE_FORCE,
-                vec![cloth.params.id(), c.collider.id(), c.sorted.id(), cloth.x.id(), cloth.v.id(), cloth.x_prev.id()],
+                vec![
+                    cloth.params.id(),
+                    c.collider.id(),
+                    pose.id(),
+                    c.sorted.id(),
+                    cloth.x.id(),
+                    cloth.v.id(),
+                    cloth.x_prev.id(),
+                ],
+                push,
                 Dispatch::Threads(cloth.particles),
             )),
         }

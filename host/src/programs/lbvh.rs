@@ -59,15 +59,35 @@ impl LbvhBuffers {
             vec![self.collider.id(), self.spheres.id(), self.order.id(), self.sorted.id()],
             Dispatch::Threads(n),
         ));
-        steps.push(Step::fill(self.flags, 0));
-        // The refit writes xyz words only; zero the w words too.
-        steps.push(Step::fill(self.aabbs, 0));
         steps.push(Step::run(
             "build nodes",
             &BUILD_NODES,
             vec![self.collider.id(), self.codes.id(), self.nodes.id(), self.parents.id()],
             Dispatch::Threads(n.saturating_sub(1).max(1)),
         ));
+        self.push_refit(&mut steps);
+        steps
+    }
+
+    /// Refit after the leaves moved (same leaves, same tree): gather the leaves in the tree's
+    /// order again and recompute every box bottom-up. The tree stays valid for any motion;
+    /// its quality degrades only as leaves that were neighbours drift apart.
+    pub fn refit_steps(&self) -> Vec<Step> {
+        let mut steps = vec![Step::run(
+            "gather leaves",
+            &GATHER_LEAVES,
+            vec![self.collider.id(), self.spheres.id(), self.order.id(), self.sorted.id()],
+            Dispatch::Threads(self.leaves),
+        )];
+        self.push_refit(&mut steps);
+        steps
+    }
+
+    fn push_refit(&self, steps: &mut Vec<Step>) {
+        let n = self.leaves;
+        steps.push(Step::fill(self.flags, 0));
+        // The refit writes xyz words only; zero the w words too.
+        steps.push(Step::fill(self.aabbs, 0));
         steps.push(Step::run(
             "refit",
             &REFIT,
@@ -81,6 +101,5 @@ impl LbvhBuffers {
             ],
             Dispatch::Threads(n),
         ));
-        steps
     }
 }

@@ -4,11 +4,21 @@
 //! only the tangential part of its velocity. A one-workgroup culling pass first tests the cloth's
 //! swept bounds against the collider's root box and dispatches the traversal indirectly with
 //! zero workgroups when they cannot touch.
+//!
+//! The LBVH lives in the collider's own frame. Each substep, a particle's start and end
+//! positions are taken into that frame with the collider's pose at the substep's start and end
+//! (interpolated from the frame's previous and current pose), so the test sees the motion
+//! relative to the collider: a moving collider sweeps the cloth instead of jumping through it.
+//! The response acts on the velocity relative to the collider's surface there. A static
+//! collider (identity poses) gives exactly the frame-fixed test.
 
 use crate::atomics;
 use crate::lbvh::sphere_aabb;
+use crate::pose::{SubstepMotion, rotate, rotate_inverse, to_local, to_world};
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{Aabb, BvhNode, ColliderParams, CollisionStatus, DispatchArgs, LEAF_BIT, SimParams};
+use drape_types::{
+    Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, ContactPush, DispatchArgs, LEAF_BIT, SimParams,
+};
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
 use spirv_std::spirv;
@@ -159,24 +169,34 @@ pub fn brute_force(collider: &ColliderParams, spheres: &[Vec4], p0: Vec3, p1: Ve
     best
 }
 
-/// Applies `contact` (if any) to particle `index`, whose substep started at `x_prev`.
+/// Applies `contact` (if any, found for the collider-frame motion `p0 -> p1`) to particle
+/// `index`: the response acts in the collider's frame on the velocity relative to its surface.
 #[inline]
 pub fn apply_contact(
     index: u32,
     contact: Contact,
     collider: &ColliderParams,
+    motion: &SubstepMotion,
+    (p0, p1): (Vec3, Vec3),
     x: &mut [Vec4],
     v: &mut [Vec4],
-    x_prev: &[Vec4],
 ) {
     let (thickness, friction) = (collider.thickness, collider.friction);
     let i = index as usize;
     if contact.t <= 1.0 {
-        let here = x[i];
-        let (position, velocity) = respond(x_prev[i].xyz(), here.xyz(), v[i].xyz(), contact, thickness, friction);
-        x[i] = position.extend(here.w);
-        v[i] = velocity.extend(0.0);
+        let surface = motion.velocity_at(p1);
+        let relative = rotate_inverse(motion.end.rotation, v[i].xyz() - surface);
+        let (position, velocity) = respond(p0, p1, relative, contact, thickness, friction);
+        x[i] = to_world(&motion.end, position).extend(x[i].w);
+        v[i] = (rotate(motion.end.rotation, velocity) + surface).extend(0.0);
     }
+}
+
+/// Particle `index`'s substep motion in the collider's frame (start, end).
+#[inline]
+pub fn local_motion(index: u32, motion: &SubstepMotion, x: &[Vec4], x_prev: &[Vec4]) -> (Vec3, Vec3) {
+    let i = index as usize;
+    (to_local(&motion.start, x_prev[i].xyz()), to_local(&motion.end, x[i].xyz()))
 }
 
 /// One particle's collision through the LBVH; returns whether its stack overflowed.
@@ -184,6 +204,7 @@ pub fn apply_contact(
 pub fn collide_at(
     index: u32,
     collider: &ColliderParams,
+    motion: &SubstepMotion,
     nodes: &[BvhNode],
     aabbs: &[Aabb],
     spheres: &[Vec4],
@@ -191,50 +212,61 @@ pub fn collide_at(
     v: &mut [Vec4],
     x_prev: &[Vec4],
 ) -> bool {
-    let i = index as usize;
-    if x[i].w == 0.0 {
+    if x[index as usize].w == 0.0 {
         return false;
     }
-    let (contact, overflow) = traverse(collider, nodes, aabbs, spheres, x_prev[i].xyz(), x[i].xyz());
-    apply_contact(index, contact, collider, x, v, x_prev);
+    let (p0, p1) = local_motion(index, motion, x, x_prev);
+    let (contact, overflow) = traverse(collider, nodes, aabbs, spheres, p0, p1);
+    apply_contact(index, contact, collider, motion, (p0, p1), x, v);
     overflow
 }
 
 /// One particle's collision by testing every sphere.
+#[allow(clippy::too_many_arguments)]
 pub fn collide_brute_force_at(
     index: u32,
     collider: &ColliderParams,
+    motion: &SubstepMotion,
     spheres: &[Vec4],
     x: &mut [Vec4],
     v: &mut [Vec4],
     x_prev: &[Vec4],
 ) {
-    let i = index as usize;
-    if x[i].w == 0.0 {
+    if x[index as usize].w == 0.0 {
         return;
     }
-    let contact = brute_force(collider, spheres, x_prev[i].xyz(), x[i].xyz());
-    apply_contact(index, contact, collider, x, v, x_prev);
+    let (p0, p1) = local_motion(index, motion, x, x_prev);
+    let contact = brute_force(collider, spheres, p0, p1);
+    apply_contact(index, contact, collider, motion, (p0, p1), x, v);
+}
+
+/// The collider's motion over the substep a contact pass runs in.
+#[inline]
+pub fn substep_motion(params: &SimParams, pose: &ColliderPose, push: &ContactPush) -> SubstepMotion {
+    SubstepMotion::of(pose, push.from, push.to, params.substep)
 }
 
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
 pub fn collide(
     #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &ContactPush,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spheres: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x: &mut [Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] v: &mut [Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] status: &mut CollisionStatus,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] spheres: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] v: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] status: &mut CollisionStatus,
 ) {
     if id.x >= params.particle_count {
         return;
     }
-    if collide_at(id.x, collider, nodes, aabbs, spheres, x, v, x_prev) {
+    let motion = substep_motion(params, pose, push);
+    if collide_at(id.x, collider, &motion, nodes, aabbs, spheres, x, v, x_prev) {
         atomics::add(&mut status.overflows, 1);
     }
 }
@@ -243,17 +275,20 @@ pub fn collide(
 #[spirv(compute(threads(64)))]
 pub fn collide_brute_force(
     #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &ContactPush,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] spheres: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] x: &mut [Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] v: &mut [Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] spheres: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] x: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] v: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x_prev: &[Vec4],
 ) {
     if id.x >= params.particle_count {
         return;
     }
-    collide_brute_force_at(id.x, collider, spheres, x, v, x_prev);
+    let motion = substep_motion(params, pose, push);
+    collide_brute_force_at(id.x, collider, &motion, spheres, x, v, x_prev);
 }
 
 /// Root box of the collider (a single sphere's box when there is one leaf).
@@ -262,13 +297,14 @@ pub fn root_aabb(collider: &ColliderParams, aabbs: &[Aabb], spheres: &[Vec4]) ->
     if collider.leaf_count == 1 { sphere_aabb(spheres[0]) } else { aabbs[0] }
 }
 
-/// Bounds of particles `lane, lane + stride, ...` over both ends of their substep motion.
-pub fn swept_bounds(x: &[Vec4], x_prev: &[Vec4], count: u32, lane: u32, stride: u32) -> Aabb {
+/// Bounds, in the collider's frame, of particles `lane, lane + stride, ...` over both ends of
+/// their substep motion relative to the collider.
+pub fn swept_bounds(motion: &SubstepMotion, x: &[Vec4], x_prev: &[Vec4], count: u32, lane: u32, stride: u32) -> Aabb {
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
     let mut i = lane;
     while i < count {
-        let (a, b) = (x[i as usize].xyz(), x_prev[i as usize].xyz());
+        let (b, a) = local_motion(i, motion, x, x_prev);
         lo = lo.min(a).min(b);
         hi = hi.max(a).max(b);
         i += stride;
@@ -295,19 +331,22 @@ pub const CULL_THREADS: u32 = 256;
 #[spirv(compute(threads(256)))]
 pub fn cull_collision(
     #[spirv(local_invocation_id)] lid: UVec3,
+    #[spirv(push_constant)] push: &ContactPush,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] spheres: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] args: &mut DispatchArgs,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] status: &mut CollisionStatus,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spheres: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] args: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] status: &mut CollisionStatus,
     #[spirv(workgroup)] lows: &mut [Vec4; 256],
     #[spirv(workgroup)] highs: &mut [Vec4; 256],
 ) {
     let lane = lid.x;
-    let own = swept_bounds(x, x_prev, params.particle_count, lane, CULL_THREADS);
+    let motion = substep_motion(params, pose, push);
+    let own = swept_bounds(&motion, x, x_prev, params.particle_count, lane, CULL_THREADS);
     lows[lane as usize] = own.min;
     highs[lane as usize] = own.max;
     let mut stride = CULL_THREADS / 2;

@@ -15,6 +15,7 @@ pub mod health;
 pub mod integrate;
 pub mod lbvh;
 pub mod normals;
+pub mod pose;
 pub mod sort;
 
 /// Threads per workgroup of every 1-D kernel here (the host divides by it).

@@ -122,6 +122,50 @@ pub struct ColliderParams {
     pub scene_max: Vec4,
 }
 
+/// A rigid transform: rotate by the unit quaternion `rotation` (xyz = vector part, w = scalar
+/// part), then translate by `translation.xyz` (w unused). Maps a collider's own frame, where
+/// its LBVH is built, to the world.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct RigidPose {
+    pub rotation: Vec4,
+    pub translation: Vec4,
+}
+
+impl RigidPose {
+    /// The identity transform.
+    pub const IDENTITY: RigidPose = RigidPose { rotation: Vec4::new(0.0, 0.0, 0.0, 1.0), translation: Vec4::ZERO };
+}
+
+impl Default for RigidPose {
+    fn default() -> Self {
+        RigidPose::IDENTITY
+    }
+}
+
+/// A collider's pose at the start and at the end of the frame. Contact interpolates between
+/// them per substep and tests the particle's motion relative to the collider's, so a moving
+/// collider sweeps the cloth instead of jumping through it.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct ColliderPose {
+    pub previous: RigidPose,
+    pub current: RigidPose,
+}
+
+/// Push constants of the contact passes: the substep's span as fractions of the frame
+/// (`from` = s / S, `to` = (s + 1) / S for substep s of S).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct ContactPush {
+    pub from: f32,
+    pub to: f32,
+    pub _pad: [u32; 2],
+}
+
 /// Push constants of the sort and scan passes.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
@@ -166,5 +210,8 @@ const _: () = assert!(core::mem::size_of::<Aabb>() == 32);
 const _: () = assert!(core::mem::size_of::<Aabb>() == AABB_WORDS as usize * 4);
 const _: () = assert!(core::mem::size_of::<ColliderParams>() == 48);
 const _: () = assert!(core::mem::size_of::<SortPush>() == 16);
+const _: () = assert!(core::mem::size_of::<RigidPose>() == 32);
+const _: () = assert!(core::mem::size_of::<ColliderPose>() == 64);
+const _: () = assert!(core::mem::size_of::<ContactPush>() == 16);
 const _: () = assert!(core::mem::size_of::<CollisionStatus>() == 16);
 const _: () = assert!(core::mem::size_of::<DispatchArgs>() == 16);
