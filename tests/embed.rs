@@ -203,30 +203,190 @@ fn runtime_changes_take_effect() {
     assert_validation_clean(&ctx);
 }
 
-/// 10,000 frames with a parameter change and a teleport every frame, under validation: the
-/// allocator's allocations and blocks stay exactly as they were after the first frame.
+/// 10,000 frames under validation with, every frame, a collider move, a gravity and a wind
+/// change, and now and then a stiffness change (new substep count), a contact change, an
+/// animated pin, a deformation (refit) and a teleport: the allocator's allocations and blocks
+/// stay exactly as they were after the first frames.
 #[test]
-fn a_10000_frame_soak_with_runtime_changes_allocates_nothing() {
+fn a_10000_frame_soak_with_motion_and_runtime_changes_allocates_nothing() {
     let ctx = context();
     let small = ClothBuilder::new(4, 4).pin_top_corners().build().unwrap();
-    let settings = SimSettings { substeps: Some(1), timestamps: false, ..SimSettings::default() };
-    let mut sim = Simulation::new(&ctx, &small, settings).unwrap();
+    let spheres = vec![Vec4::new(0.0, 0.0, 0.0, 0.1), Vec4::new(0.3, 0.0, 0.0, 0.1)];
+    let collider = drape::Collider::new(spheres.clone(), 0.005);
+    let settings = SimSettings { timestamps: false, ..SimSettings::default() };
+    let mut sim = Simulation::with_collider(&ctx, &small, settings, Some(&collider)).unwrap();
     sim.step().unwrap();
     let start = sim.positions().unwrap();
     let rest: Vec<Vec3> = start.iter().map(|p| p.truncate()).collect();
     let zero = vec![Vec3::ZERO; rest.len()];
     sim.set_state(&rest, &zero).unwrap(); // first use of the staging pool
     let before = sim.memory_report();
+    let mut substep_counts = std::collections::BTreeSet::new();
     for frame in 0..10_000u32 {
         let phase = frame as f32 * 0.01;
+        let orbit = glam::Quat::from_rotation_y(phase);
+        sim.set_collider_pose(0, orbit, Vec3::new(0.2 * phase.cos(), -0.3, 0.2 * phase.sin())).unwrap();
         sim.set_gravity(Vec3::new(0.0, -9.81 + phase.sin(), 0.0)).unwrap();
         sim.set_external_force(Vec3::new(0.001 * phase.cos(), 0.0, 0.0)).unwrap();
+        if frame % 500 == 0 {
+            let k = if frame % 1000 == 0 { 40.0 } else { 160.0 };
+            sim.set_stiffness(k, k / 4.0, k / 20.0).unwrap();
+            sim.set_contact(0, 0.005 + 0.001 * (frame % 3) as f32, 0.2).unwrap();
+            let swollen: Vec<Vec4> =
+                spheres.iter().map(|s| s.truncate().extend(s.w * (1.0 + 0.1 * phase.sin()))).collect();
+            sim.set_collider_spheres(0, &swollen).unwrap();
+        }
         if frame % 100 == 0 {
             sim.set_state(&rest, &zero).unwrap();
         }
+        sim.pin(3, Some(rest[3] + Vec3::new(0.0, 0.05 * phase.sin(), 0.0))).unwrap();
         sim.step().unwrap();
+        substep_counts.insert(sim.stability().substeps);
     }
     assert_eq!(sim.memory_report(), before, "memory changed over the soak");
+    assert!(substep_counts.len() >= 2, "the stiffness changes should change the substep count");
     assert!(sim.positions().unwrap().iter().all(|p| p.is_finite()));
     assert_validation_clean(&ctx);
+}
+
+/// The caller's side of frames in flight: a command pool on drape's queue family, one command
+/// buffer and fence per frame slot, submissions to the caller's own queue handle.
+struct CallerFrames<'a> {
+    caller: &'a CallerDevice,
+    pool: vk::CommandPool,
+    slots: Vec<(vk::CommandBuffer, vk::Fence)>,
+    queue: vk::Queue,
+}
+
+impl<'a> CallerFrames<'a> {
+    fn new(caller: &'a CallerDevice, in_flight: u32) -> Self {
+        unsafe {
+            let d = &caller.device;
+            let pool = d
+                .create_command_pool(
+                    &vk::CommandPoolCreateInfo::default()
+                        .queue_family_index(caller.family)
+                        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
+                    None,
+                )
+                .unwrap();
+            let buffers = d
+                .allocate_command_buffers(
+                    &vk::CommandBufferAllocateInfo::default().command_pool(pool).command_buffer_count(in_flight),
+                )
+                .unwrap();
+            let signalled = vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED);
+            let slots = buffers.into_iter().map(|cb| (cb, d.create_fence(&signalled, None).unwrap())).collect();
+            CallerFrames { caller, pool, slots, queue: d.get_device_queue(caller.family, 0) }
+        }
+    }
+
+    /// Frame `frame`: waits for its slot's previous use, records `body` into the slot's command
+    /// buffer and submits it (without waiting).
+    fn run(&self, frame: usize, body: impl FnOnce(vk::CommandBuffer)) {
+        let (cb, fence) = self.slots[frame % self.slots.len()];
+        let d = &self.caller.device;
+        unsafe {
+            d.wait_for_fences(&[fence], true, u64::MAX).unwrap();
+            d.reset_fences(&[fence]).unwrap();
+            d.reset_command_buffer(cb, vk::CommandBufferResetFlags::empty()).unwrap();
+            d.begin_command_buffer(cb, &vk::CommandBufferBeginInfo::default()).unwrap();
+            body(cb);
+            d.end_command_buffer(cb).unwrap();
+            let cbs = [cb];
+            d.queue_submit(self.queue, &[vk::SubmitInfo::default().command_buffers(&cbs)], fence).unwrap();
+        }
+    }
+
+    fn wait_all(&self) {
+        let fences: Vec<vk::Fence> = self.slots.iter().map(|s| s.1).collect();
+        unsafe { self.caller.device.wait_for_fences(&fences, true, u64::MAX).unwrap() };
+    }
+}
+
+impl Drop for CallerFrames<'_> {
+    fn drop(&mut self) {
+        self.wait_all();
+        unsafe {
+            for &(_, fence) in &self.slots {
+                self.caller.device.destroy_fence(fence, None);
+            }
+            self.caller.device.destroy_command_pool(self.pool, None);
+        }
+    }
+}
+
+/// Frames recorded into the caller's command buffers (two in flight, submitted by the caller,
+/// never waited for by drape) give exactly the positions of drape's own `step()`, and the
+/// frames' status is read back one or more frames late without a stall.
+#[test]
+fn frames_recorded_into_a_callers_command_buffers_match_step() {
+    let caller = CallerDevice::new();
+    let ctx = caller.import();
+    let settings = SimSettings { substeps: Some(4), timestamps: false, ..SimSettings::default() };
+    let mut sim = Simulation::new(&ctx, &cloth(), settings).unwrap();
+    let frames = CallerFrames::new(&caller, 2);
+    for frame in 0..20 {
+        // A runtime change mid-run travels inside the caller's command buffer.
+        if frame == 10 {
+            sim.set_external_force(Vec3::new(0.02, 0.0, 0.0)).unwrap();
+        }
+        frames.run(frame, |cb| unsafe { sim.record(cb) }.unwrap());
+        sim.poll_status().unwrap();
+        assert!(sim.frames_checked() < sim.frames_done(), "the last frame cannot have been read yet");
+    }
+    assert_eq!(sim.frames_done(), 20);
+    frames.wait_all();
+    sim.poll_status().unwrap();
+    assert_eq!(sim.frames_checked(), 20, "every frame's status is read");
+    assert_eq!(sim.frames_in_flight(), 0);
+    let recorded = sim.positions().unwrap();
+    drop(frames);
+    drop(sim);
+    drop(ctx);
+
+    let own = context();
+    let mut reference = Simulation::new(&own, &cloth(), settings).unwrap();
+    for frame in 0..20 {
+        if frame == 10 {
+            reference.set_external_force(Vec3::new(0.02, 0.0, 0.0)).unwrap();
+        }
+        reference.step().unwrap();
+    }
+    assert_eq!(recorded, reference.positions().unwrap(), "recorded frames == step()");
+    assert_validation_clean(&own);
+    let errors = std::mem::take(&mut *CALLER_VALIDATION.lock().unwrap());
+    assert!(errors.is_empty(), "validation errors:\n{}", errors.join("\n"));
+}
+
+/// A blow-up in a frame recorded into the caller's command buffer surfaces as the same
+/// `Error::Unstable` as with `step()`, from a later `record`/`poll_status`, naming its frame.
+#[test]
+fn a_blow_up_in_a_recorded_frame_is_reported_late_without_a_stall() {
+    let caller = CallerDevice::new();
+    let ctx = caller.import();
+    // 1 substep of a very stiff cloth: far beyond the stability bound.
+    let stiff = ClothBuilder::new(8, 8).pin_top_corners().stiffness(1e6, 1e6, 1e6).build().unwrap();
+    let settings = SimSettings { substeps: Some(1), timestamps: false, ..SimSettings::default() };
+    let mut sim = Simulation::new(&ctx, &stiff, settings).unwrap();
+    assert!(sim.stability().ratio > 10.0);
+    let frames = CallerFrames::new(&caller, 2);
+    let mut failure = None;
+    for frame in 0..60 {
+        let mut recorded = Ok(());
+        frames.run(frame, |cb| recorded = unsafe { sim.record(cb) });
+        if let Err(e) = recorded.and_then(|_| sim.poll_status().map(|_| ())) {
+            failure = Some(e);
+            break;
+        }
+    }
+    frames.wait_all();
+    match failure {
+        Some(drape::Error::Unstable { frame, .. }) => assert!((1..60).contains(&frame), "frame {frame}"),
+        other => panic!("expected Error::Unstable, got {other:?}"),
+    }
+    drop(frames);
+    drop(sim);
+    let errors = std::mem::take(&mut *CALLER_VALIDATION.lock().unwrap());
+    assert!(errors.is_empty(), "validation errors:\n{}", errors.join("\n"));
 }

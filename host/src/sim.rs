@@ -196,6 +196,8 @@ pub struct Simulation {
     controls: Controls,
     lbvh_timings: Option<FrameTimings>,
     frames_done: u64,
+    /// Frames whose blow-up and overflow status has been read.
+    frames_checked: u64,
 }
 
 impl Simulation {
@@ -252,6 +254,7 @@ impl Simulation {
             controls,
             lbvh_timings,
             frames_done: 0,
+            frames_checked: 0,
         })
     }
 
@@ -275,6 +278,7 @@ impl Simulation {
         }
         let timings = self.frame.submit()?;
         self.frames_done += 1;
+        self.frames_checked = self.frames_done;
         let health: Health = self.engine.read_mapped(self.program.cloth.health)?;
         check_health(&health, self.frames_done, &self.controls.settings, &self.controls.stability)?;
         let mut report = FrameReport { timings, ..FrameReport::default() };
@@ -344,10 +348,11 @@ impl Simulation {
         let mut read = 0;
         while let Some((frame, bytes)) = self.status.poll()? {
             read += 1;
+            self.frames_checked = frame;
             let health: Health = bytemuck::pod_read_unaligned(&bytes[..16]);
             check_health(&health, frame, &self.controls.settings, &self.controls.stability)?;
-            for chunk in bytes[16..].chunks_exact(16) {
-                check_collision(&bytemuck::pod_read_unaligned(chunk), frame)?;
+            for chunk in bytes[16..].as_chunks::<16>().0 {
+                check_collision(&bytemuck::pod_read_unaligned(chunk.as_slice()), frame)?;
             }
         }
         Ok(read)
@@ -447,8 +452,14 @@ impl Simulation {
     pub fn settings(&self) -> &SimSettings {
         &self.controls.settings
     }
+    /// Frames run by `step` or recorded by `record`.
     pub fn frames_done(&self) -> u64 {
         self.frames_done
+    }
+    /// The last frame whose blow-up and overflow status has been read (equal to `frames_done`
+    /// after `step`; behind it while recorded frames are in flight).
+    pub fn frames_checked(&self) -> u64 {
+        self.frames_checked
     }
     pub fn context(&self) -> &Arc<Context> {
         self.engine.context()

@@ -1,0 +1,265 @@
+//! Moving and deforming colliders, and runtime parameter changes: the contact follows the
+//! collider's motion substep by substep, deformed leaves are refit on the GPU, and the GPU run
+//! stays bit-identical to its CPU twin through all of it.
+
+mod common;
+
+use common::{assert_validation_clean, context};
+use drape::{Cloth, ClothBuilder, Collider, CpuSimulation, SimSettings, Simulation};
+use glam::{Mat4, Quat, Vec3, Vec4};
+
+/// A rod of `n` separate spheres of radius `r` along x, 2.5 r apart (gaps wider than the
+/// contact thickness, so pushing a particle out of one cannot push it into another).
+fn rod(n: u32, r: f32) -> Vec<Vec4> {
+    (0..n).map(|i| Vec3::new((i as f32 - (n - 1) as f32 / 2.0) * 2.5 * r, 0.0, 0.0).extend(r)).collect()
+}
+
+/// A flat plate in the collider's xz plane: `n` x `n` spheres of radius `r`, `spacing` apart
+/// (2 r thick). With `spacing` > 2 r + 2 x thickness the spheres are separate, so pushing a
+/// particle out of one cannot push it into another (the sphere proxy resolves one contact per
+/// particle and substep); gaps far smaller than the cloth's cells keep the plate solid to it.
+fn plate(n: u32, r: f32, spacing: f32) -> Vec<Vec4> {
+    let half = (n - 1) as f32 / 2.0;
+    let mut spheres = Vec::new();
+    for i in 0..n {
+        for k in 0..n {
+            spheres.push(Vec4::new((i as f32 - half) * spacing, 0.0, (k as f32 - half) * spacing, r));
+        }
+    }
+    spheres
+}
+
+/// A horizontal, fairly stiff cloth at height `y`, pinned at its four corners.
+fn trampoline(n: u32, y: f32) -> Cloth {
+    ClothBuilder::new(n, n)
+        .stiffness(400.0, 100.0, 5.0)
+        .pin(0, 0)
+        .pin(0, n - 1)
+        .pin(n - 1, 0)
+        .pin(n - 1, n - 1)
+        .transform(Mat4::from_translation(Vec3::new(0.0, y, 0.0)))
+        .build()
+        .unwrap()
+}
+
+/// Smallest (distance to a sphere's centre - its radius) over all particles and spheres, with
+/// the spheres placed by `pose`: negative means a particle is inside a sphere.
+fn clearance(positions: &[Vec4], spheres: &[Vec4], rotation: Quat, translation: Vec3) -> f32 {
+    let mut worst = f32::INFINITY;
+    for s in spheres {
+        let centre = rotation * s.truncate() + translation;
+        for p in positions {
+            worst = worst.min((p.truncate() - centre).length() - s.w);
+        }
+    }
+    worst
+}
+
+/// Particles over the plate's footprint (in its frame, |x|, |z| < `half`) that are below its
+/// mid-plane: the plate passed through them.
+fn below_plate(positions: &[Vec4], rotation: Quat, translation: Vec3, half: f32) -> usize {
+    positions
+        .iter()
+        .map(|p| rotation.inverse() * (p.truncate() - translation))
+        .filter(|l| l.x.abs() < half && l.z.abs() < half && l.y < 0.0)
+        .count()
+}
+
+/// The plate's pose at frame `f`: rising 2 cm per frame from below the cloth and turning
+/// about the vertical.
+fn plate_pose(f: u32) -> (Quat, Vec3) {
+    (Quat::from_rotation_y(0.05 * f as f32), Vec3::new(0.0, -0.15 + 0.02 * f as f32, 0.0))
+}
+
+/// A turning plate of separate spheres rises under a pinned cloth and lifts it: no particle
+/// ends a frame inside any of its spheres. (Whether particles slip through the holes between
+/// the spheres is the fast-plate test's business, with a solid plate.)
+#[test]
+fn a_rising_turning_collider_lifts_the_cloth_without_entering_it() {
+    let ctx = context();
+    let spheres = plate(6, 0.03, 0.072);
+    let (q0, t0) = plate_pose(0);
+    let collider = Collider::new(spheres.clone(), 0.005).with_pose(q0, t0);
+    let mut sim =
+        Simulation::with_collider(&ctx, &trampoline(24, 0.0), SimSettings::default(), Some(&collider)).unwrap();
+    let mut worst = f32::INFINITY;
+    for f in 1..=30 {
+        let (rotation, translation) = plate_pose(f);
+        sim.set_collider_pose(0, rotation, translation).unwrap();
+        sim.step().unwrap();
+        worst = worst.min(clearance(&sim.positions().unwrap(), &spheres, rotation, translation));
+    }
+    assert!(worst > -1e-4, "a particle ended {:.2} mm inside the moving plate", -worst * 1e3);
+    let top = sim.positions().unwrap().iter().map(|p| p.y).fold(f32::MIN, f32::max);
+    assert!(top > plate_pose(30).1.y, "the cloth was not lifted (top {top})");
+    assert_validation_clean(&ctx);
+}
+
+/// A plate at 4 m/s (6.7 cm per frame, more than its 6 cm thickness) hits the cloth: because
+/// contact interpolates the plate's pose per substep, the cloth is carried instead of the plate
+/// jumping through it between frames.
+#[test]
+fn a_fast_plate_does_not_jump_through_the_cloth_between_frames() {
+    let ctx = context();
+    let spheres = plate(7, 0.03, 0.03);
+    let start = Vec3::new(0.0, -0.1, 0.0);
+    let collider = Collider::new(spheres.clone(), 0.005).with_pose(Quat::IDENTITY, start);
+    let mut sim =
+        Simulation::with_collider(&ctx, &trampoline(24, 0.0), SimSettings::default(), Some(&collider)).unwrap();
+    let per_frame = 4.0 / 60.0;
+    assert!(per_frame > 2.0 * 0.03 + 0.005);
+    let mut position = start;
+    let mut below = 0;
+    for _ in 0..6 {
+        position.y += per_frame;
+        sim.set_collider_pose(0, Quat::IDENTITY, position).unwrap();
+        sim.step().unwrap();
+        below = below.max(below_plate(&sim.positions().unwrap(), Quat::IDENTITY, position, 0.08));
+    }
+    assert_eq!(below, 0, "particles ended below the fast plate: it jumped through the cloth");
+    let top = sim.positions().unwrap().iter().map(|p| p.y).fold(f32::MIN, f32::max);
+    assert!(top >= position.y, "cloth top {top}, plate at {}: the plate passed through", position.y);
+    assert_validation_clean(&ctx);
+}
+
+/// With a moving collider the GPU frame equals its CPU twin bit for bit, and the BVH contact
+/// equals the brute-force contact.
+#[test]
+fn a_moving_collider_gpu_equals_cpu_and_bvh_equals_brute_force() {
+    let ctx = context();
+    let cloth = trampoline(12, 0.0);
+    let (q0, t0) = plate_pose(0);
+    let collider = Collider::new(plate(5, 0.05, 0.05), 0.005).with_pose(q0, t0);
+    let brute = Collider { use_bvh: false, ..collider.clone() };
+    let settings = SimSettings { timestamps: false, ..SimSettings::default() };
+    let mut gpu = Simulation::with_collider(&ctx, &cloth, settings, Some(&collider)).unwrap();
+    let mut gpu_brute = Simulation::with_collider(&ctx, &cloth, settings, Some(&brute)).unwrap();
+    let mut cpu = CpuSimulation::with_collider(&cloth, settings, Some(&collider)).unwrap();
+    for f in 1..=20 {
+        let (rotation, translation) = plate_pose(f);
+        gpu.set_collider_pose(0, rotation, translation).unwrap();
+        gpu_brute.set_collider_pose(0, rotation, translation).unwrap();
+        cpu.set_collider_pose(0, rotation, translation).unwrap();
+        gpu.step().unwrap();
+        gpu_brute.step().unwrap();
+        cpu.step().unwrap();
+        let positions = gpu.positions().unwrap();
+        assert_eq!(positions, cpu.positions(), "frame {f}: GPU != CPU");
+        assert_eq!(gpu.velocities().unwrap(), cpu.velocities(), "frame {f}: GPU != CPU velocities");
+        assert_eq!(positions, gpu_brute.positions().unwrap(), "frame {f}: BVH != brute force");
+    }
+    assert!(cpu.positions().iter().any(|p| p.y > 0.1), "the plate did not push the cloth");
+    assert_validation_clean(&ctx);
+}
+
+/// A deforming collider (its spheres swell under a draped cloth): the leaves are written and
+/// the LBVH refit on the GPU each frame, the refit tree bounds the new leaves, no particle ends
+/// inside, and the GPU still equals the CPU.
+#[test]
+fn a_deforming_collider_is_refit_and_not_entered() {
+    let ctx = context();
+    let cloth = ClothBuilder::new(20, 20).transform(Mat4::from_translation(Vec3::new(0.0, 0.12, 0.0))).build().unwrap();
+    let base = rod(7, 0.04);
+    let collider = Collider::new(base.clone(), 0.005);
+    let settings = SimSettings { timestamps: false, ..SimSettings::default() };
+    let mut gpu = Simulation::with_collider(&ctx, &cloth, settings, Some(&collider)).unwrap();
+    let mut cpu = CpuSimulation::with_collider(&cloth, settings, Some(&collider)).unwrap();
+    let mut worst = f32::INFINITY;
+    let mut spheres = base.clone();
+    for f in 1..=30 {
+        // Swell the radii (2.5 r spacing keeps gaps) and bend the rod upwards in the middle.
+        spheres = base
+            .iter()
+            .map(|s| {
+                let bend = 0.002 * f as f32 * (1.0 - (s.x / 0.4).powi(2));
+                Vec4::new(s.x, bend, s.z, s.w * (1.0 + 0.008 * f as f32))
+            })
+            .collect();
+        gpu.set_collider_spheres(0, &spheres).unwrap();
+        cpu.set_collider_spheres(0, &spheres).unwrap();
+        gpu.step().unwrap();
+        cpu.step().unwrap();
+        let positions = gpu.positions().unwrap();
+        assert_eq!(positions, cpu.positions(), "frame {f}: GPU != CPU");
+        worst = worst.min(clearance(&positions, &spheres, Quat::IDENTITY, Vec3::ZERO));
+    }
+    assert!(worst > -1e-4, "a particle ended {:.2} mm inside the deforming collider", -worst * 1e3);
+    let tree = gpu.collider_bvh(0).unwrap().unwrap();
+    tree.validate(&spheres).expect("the refit tree bounds the deformed leaves");
+    assert!(gpu.set_collider_spheres(0, &spheres[1..]).is_err(), "a different leaf count is refused");
+    assert_validation_clean(&ctx);
+}
+
+/// A stiffness or `dt` change before the first frame gives exactly the run built with it, and
+/// automatic substeps follow the stability bound.
+#[test]
+fn stiffness_and_dt_changes_equal_building_with_them() {
+    let ctx = context();
+    let builder = ClothBuilder::new(10, 10).pin_top_corners();
+    let settings = SimSettings { timestamps: false, ..SimSettings::default() };
+    let mut changed = Simulation::new(&ctx, &builder.clone().build().unwrap(), settings).unwrap();
+    let substeps_before = changed.stability().substeps;
+    changed.set_stiffness(160.0, 40.0, 8.0).unwrap();
+    changed.set_frame_dt(1.0 / 30.0).unwrap();
+    let stiff = builder.stiffness(160.0, 40.0, 8.0).build().unwrap();
+    let mut built = Simulation::new(&ctx, &stiff, SimSettings { frame_dt: 1.0 / 30.0, ..settings }).unwrap();
+    assert_eq!(changed.stability(), built.stability());
+    // 4x stiffness doubles omega; twice the frame time doubles again.
+    assert!(
+        changed.stability().substeps >= 3 * substeps_before,
+        "{} vs {substeps_before}",
+        changed.stability().substeps
+    );
+    for _ in 0..10 {
+        changed.step().unwrap();
+        built.step().unwrap();
+    }
+    assert_eq!(changed.positions().unwrap(), built.positions().unwrap());
+    // Damping too; bad values are refused and change nothing.
+    changed.set_damping(0.01, 0.001).unwrap();
+    changed.step().unwrap();
+    assert!(changed.set_stiffness(-1.0, 0.0, 0.0).is_err());
+    assert!(changed.set_frame_dt(0.0).is_err());
+    assert!(changed.set_damping(f32::NAN, 0.0).is_err());
+    assert_eq!(changed.params().spring_damping, 0.01);
+    assert_validation_clean(&ctx);
+}
+
+/// Unpinned corners fall; an animated pin is exactly where it was put at every frame.
+#[test]
+fn pins_can_be_released_and_animated() {
+    let ctx = context();
+    let n = 10u32;
+    let cloth = ClothBuilder::new(n, n).pin_top_corners().build().unwrap();
+    let corners = [(n - 1) * n, n * n - 1];
+    let mut sim = Simulation::new(&ctx, &cloth, SimSettings::default()).unwrap();
+    let mut cpu = CpuSimulation::new(&cloth, SimSettings::default()).unwrap();
+    let start = sim.positions().unwrap();
+    // Animate corner 0 on a circle; release corner 1.
+    sim.unpin(corners[1]).unwrap();
+    cpu.unpin(corners[1]).unwrap();
+    for f in 1..=20 {
+        let angle = f as f32 * 0.1;
+        let target = start[corners[0] as usize].truncate() + 0.1 * Vec3::new(angle.cos() - 1.0, angle.sin(), 0.0);
+        sim.pin(corners[0], Some(target)).unwrap();
+        cpu.pin(corners[0], Some(target)).unwrap();
+        sim.step().unwrap();
+        cpu.step().unwrap();
+        let p = sim.positions().unwrap()[corners[0] as usize];
+        assert_eq!(p, target.extend(0.0), "frame {f}: the animated pin is not where it was put");
+    }
+    let end = sim.positions().unwrap();
+    assert_eq!(end, cpu.positions(), "GPU != CPU with pin changes");
+    let released = corners[1] as usize;
+    assert!(end[released].y < start[released].y - 0.05, "the released corner did not fall");
+    assert_eq!(end[released].w, 1.0);
+    // Pin a free particle where it is: it stays there.
+    let middle = (n / 2 * n + n / 2) as usize;
+    sim.pin(middle as u32, None).unwrap();
+    sim.step().unwrap();
+    let held = sim.positions().unwrap()[middle];
+    sim.step().unwrap();
+    assert_eq!(sim.positions().unwrap()[middle], held);
+    assert!(sim.pin(n * n, None).is_err(), "out-of-range particle");
+    assert_validation_clean(&ctx);
+}
