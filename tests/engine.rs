@@ -149,3 +149,22 @@ fn a_recorded_frame_outlives_its_engine() {
     drop(frame);
     assert_validation_clean(&ctx);
 }
+
+/// The SPIR-V committed for downstream crates (embedded without `rebuild-kernels`) equals this
+/// build's fresh rust-gpu module, entry points included. CI builds with `rebuild-kernels`, so a
+/// kernel change without `DRAPE_UPDATE_SPIRV=1` and a commit of `kernels/spirv/` fails here.
+#[cfg(feature = "rebuild-kernels")]
+#[test]
+fn committed_spirv_equals_a_fresh_build() {
+    let committed: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../kernels/spirv/kernels.spv"));
+    let entry_points = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../kernels/spirv/entry_points.txt"));
+    let committed_entries: Vec<&str> = entry_points.lines().filter(|l| !l.is_empty()).collect();
+    assert_eq!(committed_entries, drape::ENTRY_POINTS, "kernels/spirv/entry_points.txt is stale");
+    assert!(
+        committed == drape::KERNELS_SPV,
+        "kernels/spirv/kernels.spv ({} bytes) differs from the fresh build ({} bytes): run \
+         `DRAPE_UPDATE_SPIRV=1 cargo build --release --features rebuild-kernels` and commit kernels/spirv/",
+        committed.len(),
+        drape::KERNELS_SPV.len()
+    );
+}
