@@ -93,31 +93,53 @@ pub fn one_shot(ctx: &Arc<Context>, body: impl FnOnce(&ash::Device, vk::CommandB
     cmd.submit_and_wait()
 }
 
-/// Global barrier making transfer and compute writes visible to later compute and transfer.
-pub fn full_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
-    let barrier = [vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
-        .dst_access_mask(
-            vk::AccessFlags::SHADER_READ
-                | vk::AccessFlags::SHADER_WRITE
-                | vk::AccessFlags::TRANSFER_READ
-                | vk::AccessFlags::TRANSFER_WRITE
-                | vk::AccessFlags::INDIRECT_COMMAND_READ,
-        )];
+/// One global memory barrier: `src_access` writes of `src_stages` made available and visible to
+/// `dst_access` of `dst_stages`.
+pub fn memory_barrier(
+    device: &ash::Device,
+    cmd: vk::CommandBuffer,
+    (src_stages, src_access): (vk::PipelineStageFlags, vk::AccessFlags),
+    (dst_stages, dst_access): (vk::PipelineStageFlags, vk::AccessFlags),
+) {
+    let barrier = [vk::MemoryBarrier::default().src_access_mask(src_access).dst_access_mask(dst_access)];
     // SAFETY: recording command buffer.
     unsafe {
-        device.cmd_pipeline_barrier(
-            cmd,
-            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-            vk::PipelineStageFlags::COMPUTE_SHADER
-                | vk::PipelineStageFlags::TRANSFER
-                | vk::PipelineStageFlags::DRAW_INDIRECT,
-            vk::DependencyFlags::empty(),
-            &barrier,
-            &[],
-            &[],
-        )
+        device.cmd_pipeline_barrier(cmd, src_stages, dst_stages, vk::DependencyFlags::empty(), &barrier, &[], &[])
     };
+}
+
+/// What compute and transfer commands read and write.
+pub const COMPUTE_AND_TRANSFER: vk::PipelineStageFlags = vk::PipelineStageFlags::from_raw(
+    vk::PipelineStageFlags::COMPUTE_SHADER.as_raw() | vk::PipelineStageFlags::TRANSFER.as_raw(),
+);
+
+/// Every access of a later compute or transfer command (indirect dispatch arguments included).
+pub const COMPUTE_AND_TRANSFER_ACCESS: vk::AccessFlags = vk::AccessFlags::from_raw(
+    vk::AccessFlags::SHADER_READ.as_raw()
+        | vk::AccessFlags::SHADER_WRITE.as_raw()
+        | vk::AccessFlags::TRANSFER_READ.as_raw()
+        | vk::AccessFlags::TRANSFER_WRITE.as_raw()
+        | vk::AccessFlags::INDIRECT_COMMAND_READ.as_raw(),
+);
+
+/// Global barrier making transfer and compute writes visible to later compute and transfer.
+pub fn full_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
+    memory_barrier(
+        device,
+        cmd,
+        (COMPUTE_AND_TRANSFER, vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE),
+        (COMPUTE_AND_TRANSFER | vk::PipelineStageFlags::DRAW_INDIRECT, COMPUTE_AND_TRANSFER_ACCESS),
+    );
+}
+
+/// Makes transfer writes (a copy into host-visible memory) visible to the host.
+pub fn transfer_to_host_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
+    memory_barrier(
+        device,
+        cmd,
+        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+        (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+    );
 }
 
 /// A descriptor pool from which sets are allocated; all sets die with it.

@@ -2,7 +2,9 @@
 //! the per-pass GPU timing read back from those queries.
 
 use super::buffer::Buffer;
-use super::commands::{CommandBuffer, DescriptorArena, full_barrier};
+use super::commands::{
+    COMPUTE_AND_TRANSFER, COMPUTE_AND_TRANSFER_ACCESS, CommandBuffer, DescriptorArena, full_barrier, memory_barrier,
+};
 use super::context::Context;
 use super::pipeline::Pipeline;
 use crate::error::{Result, VkContext};
@@ -97,32 +99,25 @@ pub(crate) unsafe fn encode(
 /// # Safety
 /// `cb` is in the recording state on `device`.
 pub(crate) unsafe fn release_to_consumers(device: &ash::Device, cb: vk::CommandBuffer) {
-    let after = [vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
-        .dst_access_mask(
+    memory_barrier(
+        device,
+        cb,
+        (COMPUTE_AND_TRANSFER, vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE),
+        (
+            vk::PipelineStageFlags::HOST | RENDER_INPUT | COMPUTE_AND_TRANSFER,
             vk::AccessFlags::HOST_READ
                 | vk::AccessFlags::VERTEX_ATTRIBUTE_READ
                 | vk::AccessFlags::INDEX_READ
                 | vk::AccessFlags::SHADER_READ
                 | vk::AccessFlags::TRANSFER_READ,
-        )];
-    // SAFETY: the caller's contract.
-    unsafe {
-        device.cmd_pipeline_barrier(
-            cb,
-            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-            vk::PipelineStageFlags::HOST
-                | vk::PipelineStageFlags::VERTEX_INPUT
-                | vk::PipelineStageFlags::VERTEX_SHADER
-                | vk::PipelineStageFlags::COMPUTE_SHADER
-                | vk::PipelineStageFlags::TRANSFER,
-            vk::DependencyFlags::empty(),
-            &after,
-            &[],
-            &[],
-        )
-    };
+        ),
+    );
 }
+
+/// Where a renderer reads a cloth's buffers.
+const RENDER_INPUT: vk::PipelineStageFlags = vk::PipelineStageFlags::from_raw(
+    vk::PipelineStageFlags::VERTEX_INPUT.as_raw() | vk::PipelineStageFlags::VERTEX_SHADER.as_raw(),
+);
 
 /// Orders a frame after what the queue ran before it: the caller's renderer reading the vertex
 /// buffers (write-after-read), host writes, and earlier compute and transfers.
@@ -130,33 +125,15 @@ pub(crate) unsafe fn release_to_consumers(device: &ash::Device, cb: vk::CommandB
 /// # Safety
 /// `cb` is in the recording state on `device`.
 pub(crate) unsafe fn acquire_from_producers(device: &ash::Device, cb: vk::CommandBuffer) {
-    let before = [vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::HOST_WRITE)
-        .dst_access_mask(
-            vk::AccessFlags::SHADER_READ
-                | vk::AccessFlags::SHADER_WRITE
-                | vk::AccessFlags::TRANSFER_READ
-                | vk::AccessFlags::TRANSFER_WRITE
-                | vk::AccessFlags::INDIRECT_COMMAND_READ,
-        )];
-    // SAFETY: the caller's contract.
-    unsafe {
-        device.cmd_pipeline_barrier(
-            cb,
-            vk::PipelineStageFlags::HOST
-                | vk::PipelineStageFlags::VERTEX_INPUT
-                | vk::PipelineStageFlags::VERTEX_SHADER
-                | vk::PipelineStageFlags::COMPUTE_SHADER
-                | vk::PipelineStageFlags::TRANSFER,
-            vk::PipelineStageFlags::COMPUTE_SHADER
-                | vk::PipelineStageFlags::TRANSFER
-                | vk::PipelineStageFlags::DRAW_INDIRECT,
-            vk::DependencyFlags::empty(),
-            &before,
-            &[],
-            &[],
-        )
-    };
+    memory_barrier(
+        device,
+        cb,
+        (
+            vk::PipelineStageFlags::HOST | RENDER_INPUT | COMPUTE_AND_TRANSFER,
+            vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::HOST_WRITE,
+        ),
+        (COMPUTE_AND_TRANSFER | vk::PipelineStageFlags::DRAW_INDIRECT, COMPUTE_AND_TRANSFER_ACCESS),
+    );
 }
 
 /// GPU time of one pass.

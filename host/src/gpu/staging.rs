@@ -3,7 +3,7 @@
 //! allocates nothing once the pool is large enough.
 
 use super::buffer::Buffer;
-use super::commands::{CommandBuffer, full_barrier};
+use super::commands::{CommandBuffer, full_barrier, transfer_to_host_barrier};
 use super::context::Context;
 use crate::error::{Error, Result};
 use ash::vk;
@@ -83,18 +83,7 @@ impl Staging {
             // fence wait makes the copy visible to the host (coherent memory).
             full_barrier(device, cmd);
             device.cmd_copy_buffer(cmd, from, to, &region);
-            let to_host = [vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ)];
-            device.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::HOST,
-                vk::DependencyFlags::empty(),
-                &to_host,
-                &[],
-                &[],
-            );
+            transfer_to_host_barrier(device, cmd);
         })?;
         self.cmd.submit_and_wait()?;
         let staging = self.download.as_ref().ok_or_else(|| not_mapped("download"))?;

@@ -4,6 +4,7 @@
 //! slot once its frame has finished, typically one frame late.
 
 use super::buffer::Buffer;
+use super::commands::transfer_to_host_barrier;
 use super::context::Context;
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
@@ -84,18 +85,7 @@ impl StatusRing {
                 device.cmd_copy_buffer(cb, source.handle, self.buffer.handle, &region);
                 offset += size;
             }
-            let to_host = [vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                .dst_access_mask(vk::AccessFlags::HOST_READ)];
-            device.cmd_pipeline_barrier(
-                cb,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::HOST,
-                vk::DependencyFlags::empty(),
-                &to_host,
-                &[],
-                &[],
-            );
+            transfer_to_host_barrier(device, cb);
             device.cmd_set_event(cb, self.events[slot], vk::PipelineStageFlags::TRANSFER);
         }
         self.pending.push_back((slot, frame));
