@@ -242,7 +242,7 @@ impl Controls {
         let latest: std::collections::BTreeMap<u32, PinChange> = self.pins.drain(..).collect();
         for (particle, change) in latest {
             // w is the pin weight: 0 pinned, 1 free. A pinned particle's velocity is zero.
-            let w_offset = particle as u64 * 16 + 12;
+            let w_offset = (particle as usize * size_of::<Vec4>() + 3 * size_of::<f32>()) as u64;
             match change {
                 PinChange::Here => {
                     steps.push(Step::Write { buffer: x.id(), offset: w_offset, bytes: 0f32.to_le_bytes().to_vec() });

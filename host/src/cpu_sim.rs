@@ -5,7 +5,6 @@ use crate::cloth::Cloth;
 use crate::controls::Controls;
 use crate::cpu::CpuExecutor;
 use crate::error::Result;
-use crate::lbvh::collider_params;
 use crate::program::ClothProgram;
 use crate::sim::{Collider, SimSettings, check_collision, check_health, teleported};
 use crate::stability::Stability;
@@ -32,18 +31,12 @@ impl CpuSimulation {
 
     /// Like `Simulation::with_colliders`.
     pub fn with_colliders(cloth: &Cloth, settings: SimSettings, colliders: &[Collider]) -> Result<Self> {
-        let (params, stability) = settings.resolve(cloth)?;
-        let program = ClothProgram::new(cloth, &params, settings.plan(&params, &stability), colliders)?;
+        let (program, controls) = ClothProgram::with_controls(cloth, settings, colliders)?;
         let mut executor = CpuExecutor::new(&program.resources);
         for (id, data) in &program.initial {
             executor.upload_bytes(*id, data)?;
         }
         executor.run(&program.build_steps())?;
-        let collider_controls: Vec<_> = colliders
-            .iter()
-            .map(|c| collider_params(&c.spheres, c.thickness, c.friction).map(|p| (p, c.pose)))
-            .collect::<Result<_>>()?;
-        let controls = Controls::new(params, settings, stability, &collider_controls);
         Ok(CpuSimulation { executor, program, controls, frames_done: 0 })
     }
 

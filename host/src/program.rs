@@ -3,13 +3,14 @@
 //! both run exactly this.
 
 use crate::cloth::Cloth;
+use crate::controls::Controls;
 use crate::error::Result;
 use crate::graph::{BufferId, Resources, Step};
 use crate::lbvh::collider_params;
 use crate::programs::cloth::{ClothBuffers, FramePlan, frame_steps};
 use crate::programs::contact::{ColliderBuffers, ContactMode};
-use crate::sim::Collider;
-use drape_types::{ColliderPose, SimParams};
+use crate::sim::{Collider, SimSettings};
+use drape_types::{ColliderParams, ColliderPose, RigidPose, SimParams};
 
 pub(crate) struct ClothProgram {
     pub resources: Resources,
@@ -21,7 +22,21 @@ pub(crate) struct ClothProgram {
 }
 
 impl ClothProgram {
-    pub fn new(cloth: &Cloth, params: &SimParams, plan: FramePlan, colliders: &[Collider]) -> Result<Self> {
+    /// The program of `cloth` colliding with `colliders` under `settings`, and the host-side
+    /// controls holding its starting values (what both simulations start from).
+    pub fn with_controls(cloth: &Cloth, settings: SimSettings, colliders: &[Collider]) -> Result<(Self, Controls)> {
+        let (params, stability) = settings.resolve(cloth)?;
+        let (program, collider_start) = Self::new(cloth, &params, settings.plan(&params, &stability), colliders)?;
+        Ok((program, Controls::new(params, settings, stability, &collider_start)))
+    }
+
+    /// The program, and each collider's starting parameters and pose.
+    fn new(
+        cloth: &Cloth,
+        params: &SimParams,
+        plan: FramePlan,
+        colliders: &[Collider],
+    ) -> Result<(Self, Vec<(ColliderParams, RigidPose)>)> {
         let mut resources = Resources::new();
         let triangles = cloth.triangles();
         let buffers = ClothBuffers::declare(&mut resources, "cloth", params.particle_count, triangles.len() as u32);
@@ -34,6 +49,7 @@ impl ClothProgram {
         initial.push((buffers.v.id(), bytes(&cloth.velocities)));
         initial.push((buffers.indices.id(), bytemuck::cast_slice::<_, u8>(&triangles).to_vec()));
         let mut collider_buffers = Vec::with_capacity(colliders.len());
+        let mut collider_start = Vec::with_capacity(colliders.len());
         for (i, c) in colliders.iter().enumerate() {
             let params = collider_params(&c.spheres, c.thickness, c.friction)?;
             let name = if i == 0 { "collider".to_string() } else { format!("collider {i}") };
@@ -44,9 +60,10 @@ impl ClothProgram {
             let pose = ColliderPose { previous: c.pose, current: c.pose };
             initial.push((b.pose.id(), bytemuck::bytes_of(&pose).to_vec()));
             collider_buffers.push(b);
+            collider_start.push((params, c.pose));
         }
         let frame = frame_steps(plan, &buffers, &collider_buffers);
-        Ok(ClothProgram { resources, cloth: buffers, colliders: collider_buffers, initial, frame })
+        Ok((ClothProgram { resources, cloth: buffers, colliders: collider_buffers, initial, frame }, collider_start))
     }
 
     /// Every collider's LBVH build, in one list.

@@ -8,7 +8,7 @@ use crate::gpu::commands::full_barrier;
 use crate::gpu::recording::{acquire_from_producers, encode, release_to_consumers};
 use crate::gpu::status_ring::StatusRing;
 use crate::gpu::{Command, Context, Engine, FrameTimings, RecordedFrame};
-use crate::lbvh::{self, collider_params};
+use crate::lbvh;
 use crate::program::ClothProgram;
 use crate::programs::cloth::FramePlan;
 use crate::stability::{self, DEFAULT_SAFETY, Stability};
@@ -224,8 +224,7 @@ impl Simulation {
         settings: SimSettings,
         colliders: &[Collider],
     ) -> Result<Self> {
-        let (params, stability) = settings.resolve(cloth)?;
-        let program = ClothProgram::new(cloth, &params, settings.plan(&params, &stability), colliders)?;
+        let (program, controls) = ClothProgram::with_controls(cloth, settings, colliders)?;
         let mut engine = Engine::new(ctx)?;
         engine.allocate(&program.resources)?;
         for (id, data) in &program.initial {
@@ -237,13 +236,6 @@ impl Simulation {
         let frame_commands = engine.encode(&bindings, &program.frame)?;
         let frame = RecordedFrame::new(ctx, bindings, &frame_commands, settings.timestamps)?;
         let status = StatusRing::new(ctx, STATUS_SLOTS, 16 * (1 + colliders.len() as u64))?;
-        let collider_controls: Vec<_> = program
-            .colliders
-            .iter()
-            .zip(colliders)
-            .map(|(_, c)| collider_params(&c.spheres, c.thickness, c.friction).map(|p| (p, c.pose)))
-            .collect::<Result<_>>()?;
-        let controls = Controls::new(params, settings, stability, &collider_controls);
         Ok(Simulation {
             status,
             frame,
