@@ -326,14 +326,36 @@ fn frames_recorded_into_a_callers_command_buffers_match_step() {
     let settings = SimSettings { substeps: Some(4), timestamps: false, ..SimSettings::default() };
     let mut sim = Simulation::new(&ctx, &cloth(), settings).unwrap();
     let frames = CallerFrames::new(&caller, 2);
+    // Frame 5 waits on the GPU for an event the host sets only after polling, so it provably
+    // has not finished while `poll_status` runs: the poll must return (no stall) without it.
+    let gate = unsafe { caller.device.create_event(&vk::EventCreateInfo::default(), None).unwrap() };
+    const GATED: usize = 5;
     for frame in 0..20 {
         // A runtime change mid-run travels inside the caller's command buffer.
         if frame == 10 {
             sim.set_external_force(Vec3::new(0.02, 0.0, 0.0)).unwrap();
         }
-        frames.run(frame, |cb| unsafe { sim.record(cb) }.unwrap());
+        frames.run(frame, |cb| unsafe {
+            if frame == GATED {
+                caller.device.cmd_wait_events(
+                    cb,
+                    &[gate],
+                    vk::PipelineStageFlags::HOST,
+                    vk::PipelineStageFlags::TOP_OF_PIPE,
+                    &[],
+                    &[],
+                    &[],
+                );
+            }
+            sim.record(cb).unwrap();
+        });
         sim.poll_status().unwrap();
-        assert!(sim.frames_checked() < sim.frames_done(), "the last frame cannot have been read yet");
+        assert!(sim.frames_checked() <= sim.frames_done());
+        if frame == GATED {
+            assert!(sim.frames_checked() < sim.frames_done(), "a frame still running on the GPU is not read");
+            assert!(sim.frames_in_flight() > 0);
+            unsafe { caller.device.set_event(gate).unwrap() };
+        }
     }
     assert_eq!(sim.frames_done(), 20);
     frames.wait_all();
@@ -342,6 +364,7 @@ fn frames_recorded_into_a_callers_command_buffers_match_step() {
     assert_eq!(sim.frames_in_flight(), 0);
     let recorded = sim.positions().unwrap();
     drop(frames);
+    unsafe { caller.device.destroy_event(gate, None) };
     drop(sim);
     drop(ctx);
 
