@@ -16,6 +16,7 @@ pub mod integrate;
 pub mod lbvh;
 pub mod normals;
 pub mod pose;
+pub mod render;
 pub mod sort;
 
 /// Threads per workgroup of every 1-D kernel here (the host divides by it).

@@ -166,6 +166,23 @@ pub struct ContactPush {
     pub _pad: [u32; 2],
 }
 
+/// Push constants of the surface shaders (`render::surface_vertex` / `surface_fragment`): how a
+/// renderer draws a cloth or a collider straight from its vertex buffers. 128 bytes, the
+/// minimum push-constant size every Vulkan device supports.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct SurfacePush {
+    /// Columns of the world -> clip matrix.
+    pub view_projection: [Vec4; 4],
+    /// The drawn object's rigid pose (identity for a cloth: its positions are in the world).
+    pub pose: RigidPose,
+    /// Linear RGB of the surface, a = ambient share of the light.
+    pub color: Vec4,
+    /// World direction towards the light (xyz, unit).
+    pub light: Vec4,
+}
+
 /// Push constants of the sort and scan passes.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
@@ -213,5 +230,6 @@ const _: () = assert!(core::mem::size_of::<SortPush>() == 16);
 const _: () = assert!(core::mem::size_of::<RigidPose>() == 32);
 const _: () = assert!(core::mem::size_of::<ColliderPose>() == 64);
 const _: () = assert!(core::mem::size_of::<ContactPush>() == 16);
+const _: () = assert!(core::mem::size_of::<SurfacePush>() == 128);
 const _: () = assert!(core::mem::size_of::<CollisionStatus>() == 16);
 const _: () = assert!(core::mem::size_of::<DispatchArgs>() == 16);
