@@ -85,9 +85,14 @@ impl CallerDevice {
             self.device.clone(),
             self.family,
             0,
-        );
+        )
+        // The caller's instance has VK_EXT_debug_utils: drape names its objects and labels its
+        // passes inside the caller's command buffers (balanced labels are validated).
+        .with_debug_utils(true);
         // SAFETY: handles from `CallerDevice::new`, destroyed only after the context is dropped.
-        unsafe { Context::import(external) }.expect("import")
+        let ctx = unsafe { Context::import(external) }.expect("import");
+        assert!(ctx.debug_names());
+        ctx
     }
 }
 

@@ -4,7 +4,7 @@
 mod common;
 
 use common::{assert_validation_clean, context};
-use drape::gpu::reflect::reflect;
+use drape::gpu::reflect::{EXECUTION_MODEL_FRAGMENT, EXECUTION_MODEL_GL_COMPUTE, EXECUTION_MODEL_VERTEX, reflect};
 use drape::{ClothBuilder, SimSettings, Simulation};
 
 /// Each kernel's binding table (written once, in `drape::kernels`) equals what the SPIR-V
@@ -12,7 +12,17 @@ use drape::{ClothBuilder, SimSettings, Simulation};
 #[test]
 fn binding_tables_match_the_spirv() {
     let reflected = reflect(drape::KERNELS_SPV).unwrap();
-    assert_eq!(reflected.len(), drape::kernels::ALL.len(), "entry points: {:?}", reflected.keys());
+    let compute: Vec<_> = reflected.iter().filter(|(_, e)| e.execution_model == EXECUTION_MODEL_GL_COMPUTE).collect();
+    assert_eq!(compute.len(), drape::kernels::ALL.len(), "compute entry points: {compute:?}");
+    // The surface shaders a renderer binds: vertex and fragment stage, push constants only.
+    for (name, model) in
+        [("render::surface_vertex", EXECUTION_MODEL_VERTEX), ("render::surface_fragment", EXECUTION_MODEL_FRAGMENT)]
+    {
+        let entry = reflected.get(name).unwrap_or_else(|| panic!("no entry point {name}"));
+        assert_eq!(entry.execution_model, model, "{name}");
+        assert!(entry.bindings.is_empty() && entry.uses_push_constants, "{name}: {entry:?}");
+    }
+    assert_eq!(reflected.len(), compute.len() + 2, "entry points: {:?}", reflected.keys());
     for kernel in drape::kernels::ALL {
         let spec = kernel.spec;
         let entry = reflected.get(spec.entry).unwrap_or_else(|| panic!("no entry point {}", spec.entry));

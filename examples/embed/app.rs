@@ -316,14 +316,19 @@ fn simulate_and_draw(engine: &Engine, options: &Options) -> Result<Outcome> {
     // features drape needs, and they outlive `ctx` (dropped at the end of this function);
     // only this thread uses the queue.
     let ctx = unsafe {
-        Context::import(ExternalDevice::new(
-            engine.entry.clone(),
-            engine.instance.clone(),
-            engine.physical,
-            engine.device.clone(),
-            engine.family,
-            0,
-        ))?
+        Context::import(
+            ExternalDevice::new(
+                engine.entry.clone(),
+                engine.instance.clone(),
+                engine.physical,
+                engine.device.clone(),
+                engine.family,
+                0,
+            )
+            // With validation the instance has VK_EXT_debug_utils: drape's passes show up labelled
+            // in captures of the engine's command buffer.
+            .with_debug_utils(engine.messenger.is_some()),
+        )?
     };
     let scene = DrapeScene::standard(&drape::scenes::default_mesh(), options.grid);
     let cloth = scene.cloth.build()?;

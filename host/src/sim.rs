@@ -4,8 +4,7 @@
 use crate::cloth::Cloth;
 use crate::controls::Controls;
 use crate::error::{Error, Result};
-use crate::gpu::commands::full_barrier;
-use crate::gpu::recording::{acquire_from_producers, encode, release_to_consumers};
+use crate::gpu::recording::encode_frame;
 use crate::gpu::status_ring::StatusRing;
 use crate::gpu::{Command, Context, Engine, FrameTimings, RecordedFrame};
 use crate::lbvh;
@@ -308,7 +307,10 @@ impl Simulation {
     pub unsafe fn record(&mut self, cmd: ash::vk::CommandBuffer) -> Result<()> {
         self.poll_status()?;
         let leading = self.controls.begin_frame(&self.program);
-        let writes = self.engine.encode(self.frame.bindings(), &leading)?;
+        let mut writes = self.engine.encode(self.frame.bindings(), &leading)?;
+        if !writes.is_empty() {
+            writes.push(Command::Barrier);
+        }
         // The own command buffer may hold writes this frame supersedes.
         self.own_frame_stale = true;
         let device = &self.engine.context().device;
@@ -320,13 +322,8 @@ impl Simulation {
         // SAFETY: the caller's contract for `cmd`; every handle comes from `self.frame`'s
         // bindings or the engine, which live until the ring's drop waits for the queue.
         unsafe {
-            acquire_from_producers(device, cmd);
-            encode(device, cmd, &writes, None);
-            if !writes.is_empty() {
-                full_barrier(device, cmd);
-            }
-            encode(device, cmd, &self.frame_commands, None);
-            release_to_consumers(device, cmd);
+            let labels = self.engine.context().debug_utils();
+            encode_frame(device, labels, cmd, &[&writes, &self.frame_commands], None);
             self.status.record(cmd, &sources, frame)?;
         }
         self.frames_done = frame;

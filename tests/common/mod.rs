@@ -9,6 +9,8 @@ use std::sync::Arc;
 pub fn context() -> Arc<Context> {
     let ctx = Context::new(Validation::Required).expect("Vulkan with VK_LAYER_KHRONOS_validation");
     assert!(ctx.validation_enabled());
+    // Validation brings VK_EXT_debug_utils: every test also runs drape's names and labels.
+    assert!(ctx.debug_names());
     ctx
 }
 

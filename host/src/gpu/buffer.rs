@@ -34,6 +34,7 @@ impl Buffer {
         // SAFETY: valid device and create info.
         let handle = unsafe { ctx.device.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
         let mut buffer = Buffer { ctx: ctx.clone(), handle, allocation: None, size };
+        ctx.name_object(handle, name);
         // SAFETY: the buffer was just created on this device.
         let requirements = unsafe { ctx.device.get_buffer_memory_requirements(handle) };
         let allocation = {

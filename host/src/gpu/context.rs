@@ -66,6 +66,9 @@ pub struct Context {
     /// Whether drape created the instance and device (and so destroys them); false for an
     /// imported device, which drape never destroys.
     owns_device: bool,
+    /// `VK_EXT_debug_utils` on the device, when the instance has it: names on buffers and
+    /// pipelines, labels on passes, for RenderDoc and Nsight captures.
+    debug_names: Option<ash::ext::debug_utils::Device>,
 }
 
 /// The caller's Vulkan objects, handed to `Context::import`.
@@ -78,6 +81,10 @@ pub struct ExternalDevice {
     /// A queue family with compute support, and the index of the queue in it drape submits to.
     pub queue_family: u32,
     pub queue_index: u32,
+    /// Whether the instance was created with `VK_EXT_debug_utils`: then drape names its buffers
+    /// and pipelines and labels its passes in the caller's command buffers (captures in
+    /// RenderDoc or Nsight show them). Off unless set with `with_debug_utils`.
+    pub debug_utils: bool,
 }
 
 impl ExternalDevice {
@@ -89,7 +96,13 @@ impl ExternalDevice {
         queue_family: u32,
         queue_index: u32,
     ) -> Self {
-        ExternalDevice { entry, instance, physical_device, device, queue_family, queue_index }
+        ExternalDevice { entry, instance, physical_device, device, queue_family, queue_index, debug_utils: false }
+    }
+
+    /// Declares that the instance has `VK_EXT_debug_utils` enabled (see `debug_utils`).
+    pub fn with_debug_utils(mut self, enabled: bool) -> Self {
+        self.debug_utils = enabled;
+        self
     }
 }
 
@@ -149,7 +162,15 @@ impl Context {
             .engine_name(c"drape")
             .api_version(vk::API_VERSION_1_2);
         let layers = if validate { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
-        let extensions = if validate { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
+        // Debug utils whenever the loader offers it (or validation brings it): names and labels
+        // cost nothing at run time and make captures readable.
+        // SAFETY: plain query on a loaded entry.
+        let debug_utils = validate
+            || unsafe { entry.enumerate_instance_extension_properties(None) }
+                .vk("vkEnumerateInstanceExtensionProperties")?
+                .iter()
+                .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::ext::debug_utils::NAME));
+        let extensions = if debug_utils { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(
                 vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
@@ -178,11 +199,11 @@ impl Context {
         // From here on, a failure must destroy what exists: build a partial Context.
         let mut partial = PartialContext { entry, instance, debug: None, device: None };
         if validate {
-            let debug_utils = ash::ext::debug_utils::Instance::new(&partial.entry, &partial.instance);
+            let utils = ash::ext::debug_utils::Instance::new(&partial.entry, &partial.instance);
             // SAFETY: valid instance with debug_utils enabled.
-            let messenger = unsafe { debug_utils.create_debug_utils_messenger(&messenger_info, None) }
+            let messenger = unsafe { utils.create_debug_utils_messenger(&messenger_info, None) }
                 .vk("vkCreateDebugUtilsMessengerEXT")?;
-            partial.debug = Some((debug_utils, messenger));
+            partial.debug = Some((utils, messenger));
         }
 
         let (physical_device, queue_family, info) = pick_device(&partial.instance)?;
@@ -202,6 +223,7 @@ impl Context {
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let allocator = new_allocator(&partial.instance, &device, physical_device)?;
         let (entry, instance, debug) = partial.into_parts();
+        let debug_names = debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         log::info!("drape device: {} ({:?}, {})", info.name, info.device_type, info.driver);
         Ok(Arc::new(Context {
             _entry: entry,
@@ -214,6 +236,7 @@ impl Context {
             allocator: Mutex::new(Some(allocator)),
             info,
             owns_device: true,
+            debug_names,
         }))
     }
 
@@ -229,7 +252,8 @@ impl Context {
     /// queue from the thread that calls `step()`; the caller must not use the same queue at the
     /// same time (Vulkan's external synchronization rule for queues).
     pub unsafe fn import(external: ExternalDevice) -> Result<Arc<Self>> {
-        let ExternalDevice { entry, instance, physical_device, device, queue_family, queue_index } = external;
+        let ExternalDevice { entry, instance, physical_device, device, queue_family, queue_index, debug_utils } =
+            external;
         // SAFETY (queries): the caller guarantees valid handles.
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical_device) };
         let family = families.get(queue_family as usize).ok_or_else(|| Error::InvalidParameter {
@@ -257,6 +281,7 @@ impl Context {
         let queue = unsafe { device.get_device_queue(queue_family, queue_index) };
         let allocator = new_allocator(&instance, &device, physical_device)?;
         log::info!("drape on an imported device: {} ({:?})", info.name, info.device_type);
+        let debug_names = debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         Ok(Arc::new(Context {
             _entry: entry,
             instance,
@@ -268,6 +293,7 @@ impl Context {
             allocator: Mutex::new(Some(allocator)),
             info,
             owns_device: false,
+            debug_names,
         }))
     }
 
@@ -327,6 +353,28 @@ impl Context {
         // A poisoned lock only means another thread panicked mid-allocation; the allocator's
         // own state is still consistent, so keep going.
         self.allocator.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Whether drape names its Vulkan objects and labels its passes (`VK_EXT_debug_utils`).
+    pub fn debug_names(&self) -> bool {
+        self.debug_names.is_some()
+    }
+
+    /// The debug-utils device functions, when names and labels are on.
+    pub(crate) fn debug_utils(&self) -> Option<&ash::ext::debug_utils::Device> {
+        self.debug_names.as_ref()
+    }
+
+    /// Names `object` in captures and validation messages (`drape: <name>`); nothing when
+    /// debug utils are off. A failure only loses the name.
+    pub(crate) fn name_object(&self, object: impl vk::Handle, name: &str) {
+        let Some(utils) = &self.debug_names else { return };
+        let Ok(name) = std::ffi::CString::new(format!("drape: {name}")) else { return };
+        let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(object).object_name(&name);
+        // SAFETY: the object belongs to this device; the info lives across the call.
+        if let Err(e) = unsafe { utils.set_debug_utils_object_name(&info) } {
+            log::debug!("vkSetDebugUtilsObjectNameEXT({name:?}): {e}");
+        }
     }
 
     pub(crate) fn queue(&self) -> MutexGuard<'_, vk::Queue> {

@@ -87,6 +87,7 @@ impl Pipeline {
                 .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
                 .map_err(|(_, result)| Error::Vulkan { call: "vkCreateComputePipelines", result })?[0];
         }
+        ctx.name_object(pipeline.pipeline, spec.entry);
         Ok(pipeline)
     }
 }

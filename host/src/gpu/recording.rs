@@ -50,6 +50,7 @@ const MAX_UPDATE_BYTES: usize = 65536;
 /// alive until the command buffer has finished executing.
 pub(crate) unsafe fn encode(
     device: &ash::Device,
+    labels: Option<&ash::ext::debug_utils::Device>,
     cb: vk::CommandBuffer,
     commands: &[Command],
     queries: Option<(vk::QueryPool, u32)>,
@@ -60,7 +61,8 @@ pub(crate) unsafe fn encode(
     unsafe {
         for command in commands {
             match command {
-                Command::Dispatch { pipeline, layout, set, push, groups, indirect, .. } => {
+                Command::Dispatch { label, pipeline, layout, set, push, groups, indirect } => {
+                    let labelled = labels.map(|utils| (utils, begin_label(utils, cb, label)));
                     device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, *pipeline);
                     device.cmd_bind_descriptor_sets(cb, vk::PipelineBindPoint::COMPUTE, *layout, 0, &[*set], &[]);
                     if !push.is_empty() {
@@ -75,6 +77,9 @@ pub(crate) unsafe fn encode(
                     }
                     if let Some(pool) = queries {
                         device.cmd_write_timestamp(cb, vk::PipelineStageFlags::BOTTOM_OF_PIPE, pool, query + 1);
+                    }
+                    if let Some((utils, true)) = labelled {
+                        utils.cmd_end_debug_utils_label(cb);
                     }
                     query += 2;
                 }
@@ -91,6 +96,46 @@ pub(crate) unsafe fn encode(
         }
     }
     query
+}
+
+/// Records one frame: ordered after what the queue ran before (`acquire_from_producers`), the
+/// concatenation of `segments` (timed from query 0 when a pool is given), and made available to
+/// what runs after (`release_to_consumers`); labelled `drape: frame` when debug labels are on.
+///
+/// # Safety
+/// As `encode`.
+pub(crate) unsafe fn encode_frame(
+    device: &ash::Device,
+    labels: Option<&ash::ext::debug_utils::Device>,
+    cb: vk::CommandBuffer,
+    segments: &[&[Command]],
+    queries: Option<vk::QueryPool>,
+) {
+    // SAFETY: the caller's contract.
+    unsafe {
+        let frame_label = labels.filter(|utils| begin_label(utils, cb, "frame"));
+        acquire_from_producers(device, cb);
+        let mut query = 0;
+        for segment in segments {
+            query = encode(device, labels, cb, segment, queries.map(|pool| (pool, query)));
+        }
+        release_to_consumers(device, cb);
+        if let Some(utils) = frame_label {
+            utils.cmd_end_debug_utils_label(cb);
+        }
+    }
+}
+
+/// Opens a debug label `drape: <name>` (ended by `cmd_end_debug_utils_label`); false when the
+/// name cannot be a C string (then no label is open).
+///
+/// # Safety
+/// `cb` is in the recording state on the device of `utils`.
+pub(crate) unsafe fn begin_label(utils: &ash::ext::debug_utils::Device, cb: vk::CommandBuffer, name: &str) -> bool {
+    let Ok(name) = std::ffi::CString::new(format!("drape: {name}")) else { return false };
+    // SAFETY: the caller's contract; the label lives across the call.
+    unsafe { utils.cmd_begin_debug_utils_label(cb, &vk::DebugUtilsLabelEXT::default().label_name(&name)) };
+    true
 }
 
 /// Makes a frame's results visible to the host (mapped status) and to whatever the queue runs
@@ -264,6 +309,8 @@ impl RecordedFrame {
             self.queries = Some(QueryPool::new(&self.ctx, self.labels.len() as u32)?);
         }
         let queries = self.queries.as_ref().map(|q| (q.pool, q.count));
+        let ctx = self.ctx.clone();
+        let debug = ctx.debug_utils();
         self.cmd.record(|device, cb| {
             // SAFETY (closure): recording into `cb`; every handle comes from `self.bindings`,
             // which this frame holds as long as the command buffer.
@@ -271,12 +318,7 @@ impl RecordedFrame {
                 if let Some((pool, count)) = queries {
                     device.cmd_reset_query_pool(cb, pool, 0, count);
                 }
-                acquire_from_producers(device, cb);
-                let mut query = 0;
-                for segment in segments {
-                    query = encode(device, cb, segment, queries.map(|(pool, _)| (pool, query)));
-                }
-                release_to_consumers(device, cb);
+                encode_frame(device, debug, cb, segments, queries.map(|(pool, _)| pool));
             }
         })
     }

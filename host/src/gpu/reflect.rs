@@ -20,7 +20,13 @@ pub struct ReflectedEntry {
     pub uses_push_constants: bool,
     /// `LocalSize` execution mode (threads per workgroup).
     pub workgroup_size: [u32; 3],
+    /// The SPIR-V execution model (`EXECUTION_MODEL_GL_COMPUTE`, `_VERTEX`, `_FRAGMENT`).
+    pub execution_model: u32,
 }
+
+pub const EXECUTION_MODEL_VERTEX: u32 = 0;
+pub const EXECUTION_MODEL_FRAGMENT: u32 = 4;
+pub const EXECUTION_MODEL_GL_COMPUTE: u32 = 5;
 
 const OP_NAME: u32 = 5;
 const OP_ENTRY_POINT: u32 = 15;
@@ -59,7 +65,7 @@ pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> 
         return Err("not a SPIR-V module (magic)".into());
     }
     let mut names: HashMap<u32, String> = HashMap::new();
-    let mut entries: Vec<(String, u32, Vec<u32>)> = Vec::new();
+    let mut entries: Vec<(String, u32, u32, Vec<u32>)> = Vec::new();
     let mut local_size: HashMap<u32, [u32; 3]> = HashMap::new();
     let mut storage: HashMap<u32, u32> = HashMap::new();
     let mut binding: HashMap<u32, u32> = HashMap::new();
@@ -79,7 +85,7 @@ pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> 
             }
             OP_ENTRY_POINT if ops.len() >= 3 => {
                 let (name, used) = literal_string(&ops[2..]);
-                entries.push((name, ops[1], ops[2 + used..].to_vec()));
+                entries.push((name, ops[0], ops[1], ops[2 + used..].to_vec()));
             }
             OP_EXECUTION_MODE if ops.len() >= 5 && ops[1] == EXECUTION_MODE_LOCAL_SIZE => {
                 local_size.insert(ops[0], [ops[2], ops[3], ops[4]]);
@@ -104,9 +110,10 @@ pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> 
         at += count;
     }
     let mut out = HashMap::new();
-    for (name, function, interface) in entries {
+    for (name, execution_model, function, interface) in entries {
         let mut entry = ReflectedEntry {
             workgroup_size: local_size.get(&function).copied().unwrap_or_default(),
+            execution_model,
             ..ReflectedEntry::default()
         };
         for id in interface {
