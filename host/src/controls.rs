@@ -224,7 +224,7 @@ impl Controls {
         }
         for (c, buffers) in self.colliders.iter_mut().zip(&program.colliders) {
             if std::mem::take(&mut c.params_dirty) {
-                steps.push(Step::write(buffers.lbvh.collider, 0, &[c.params]));
+                steps.push(Step::write(buffers.lbvh.tree.collider, 0, &[c.params]));
             }
             let pose = ColliderPose { previous: c.end_of_last_frame, current: c.target };
             if pose != c.written {
@@ -318,7 +318,7 @@ macro_rules! runtime_setters {
             /// Deforms collider `index`: new spheres in its own frame, as many as it was built
             /// with. The next frame writes them and refits the LBVH on the GPU (same tree).
             pub fn set_collider_spheres(&mut self, index: usize, spheres: &[glam::Vec4]) -> $crate::Result<()> {
-                let leaves = self.program.colliders.get(index).map_or(0, |c| c.lbvh.leaves);
+                let leaves = self.program.colliders.get(index).map_or(0, |c| c.lbvh.leaves());
                 self.controls.set_collider_spheres(index, leaves, spheres)
             }
 

@@ -5,10 +5,11 @@ use crate::cpu::CpuExecutor;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Engine, FrameTimings, RecordedFrame};
 use crate::graph::{ReadBuffers, Resources};
-use crate::programs::lbvh::LbvhBuffers;
-use drape_kernels::lbvh::sphere_aabb;
+use crate::programs::spheres::SphereBvh;
+use drape_kernels::lbvh::aabb_centre;
+use drape_kernels::spheres::sphere_aabb;
 use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE};
-use glam::{Vec3, Vec4, Vec4Swizzles};
+use glam::{Vec3, Vec4};
 use std::sync::Arc;
 
 /// Largest supported leaf count (keeps every dispatch within 65,535 workgroups of 256).
@@ -40,8 +41,11 @@ pub fn collider_params(spheres: &[Vec4], thickness: f32, friction: f32) -> Resul
             problem: format!("must be finite and >= 0, got {thickness}"),
         });
     }
-    let (lo, hi) =
-        spheres.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), s| (lo.min(s.xyz()), hi.max(s.xyz())));
+    // The scene box the Morton codes normalise into: over the centres the build encodes.
+    let (lo, hi) = spheres
+        .iter()
+        .map(|s| aabb_centre(&sphere_aabb(*s)))
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| (lo.min(c), hi.max(c)));
     Ok(ColliderParams {
         leaf_count: spheres.len() as u32,
         thickness,
@@ -58,8 +62,9 @@ pub struct Lbvh {
     /// Morton codes in sorted order, and the input index of each sorted leaf.
     pub codes: Vec<u32>,
     pub order: Vec<u32>,
-    /// The leaves: spheres in sorted order.
+    /// The leaves: spheres in sorted order, and their boxes (what the tree is built from).
     pub spheres: Vec<Vec4>,
+    pub leaf_bounds: Vec<Aabb>,
     /// N - 1 internal nodes (root = 0).
     pub nodes: Vec<BvhNode>,
     /// Parent of internal node i at [i], of leaf j at [N - 1 + j]; the root's is `NO_NODE`.
@@ -68,12 +73,14 @@ pub struct Lbvh {
 }
 
 /// Reads a built tree back from either executor.
-fn read_tree(executor: &impl ReadBuffers, b: &LbvhBuffers) -> Result<Lbvh> {
+fn read_tree(executor: &impl ReadBuffers, spheres: &SphereBvh) -> Result<Lbvh> {
+    let b = &spheres.tree;
     let n = b.leaves as usize;
     Ok(Lbvh {
         codes: executor.read(b.codes, n)?,
         order: executor.read(b.order, n)?,
-        spheres: executor.read(b.sorted, n)?,
+        spheres: executor.read(spheres.sorted, n)?,
+        leaf_bounds: executor.read(b.sorted_bounds, n)?,
         nodes: executor.read(b.nodes, n - 1)?,
         parents: if n > 1 { executor.read(b.parents, 2 * n - 1)? } else { vec![NO_NODE] },
         aabbs: executor.read(b.aabbs, n - 1)?,
@@ -81,14 +88,14 @@ fn read_tree(executor: &impl ReadBuffers, b: &LbvhBuffers) -> Result<Lbvh> {
 }
 
 /// Reads a built tree back from the GPU.
-pub fn download(engine: &Engine, b: &LbvhBuffers) -> Result<Lbvh> {
+pub fn download(engine: &Engine, b: &SphereBvh) -> Result<Lbvh> {
     read_tree(engine, b)
 }
 
 /// A standalone GPU LBVH (tests, benchmarks): builds on creation.
 pub struct GpuLbvh {
     engine: Engine,
-    buffers: LbvhBuffers,
+    buffers: SphereBvh,
     pub params: ColliderParams,
     /// GPU time per stage of the build.
     pub timings: FrameTimings,
@@ -98,10 +105,10 @@ impl GpuLbvh {
     pub fn build(ctx: &Arc<Context>, spheres: &[Vec4], thickness: f32) -> Result<Self> {
         let params = collider_params(spheres, thickness, 0.0)?;
         let mut resources = Resources::new();
-        let buffers = LbvhBuffers::declare(&mut resources, "lbvh", params.leaf_count);
+        let buffers = SphereBvh::declare(&mut resources, "lbvh", params.leaf_count);
         let mut engine = Engine::new(ctx)?;
         engine.allocate(&resources)?;
-        engine.upload(buffers.collider, std::slice::from_ref(&params))?;
+        engine.upload(buffers.tree.collider, std::slice::from_ref(&params))?;
         engine.upload(buffers.spheres, spheres)?;
         let mut this = GpuLbvh { engine, buffers, params, timings: FrameTimings::default() };
         this.rebuild(true)?;
@@ -128,9 +135,9 @@ impl GpuLbvh {
 /// CPU twin of the build: the same steps run by the CPU executor.
 pub fn build_cpu(spheres: &[Vec4], params: &ColliderParams) -> Result<Lbvh> {
     let mut resources = Resources::new();
-    let b = LbvhBuffers::declare(&mut resources, "lbvh", params.leaf_count);
+    let b = SphereBvh::declare(&mut resources, "lbvh", params.leaf_count);
     let mut cpu = CpuExecutor::new(&resources);
-    cpu.upload(b.collider, std::slice::from_ref(params))?;
+    cpu.upload(b.tree.collider, std::slice::from_ref(params))?;
     cpu.upload(b.spheres, spheres)?;
     cpu.run(&b.build_steps())?;
     read_tree(&cpu, &b)
@@ -146,7 +153,7 @@ impl Lbvh {
     /// box containing its children (leaf boxes = sphere boxes).
     pub fn validate(&self, input: &[Vec4]) -> std::result::Result<(), String> {
         let n = input.len();
-        if self.codes.len() != n || self.order.len() != n || self.spheres.len() != n {
+        if self.codes.len() != n || self.order.len() != n || self.spheres.len() != n || self.leaf_bounds.len() != n {
             return Err(format!("expected {n} leaves"));
         }
         if let Some(i) = (1..n).find(|&i| self.codes[i - 1] > self.codes[i]) {
@@ -160,6 +167,9 @@ impl Lbvh {
             }
             if self.spheres[sorted] != input[o] {
                 return Err(format!("leaf {sorted} is not sphere {original}"));
+            }
+            if self.leaf_bounds[sorted] != sphere_aabb(input[o]) {
+                return Err(format!("leaf {sorted}'s box is not sphere {original}'s"));
             }
         }
         if n == 1 {
@@ -195,7 +205,7 @@ impl Lbvh {
                 if child & LEAF_BIT != 0 {
                     let leaf = (child & !LEAF_BIT) as usize;
                     leaf_hits[leaf] += 1;
-                    if !contains(&b, &sphere_aabb(self.spheres[leaf])) {
+                    if !contains(&b, &self.leaf_bounds[leaf]) {
                         return Err(format!("node {node} does not contain leaf {leaf}"));
                     }
                 } else {

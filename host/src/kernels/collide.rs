@@ -65,7 +65,7 @@ pub static CULL_COLLISION: Kernel = Kernel {
             read("collider"),
             read("pose"),
             read("aabbs"),
-            read("spheres"),
+            read("leaf_bounds"),
             read("x"),
             read("x_prev"),
             write("args"),
@@ -113,7 +113,7 @@ fn brute_force_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 /// test, and the indirect dispatch size, as the kernel does.
 fn cull_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let push: ContactPush = d.push_as();
-    let [params, collider, pose, aabbs, spheres, x, x_prev, args, status] = d.bindings()?;
+    let [params, collider, pose, aabbs, leaf_bounds, x, x_prev, args, status] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = collider.first()?;
     let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
@@ -122,7 +122,7 @@ fn cull_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         .map(|lane| swept_bounds(&motion, x, x_prev, p.particle_count, lane, CULL_THREADS))
         .reduce(|a, b| Aabb { min: a.min.min(b.min), max: a.max.max(b.max) })
         .ok_or("cull: no lanes")?;
-    let root = root_aabb(&c, aabbs.slice(), spheres.slice());
+    let root = root_aabb(&c, aabbs.slice(), leaf_bounds.slice());
     let run = aabbs_overlap(&cloth, &root, c.thickness);
     *args.first_mut::<DispatchArgs>()? =
         DispatchArgs { x: if run { p.particle_count.div_ceil(COLLIDE_THREADS) } else { 0 }, y: 1, z: 1, _pad: 0 };

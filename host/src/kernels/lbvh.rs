@@ -1,9 +1,10 @@
-//! LBVH build kernels (`drape_kernels::lbvh`): Morton codes, leaf gather, Karras nodes, refit.
+//! LBVH build kernels (`drape_kernels::lbvh`) over leaf boxes: Morton codes, box gather,
+//! Karras nodes, refit.
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
-use drape_kernels::lbvh::{build_node_at, morton_code, refit_from_leaf};
-use drape_types::{BvhNode, ColliderParams};
-use glam::{Vec4, Vec4Swizzles};
+use drape_kernels::lbvh::{aabb_centre, build_node_at, morton_code, refit_from_leaf};
+use drape_types::{Aabb, BvhNode, ColliderParams};
+use glam::Vec4Swizzles;
 
 const fn read(name: &'static str) -> BindingSpec {
     BindingSpec::read(name)
@@ -18,11 +19,11 @@ const fn spec(entry: &'static str, bindings: &'static [BindingSpec]) -> KernelSp
 }
 
 pub static MORTON_CODES: Kernel = Kernel {
-    spec: spec("lbvh::morton_codes", &[read("collider"), read("spheres"), write("keys"), write("values")]),
+    spec: spec("lbvh::morton_codes", &[read("collider"), read("bounds"), write("keys"), write("values")]),
     cpu: morton_cpu,
 };
-pub static GATHER_LEAVES: Kernel = Kernel {
-    spec: spec("lbvh::gather_leaves", &[read("collider"), read("spheres"), read("order"), write("sorted")]),
+pub static GATHER_BOUNDS: Kernel = Kernel {
+    spec: spec("lbvh::gather_bounds", &[read("collider"), read("bounds"), read("order"), write("sorted")]),
     cpu: gather_cpu,
 };
 pub static BUILD_NODES: Kernel = Kernel {
@@ -32,19 +33,19 @@ pub static BUILD_NODES: Kernel = Kernel {
 pub static REFIT: Kernel = Kernel {
     spec: spec(
         "lbvh::refit",
-        &[read("collider"), read("nodes"), read("parents"), read("sorted"), write("flags"), write("aabbs")],
+        &[read("collider"), read("nodes"), read("parents"), read("leaf_bounds"), write("flags"), write("aabbs")],
     ),
     cpu: refit_cpu,
 };
 
 fn morton_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [collider, spheres, keys, values] = d.bindings()?;
+    let [collider, bounds, keys, values] = d.bindings()?;
     let c: ColliderParams = collider.first()?;
-    let (spheres, keys) = (spheres.slice::<Vec4>(), keys.slice_mut::<u32>());
+    let (bounds, keys) = (bounds.slice::<Aabb>(), keys.slice_mut::<u32>());
     let values = values.slice_mut::<u32>();
     for i in 0..threads.min(c.leaf_count) {
-        keys[i as usize] = morton_code(spheres[i as usize].xyz(), c.scene_min.xyz(), c.scene_max.xyz());
+        keys[i as usize] = morton_code(aabb_centre(&bounds[i as usize]), c.scene_min.xyz(), c.scene_max.xyz());
         values[i as usize] = i;
     }
     Ok(())
@@ -52,11 +53,11 @@ fn morton_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [collider, spheres, order, sorted] = d.bindings()?;
+    let [collider, bounds, order, sorted] = d.bindings()?;
     let c: ColliderParams = collider.first()?;
-    let (spheres, order, sorted) = (spheres.slice::<Vec4>(), order.slice::<u32>(), sorted.slice_mut::<Vec4>());
+    let (bounds, order, sorted) = (bounds.slice::<Aabb>(), order.slice::<u32>(), sorted.slice_mut::<Aabb>());
     for i in 0..threads.min(c.leaf_count) {
-        sorted[i as usize] = spheres[order[i as usize] as usize];
+        sorted[i as usize] = bounds[order[i as usize] as usize];
     }
     Ok(())
 }
@@ -74,15 +75,15 @@ fn build_nodes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn refit_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [collider, nodes, parents, sorted, flags, aabbs] = d.bindings()?;
+    let [collider, nodes, parents, leaf_bounds, flags, aabbs] = d.bindings()?;
     let n = collider.first::<ColliderParams>()?.leaf_count;
     if n < 2 {
         return Ok(());
     }
-    let (nodes, parents, sorted) = (nodes.slice::<BvhNode>(), parents.slice::<u32>(), sorted.slice::<Vec4>());
+    let (nodes, parents, leaf_bounds) = (nodes.slice::<BvhNode>(), parents.slice::<u32>(), leaf_bounds.slice::<Aabb>());
     let (flags, words) = (flags.slice_mut::<u32>(), aabbs.slice_mut::<u32>());
     for leaf in 0..threads.min(n) {
-        refit_from_leaf(leaf, n, nodes, parents, sorted, flags, words);
+        refit_from_leaf(leaf, n, nodes, parents, leaf_bounds, flags, words);
     }
     Ok(())
 }

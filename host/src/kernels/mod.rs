@@ -8,11 +8,12 @@ pub mod integrate;
 pub mod lbvh;
 pub mod normals;
 pub mod sort;
+pub mod spheres;
 
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 14] = [
+pub const ALL: [&Kernel; 16] = [
     &integrate::INTEGRATE_STAGE,
     &normals::VERTEX_NORMALS,
     &normals::CHECK_HEALTH,
@@ -21,9 +22,11 @@ pub const ALL: [&Kernel; 14] = [
     &sort::SCAN_BLOCKS,
     &sort::SCAN_ADD,
     &lbvh::MORTON_CODES,
-    &lbvh::GATHER_LEAVES,
+    &lbvh::GATHER_BOUNDS,
     &lbvh::BUILD_NODES,
     &lbvh::REFIT,
+    &spheres::SPHERE_BOUNDS,
+    &spheres::GATHER_SPHERES,
     &collide::COLLIDE,
     &collide::COLLIDE_BRUTE_FORCE,
     &collide::CULL_COLLISION,

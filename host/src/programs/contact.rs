@@ -3,7 +3,7 @@
 //! particle walks the LBVH. The brute-force mode tests every sphere instead.
 
 use super::cloth::ClothBuffers;
-use super::lbvh::LbvhBuffers;
+use super::spheres::SphereBvh;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::collide::{COLLIDE, COLLIDE_BRUTE_FORCE, CULL_COLLISION};
 use drape_types::{ColliderPose, CollisionStatus, ContactPush, DispatchArgs};
@@ -25,7 +25,7 @@ pub enum ContactMode {
 /// One collider as a cloth frame sees it: its LBVH (built in the collider's own frame), its
 /// pose at the frame's start and end, and the contact's buffers.
 pub struct ColliderBuffers {
-    pub lbvh: LbvhBuffers,
+    pub lbvh: SphereBvh,
     pub pose: Handle<ColliderPose>,
     pub contact: ContactBuffers,
 }
@@ -34,7 +34,7 @@ impl ColliderBuffers {
     /// Buffers of a collider with `leaves` leaves; `name` prefixes their debug names.
     pub fn declare(resources: &mut Resources, name: &str, leaves: u32, mode: ContactMode) -> Self {
         ColliderBuffers {
-            lbvh: LbvhBuffers::declare(resources, name, leaves),
+            lbvh: SphereBvh::declare(resources, name, leaves),
             pose: resources.device(format!("{name}: pose"), 1),
             contact: ContactBuffers::declare(resources, &format!("{name} contact"), mode),
         }
@@ -68,12 +68,12 @@ impl ContactBuffers {
     fn substep_steps(
         &self,
         cloth: &ClothBuffers,
-        collider: &LbvhBuffers,
+        collider: &SphereBvh,
         pose: Handle<ColliderPose>,
         (substep, substeps): (u32, u32),
         out: &mut Vec<Step>,
     ) {
-        let c = collider;
+        let (c, tree) = (collider, &collider.tree);
         let span = ContactPush {
             from: substep as f32 / substeps as f32,
             to: (substep + 1) as f32 / substeps as f32,
@@ -87,10 +87,10 @@ impl ContactBuffers {
                     &CULL_COLLISION,
                     vec![
                         cloth.params.id(),
-                        c.collider.id(),
+                        tree.collider.id(),
                         pose.id(),
-                        c.aabbs.id(),
-                        c.sorted.id(),
+                        tree.aabbs.id(),
+                        tree.sorted_bounds.id(),
                         cloth.x.id(),
                         cloth.x_prev.id(),
                         self.args.id(),
@@ -104,10 +104,10 @@ impl ContactBuffers {
                     &COLLIDE,
                     vec![
                         cloth.params.id(),
-                        c.collider.id(),
+                        tree.collider.id(),
                         pose.id(),
-                        c.nodes.id(),
-                        c.aabbs.id(),
+                        tree.nodes.id(),
+                        tree.aabbs.id(),
                         c.sorted.id(),
                         cloth.x.id(),
                         cloth.v.id(),
@@ -123,7 +123,7 @@ impl ContactBuffers {
                 &COLLIDE_BRUTE_FORCE,
                 vec![
                     cloth.params.id(),
-                    c.collider.id(),
+                    tree.collider.id(),
                     pose.id(),
                     c.sorted.id(),
                     cloth.x.id(),

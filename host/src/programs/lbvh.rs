@@ -1,19 +1,20 @@
-//! The LBVH build over sphere leaves: Morton codes, radix sort, leaf gather, Karras internal
-//! nodes, bottom-up boxes.
+//! The LBVH build over leaf boxes: Morton codes of the boxes' centres, radix sort, box gather,
+//! Karras internal nodes, bottom-up boxes. What a leaf is belongs to its leaf kind
+//! (`programs::spheres`), which writes `bounds` before the build and gathers its own data into
+//! the tree's order after it.
 
 use super::sort::RadixSort;
 use crate::graph::{Dispatch, Handle, Resources, Step};
-use crate::kernels::lbvh::{BUILD_NODES, GATHER_LEAVES, MORTON_CODES, REFIT};
+use crate::kernels::lbvh::{BUILD_NODES, GATHER_BOUNDS, MORTON_CODES, REFIT};
 use drape_types::{Aabb, BvhNode, ColliderParams};
-use glam::Vec4;
 
 /// The buffers of one LBVH.
 pub struct LbvhBuffers {
     pub leaves: u32,
     pub collider: Handle<ColliderParams>,
-    /// Leaves in input order, and in Morton order.
-    pub spheres: Handle<Vec4>,
-    pub sorted: Handle<Vec4>,
+    /// Leaf boxes in input order (the leaf kind writes them), and in the tree's order.
+    pub bounds: Handle<Aabb>,
+    pub sorted_bounds: Handle<Aabb>,
     /// Sorted Morton codes, and the input index of each sorted leaf.
     pub codes: Handle<u32>,
     pub order: Handle<u32>,
@@ -31,8 +32,8 @@ impl LbvhBuffers {
         LbvhBuffers {
             leaves,
             collider: resources.device(format!("{name}: params"), 1),
-            spheres: resources.device(format!("{name}: spheres"), leaves),
-            sorted: resources.device(format!("{name}: sorted spheres"), leaves),
+            bounds: resources.device(format!("{name}: leaf boxes"), leaves),
+            sorted_bounds: resources.device(format!("{name}: sorted leaf boxes"), leaves),
             codes: resources.device(format!("{name}: morton codes"), leaves),
             order: resources.device(format!("{name}: order"), leaves),
             sort: RadixSort::declare(resources, name, leaves),
@@ -43,22 +44,17 @@ impl LbvhBuffers {
         }
     }
 
-    /// The whole build, from `spheres` and `collider`.
+    /// The whole build, from `bounds` and `collider`.
     pub fn build_steps(&self) -> Vec<Step> {
         let n = self.leaves;
         let mut steps = vec![Step::run(
             "morton codes",
             &MORTON_CODES,
-            vec![self.collider.id(), self.spheres.id(), self.codes.id(), self.order.id()],
+            vec![self.collider.id(), self.bounds.id(), self.codes.id(), self.order.id()],
             Dispatch::Threads(n),
         )];
         self.sort.steps(self.codes, self.order, &mut steps);
-        steps.push(Step::run(
-            "gather leaves",
-            &GATHER_LEAVES,
-            vec![self.collider.id(), self.spheres.id(), self.order.id(), self.sorted.id()],
-            Dispatch::Threads(n),
-        ));
+        steps.push(self.gather_step());
         steps.push(Step::run(
             "build nodes",
             &BUILD_NODES,
@@ -69,22 +65,26 @@ impl LbvhBuffers {
         steps
     }
 
-    /// Refit after the leaves moved (same leaves, same tree): gather the leaves in the tree's
-    /// order again and recompute every box bottom-up. The tree stays valid for any motion;
-    /// its quality degrades only as leaves that were neighbours drift apart.
+    /// Refit after the leaves moved (same leaves, same tree; the leaf kind wrote new `bounds`):
+    /// gather the boxes in the tree's order again and recompute every node's box bottom-up.
+    /// The tree stays valid for any motion; its quality degrades only as leaves that were
+    /// neighbours drift apart.
     pub fn refit_steps(&self) -> Vec<Step> {
-        let mut steps = vec![Step::run(
-            "gather leaves",
-            &GATHER_LEAVES,
-            vec![self.collider.id(), self.spheres.id(), self.order.id(), self.sorted.id()],
-            Dispatch::Threads(self.leaves),
-        )];
+        let mut steps = vec![self.gather_step()];
         self.push_refit(&mut steps);
         steps
     }
 
+    fn gather_step(&self) -> Step {
+        Step::run(
+            "gather leaf boxes",
+            &GATHER_BOUNDS,
+            vec![self.collider.id(), self.bounds.id(), self.order.id(), self.sorted_bounds.id()],
+            Dispatch::Threads(self.leaves),
+        )
+    }
+
     fn push_refit(&self, steps: &mut Vec<Step>) {
-        let n = self.leaves;
         steps.push(Step::fill(self.flags, 0));
         // The refit writes xyz words only; zero the w words too.
         steps.push(Step::fill(self.aabbs, 0));
@@ -95,11 +95,11 @@ impl LbvhBuffers {
                 self.collider.id(),
                 self.nodes.id(),
                 self.parents.id(),
-                self.sorted.id(),
+                self.sorted_bounds.id(),
                 self.flags.id(),
                 self.aabbs.id(),
             ],
-            Dispatch::Threads(n),
+            Dispatch::Threads(self.leaves),
         ));
     }
 }

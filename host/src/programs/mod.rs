@@ -7,3 +7,4 @@ pub mod contact;
 pub mod lbvh;
 pub mod scan;
 pub mod sort;
+pub mod spheres;

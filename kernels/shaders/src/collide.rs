@@ -13,7 +13,6 @@
 //! collider (identity poses) gives exactly the frame-fixed test.
 
 use crate::atomics;
-use crate::lbvh::sphere_aabb;
 use crate::pose::{SubstepMotion, rotate, rotate_inverse, to_local, to_world};
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
@@ -291,10 +290,10 @@ pub fn collide_brute_force(
     collide_brute_force_at(id.x, collider, &motion, spheres, x, v, x_prev);
 }
 
-/// Root box of the collider (a single sphere's box when there is one leaf).
+/// Root box of the collider (the leaf's box when there is one leaf).
 #[inline]
-pub fn root_aabb(collider: &ColliderParams, aabbs: &[Aabb], spheres: &[Vec4]) -> Aabb {
-    if collider.leaf_count == 1 { sphere_aabb(spheres[0]) } else { aabbs[0] }
+pub fn root_aabb(collider: &ColliderParams, aabbs: &[Aabb], leaf_bounds: &[Aabb]) -> Aabb {
+    if collider.leaf_count == 1 { leaf_bounds[0] } else { aabbs[0] }
 }
 
 /// Bounds, in the collider's frame, of particles `lane, lane + stride, ...` over both ends of
@@ -336,7 +335,7 @@ pub fn cull_collision(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] spheres: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] leaf_bounds: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x_prev: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] args: &mut DispatchArgs,
@@ -362,7 +361,7 @@ pub fn cull_collision(
     }
     if lane == 0 {
         let cloth = Aabb { min: lows[0], max: highs[0] };
-        let root = root_aabb(collider, aabbs, spheres);
+        let root = root_aabb(collider, aabbs, leaf_bounds);
         let run = aabbs_overlap(&cloth, &root, collider.thickness);
         *args = DispatchArgs {
             x: if run { params.particle_count.div_ceil(COLLIDE_THREADS) } else { 0 },

@@ -1,7 +1,10 @@
-//! Linear BVH over spheres (Karras 2012, "Maximizing Parallelism in the Construction of BVHs,
-//! Octrees, and k-d Trees"): Morton codes of the leaf centres, a radix sort (`sort.rs`), all
-//! internal nodes in parallel (one thread each), then internal boxes bottom-up (one thread per
-//! leaf; the second thread to reach a node computes it).
+//! Linear BVH over leaf boxes (Karras 2012, "Maximizing Parallelism in the Construction of
+//! BVHs, Octrees, and k-d Trees"): Morton codes of the leaf boxes' centres, a radix sort
+//! (`sort.rs`), all internal nodes in parallel (one thread each), then internal boxes bottom-up
+//! (one thread per leaf; the second thread to reach a node computes it).
+//!
+//! The build knows nothing of what a leaf is: a leaf kind (`spheres.rs`) writes one box per leaf
+//! in input order and, after the sort, gathers its own data into the tree's leaf order.
 
 use crate::atomics;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
@@ -28,11 +31,17 @@ pub fn morton_code(p: Vec3, lo: Vec3, hi: Vec3) -> u32 {
     (expand_bits(q.x as u32) << 2) | (expand_bits(q.y as u32) << 1) | expand_bits(q.z as u32)
 }
 
+/// Centre of a box (what a leaf's Morton code encodes).
+#[inline]
+pub fn aabb_centre(b: &Aabb) -> Vec3 {
+    (b.min.xyz() + b.max.xyz()) * 0.5
+}
+
 #[spirv(compute(threads(256)))]
 pub fn morton_codes(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] spheres: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] bounds: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] keys: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] values: &mut [u32],
 ) {
@@ -40,22 +49,23 @@ pub fn morton_codes(
     if i >= collider.leaf_count {
         return;
     }
-    keys[i as usize] = morton_code(spheres[i as usize].xyz(), collider.scene_min.xyz(), collider.scene_max.xyz());
+    keys[i as usize] =
+        morton_code(aabb_centre(&bounds[i as usize]), collider.scene_min.xyz(), collider.scene_max.xyz());
     values[i as usize] = i;
 }
 
-/// Puts the spheres in sorted order: `sorted[i] = spheres[order[i]]`.
+/// Puts the leaf boxes in the tree's order: `sorted[i] = bounds[order[i]]`.
 #[spirv(compute(threads(256)))]
-pub fn gather_leaves(
+pub fn gather_bounds(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] spheres: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] bounds: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] order: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] sorted: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] sorted: &mut [Aabb],
 ) {
     let i = id.x;
     if i < collider.leaf_count {
-        sorted[i as usize] = spheres[order[i as usize] as usize];
+        sorted[i as usize] = bounds[order[i as usize] as usize];
     }
 }
 
@@ -145,13 +155,6 @@ pub fn build_nodes(
     build_node_at(codes, n, i, nodes, parents);
 }
 
-/// Bounds of a sphere (xyz centre, w radius).
-#[inline]
-pub fn sphere_aabb(s: Vec4) -> Aabb {
-    let r = Vec3::splat(s.w);
-    Aabb { min: (s.xyz() - r).extend(0.0), max: (s.xyz() + r).extend(0.0) }
-}
-
 #[inline]
 fn union(a: Aabb, b: Aabb) -> Aabb {
     Aabb { min: a.min.min(b.min), max: a.max.max(b.max) }
@@ -176,10 +179,10 @@ fn store_aabb(words: &mut [u32], node: u32, b: Aabb) {
     atomics::store(&mut words[base + 6], b.max.z.to_bits());
 }
 
-/// Box of a child: a sorted leaf's sphere, or an internal node's stored box.
+/// Box of a child: a leaf's box (in tree order), or an internal node's stored box.
 #[inline]
-fn child_aabb(child: u32, sorted: &[Vec4], words: &[u32]) -> Aabb {
-    if child & LEAF_BIT != 0 { sphere_aabb(sorted[(child & !LEAF_BIT) as usize]) } else { load_aabb(words, child) }
+fn child_aabb(child: u32, leaf_bounds: &[Aabb], words: &[u32]) -> Aabb {
+    if child & LEAF_BIT != 0 { leaf_bounds[(child & !LEAF_BIT) as usize] } else { load_aabb(words, child) }
 }
 
 /// Walks from leaf `leaf` towards the root. At each node the first thread to arrive stops; the
@@ -190,7 +193,7 @@ pub fn refit_from_leaf(
     n: u32,
     nodes: &[BvhNode],
     parents: &[u32],
-    sorted: &[Vec4],
+    leaf_bounds: &[Aabb],
     flags: &mut [u32],
     words: &mut [u32],
 ) {
@@ -200,7 +203,7 @@ pub fn refit_from_leaf(
             return;
         }
         let children = nodes[node as usize];
-        let b = union(child_aabb(children.left, sorted, words), child_aabb(children.right, sorted, words));
+        let b = union(child_aabb(children.left, leaf_bounds, words), child_aabb(children.right, leaf_bounds, words));
         store_aabb(words, node, b);
         node = parents[node as usize];
     }
@@ -212,7 +215,7 @@ pub fn refit(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] collider: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] parents: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] sorted: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaf_bounds: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] flags: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] aabbs: &mut [u32],
 ) {
@@ -220,5 +223,5 @@ pub fn refit(
     if id.x >= n || n < 2 {
         return;
     }
-    refit_from_leaf(id.x, n, nodes, parents, sorted, flags, aabbs);
+    refit_from_leaf(id.x, n, nodes, parents, leaf_bounds, flags, aabbs);
 }

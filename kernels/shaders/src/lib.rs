@@ -18,6 +18,7 @@ pub mod normals;
 pub mod pose;
 pub mod render;
 pub mod sort;
+pub mod spheres;
 
 /// Threads per workgroup of every 1-D kernel here (the host divides by it).
 pub const WORKGROUP_SIZE: u32 = 256;

@@ -1,0 +1,53 @@
+//! The sphere leaf kind's kernels (`drape_kernels::spheres`): leaf boxes for the LBVH build and
+//! the spheres gathered into the tree's order.
+
+use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use drape_kernels::spheres::sphere_aabb;
+use drape_types::{Aabb, ColliderParams};
+use glam::Vec4;
+
+const fn spec(entry: &'static str, bindings: &'static [BindingSpec]) -> KernelSpec {
+    KernelSpec { entry, bindings, push_constant_size: 0, workgroup_size: 256 }
+}
+
+pub static SPHERE_BOUNDS: Kernel = Kernel {
+    spec: spec(
+        "spheres::sphere_bounds",
+        &[BindingSpec::read("collider"), BindingSpec::read("spheres"), BindingSpec::write("bounds")],
+    ),
+    cpu: bounds_cpu,
+};
+pub static GATHER_SPHERES: Kernel = Kernel {
+    spec: spec(
+        "spheres::gather_spheres",
+        &[
+            BindingSpec::read("collider"),
+            BindingSpec::read("spheres"),
+            BindingSpec::read("order"),
+            BindingSpec::write("sorted"),
+        ],
+    ),
+    cpu: gather_cpu,
+};
+
+fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [collider, spheres, bounds] = d.bindings()?;
+    let c: ColliderParams = collider.first()?;
+    let (spheres, bounds) = (spheres.slice::<Vec4>(), bounds.slice_mut::<Aabb>());
+    for i in 0..threads.min(c.leaf_count) {
+        bounds[i as usize] = sphere_aabb(spheres[i as usize]);
+    }
+    Ok(())
+}
+
+fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [collider, spheres, order, sorted] = d.bindings()?;
+    let c: ColliderParams = collider.first()?;
+    let (spheres, order, sorted) = (spheres.slice::<Vec4>(), order.slice::<u32>(), sorted.slice_mut::<Vec4>());
+    for i in 0..threads.min(c.leaf_count) {
+        sorted[i as usize] = spheres[order[i as usize] as usize];
+    }
+    Ok(())
+}

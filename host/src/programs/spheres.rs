@@ -1,0 +1,66 @@
+//! An LBVH over spheres (the paper's voxel spheres): the sphere leaf kind's passes around the
+//! generic build, box per sphere before it, spheres gathered into the tree's order after it.
+
+use super::lbvh::LbvhBuffers;
+use crate::graph::{Dispatch, Handle, Resources, Step};
+use crate::kernels::spheres::{GATHER_SPHERES, SPHERE_BOUNDS};
+use glam::Vec4;
+
+/// A sphere collider's buffers: its spheres (input and tree order) and its LBVH.
+pub struct SphereBvh {
+    /// Spheres in input order (xyz centre, w radius): what the host writes.
+    pub spheres: Handle<Vec4>,
+    /// Spheres in the tree's leaf order: what the traversal reads.
+    pub sorted: Handle<Vec4>,
+    pub tree: LbvhBuffers,
+}
+
+impl SphereBvh {
+    pub fn declare(resources: &mut Resources, name: &str, leaves: u32) -> Self {
+        SphereBvh {
+            spheres: resources.device(format!("{name}: spheres"), leaves),
+            sorted: resources.device(format!("{name}: sorted spheres"), leaves),
+            tree: LbvhBuffers::declare(resources, name, leaves),
+        }
+    }
+
+    pub fn leaves(&self) -> u32 {
+        self.tree.leaves
+    }
+
+    /// Builds the tree from `spheres`.
+    pub fn build_steps(&self) -> Vec<Step> {
+        let mut steps = vec![self.bounds_step()];
+        steps.extend(self.tree.build_steps());
+        steps.push(self.gather_step());
+        steps
+    }
+
+    /// Refits the tree after `spheres` changed (same count).
+    pub fn refit_steps(&self) -> Vec<Step> {
+        let mut steps = vec![self.bounds_step()];
+        steps.extend(self.tree.refit_steps());
+        steps.push(self.gather_step());
+        steps
+    }
+
+    fn bounds_step(&self) -> Step {
+        let t = &self.tree;
+        Step::run(
+            "sphere boxes",
+            &SPHERE_BOUNDS,
+            vec![t.collider.id(), self.spheres.id(), t.bounds.id()],
+            Dispatch::Threads(t.leaves),
+        )
+    }
+
+    fn gather_step(&self) -> Step {
+        let t = &self.tree;
+        Step::run(
+            "gather spheres",
+            &GATHER_SPHERES,
+            vec![t.collider.id(), self.spheres.id(), t.order.id(), self.sorted.id()],
+            Dispatch::Threads(t.leaves),
+        )
+    }
+}
