@@ -83,7 +83,7 @@ fn the_rendered_cloth_covers_the_pixels_of_its_simulated_triangles() {
     std::fs::remove_dir_all(&out).ok();
 
     // Rendered cloth pixels: the cloth is shaded red-dominant, the collider blue-dominant.
-    let rendered: Vec<bool> = outcome.pixels.chunks_exact(4).map(|p| p[0] > p[2]).collect();
+    let rendered: Vec<bool> = outcome.pixels.as_chunks::<4>().0.iter().map(|p| p[0] > p[2]).collect();
     let cloth =
         outcome.cloth_triangles.iter().map(|t| (t.map(|i| Vec4::truncate(outcome.cloth_positions[i as usize])), 1u8));
     let collider = outcome.collider_triangles.iter().map(|t| (*t, 2u8));
@@ -102,6 +102,6 @@ fn the_rendered_cloth_covers_the_pixels_of_its_simulated_triangles() {
         surfaces.iter().filter(|&&s| s == 2).count()
     );
     assert!(count(&expected_cloth) > pixels / 20, "the cloth fills a real part of the picture");
-    assert!(surfaces.iter().any(|&s| s == 2), "the collider is in the picture too");
+    assert!(surfaces.contains(&2), "the collider is in the picture too");
     assert!(iou >= 0.95, "IoU {iou:.4} between rendered and simulated cloth pixels");
 }

@@ -165,7 +165,7 @@ impl Engine {
             )?[0]
         };
         let fence = unsafe { device.create_fence(&vk::FenceCreateInfo::default(), None)? };
-        Ok(Engine { entry: entry, instance, messenger, physical, device, family, queue, pool, cmd, fence })
+        Ok(Engine { entry, instance, messenger, physical, device, family, queue, pool, cmd, fence })
     }
 
     /// Records `body` into the engine's command buffer, submits it and waits for it.

@@ -156,8 +156,7 @@ impl Renderer {
 
     fn pipeline(&mut self) -> Result<()> {
         let device = &self.device;
-        let words: Vec<u32> =
-            drape::KERNELS_SPV.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let words: Vec<u32> = drape::KERNELS_SPV.as_chunks::<4>().0.iter().map(|c| u32::from_le_bytes(*c)).collect();
         self.module =
             unsafe { device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&words), None)? };
         let push = [vk::PushConstantRange::default()
