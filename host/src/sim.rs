@@ -414,8 +414,8 @@ impl Simulation {
         self.engine.upload(self.program.cloth.v, &v)
     }
 
-    /// Bytes of GPU buffers per part of the simulation (cloth, collider, contact), and what
-    /// the allocator holds on the whole context.
+    /// Bytes of GPU buffers per part of the simulation (cloth, each collider, each contact, the
+    /// status ring of recorded frames), and what the allocator holds on the whole context.
     pub fn memory_report(&self) -> MemoryReport {
         let mut parts: Vec<(String, u64)> = Vec::new();
         for desc in self.program.resources.descs() {
@@ -425,6 +425,7 @@ impl Simulation {
                 None => parts.push((part, desc.bytes)),
             }
         }
+        parts.push(("status ring".into(), self.status.bytes()));
         MemoryReport { parts, allocator: self.context().allocator_stats() }
     }
 
@@ -490,13 +491,15 @@ pub struct MemoryReport {
 
 impl std::fmt::Display for MemoryReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let width = self.parts.iter().map(|(part, _)| part.len()).max().unwrap_or(0).max("allocator".len());
         for (part, bytes) in &self.parts {
-            writeln!(f, "  {part:<10} {:>10.1} KiB", *bytes as f64 / 1024.0)?;
+            writeln!(f, "  {part:<width$} {:>10.1} KiB", *bytes as f64 / 1024.0)?;
         }
         let a = &self.allocator;
         write!(
             f,
-            "  allocator  {} allocations, {:.1} KiB used in {} blocks of {:.1} MiB total",
+            "  {:<width$} {} allocations, {:.1} KiB used in {} blocks of {:.1} MiB total",
+            "allocator",
             a.allocations,
             a.allocated_bytes as f64 / 1024.0,
             a.blocks,

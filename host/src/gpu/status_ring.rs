@@ -45,6 +45,11 @@ impl StatusRing {
         Ok(ring)
     }
 
+    /// Bytes of the ring's host-visible buffer.
+    pub fn bytes(&self) -> u64 {
+        self.slot_bytes * self.events.len() as u64
+    }
+
     /// Frames recorded and not read back yet.
     pub fn pending(&self) -> usize {
         self.pending.len()
