@@ -2,7 +2,7 @@
 //! Karras nodes, refit.
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
-use drape_kernels::lbvh::{aabb_centre, build_node_at, morton_code, refit_from_leaf};
+use drape_kernels::lbvh::{aabb_centre, build_node_at, gather_at, morton_code, refit_from_leaf};
 use drape_types::{Aabb, BvhNode, ColliderParams};
 use glam::Vec4Swizzles;
 
@@ -57,7 +57,7 @@ fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let c: ColliderParams = collider.first()?;
     let (bounds, order, sorted) = (bounds.slice::<Aabb>(), order.slice::<u32>(), sorted.slice_mut::<Aabb>());
     for i in 0..threads.min(c.leaf_count) {
-        sorted[i as usize] = bounds[order[i as usize] as usize];
+        gather_at(i, bounds, order, sorted);
     }
     Ok(())
 }

@@ -2,6 +2,7 @@
 //! the spheres gathered into the tree's order.
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use drape_kernels::lbvh::gather_at;
 use drape_kernels::spheres::sphere_aabb;
 use drape_types::{Aabb, ColliderParams};
 use glam::Vec4;
@@ -47,7 +48,7 @@ fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let c: ColliderParams = collider.first()?;
     let (spheres, order, sorted) = (spheres.slice::<Vec4>(), order.slice::<u32>(), sorted.slice_mut::<Vec4>());
     for i in 0..threads.min(c.leaf_count) {
-        sorted[i as usize] = spheres[order[i as usize] as usize];
+        gather_at(i, spheres, order, sorted);
     }
     Ok(())
 }

@@ -54,6 +54,13 @@ pub fn morton_codes(
     values[i as usize] = i;
 }
 
+/// Element `i` of the tree's leaf order: `sorted[i] = input[order[i]]` (leaf boxes here, a
+/// leaf kind's own data in its gather).
+#[inline]
+pub fn gather_at<T: Copy>(i: u32, input: &[T], order: &[u32], sorted: &mut [T]) {
+    sorted[i as usize] = input[order[i as usize] as usize];
+}
+
 /// Puts the leaf boxes in the tree's order: `sorted[i] = bounds[order[i]]`.
 #[spirv(compute(threads(256)))]
 pub fn gather_bounds(
@@ -65,7 +72,7 @@ pub fn gather_bounds(
 ) {
     let i = id.x;
     if i < collider.leaf_count {
-        sorted[i as usize] = bounds[order[i as usize] as usize];
+        gather_at(i, bounds, order, sorted);
     }
 }
 

@@ -1,6 +1,7 @@
 //! The sphere leaf kind (the paper's voxel spheres: xyz centre, w radius): each sphere's box for
 //! the LBVH build, and the spheres gathered into the tree's leaf order for the traversal.
 
+use crate::lbvh::gather_at;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, ColliderParams};
 use spirv_std::spirv;
@@ -37,6 +38,6 @@ pub fn gather_spheres(
 ) {
     let i = id.x;
     if i < collider.leaf_count {
-        sorted[i as usize] = spheres[order[i as usize] as usize];
+        gather_at(i, spheres, order, sorted);
     }
 }
