@@ -26,6 +26,13 @@ pub struct KernelSpec {
     pub workgroup_size: u32,
 }
 
+impl KernelSpec {
+    /// A kernel without push constants.
+    pub const fn new(entry: &'static str, bindings: &'static [BindingSpec], workgroup_size: u32) -> Self {
+        KernelSpec { entry, bindings, push_constant_size: 0, workgroup_size }
+    }
+}
+
 /// Runs a kernel's workgroups on the CPU.
 pub type CpuKernelFn = fn(&mut HostDispatch<'_>) -> Result<(), String>;
 

@@ -12,10 +12,11 @@ const fn read(name: &'static str) -> BindingSpec {
 const fn write(name: &'static str) -> BindingSpec {
     BindingSpec::write(name)
 }
-const THREADS: u32 = 256;
+/// Threads per workgroup of every LBVH kernel (their `threads(256)`).
+pub(crate) const THREADS: u32 = 256;
 
 const fn spec(entry: &'static str, bindings: &'static [BindingSpec]) -> KernelSpec {
-    KernelSpec { entry, bindings, push_constant_size: 0, workgroup_size: THREADS }
+    KernelSpec::new(entry, bindings, THREADS)
 }
 
 pub static MORTON_CODES: Kernel = Kernel {
@@ -24,7 +25,7 @@ pub static MORTON_CODES: Kernel = Kernel {
 };
 pub static GATHER_BOUNDS: Kernel = Kernel {
     spec: spec("lbvh::gather_bounds", &[read("collider"), read("bounds"), read("order"), write("sorted")]),
-    cpu: gather_cpu,
+    cpu: gather_cpu::<Aabb>,
 };
 pub static BUILD_NODES: Kernel = Kernel {
     spec: spec("lbvh::build_nodes", &[read("collider"), read("codes"), write("nodes"), write("parents")]),
@@ -51,13 +52,15 @@ fn morton_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     Ok(())
 }
 
-fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+/// Any gather into the tree's leaf order (bindings: collider, input, order, sorted): the LBVH's
+/// leaf boxes, or a leaf kind's own data.
+pub(crate) fn gather_cpu<T: bytemuck::Pod>(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [collider, bounds, order, sorted] = d.bindings()?;
+    let [collider, input, order, sorted] = d.bindings()?;
     let c: ColliderParams = collider.first()?;
-    let (bounds, order, sorted) = (bounds.slice::<Aabb>(), order.slice::<u32>(), sorted.slice_mut::<Aabb>());
+    let (input, order, sorted) = (input.slice::<T>(), order.slice::<u32>(), sorted.slice_mut::<T>());
     for i in 0..threads.min(c.leaf_count) {
-        gather_at(i, bounds, order, sorted);
+        gather_at(i, input, order, sorted);
     }
     Ok(())
 }

@@ -1,14 +1,14 @@
 //! The sphere leaf kind's kernels (`drape_kernels::spheres`): leaf boxes for the LBVH build and
 //! the spheres gathered into the tree's order.
 
+use super::lbvh::{THREADS, gather_cpu};
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
-use drape_kernels::lbvh::gather_at;
 use drape_kernels::spheres::sphere_aabb;
 use drape_types::{Aabb, ColliderParams};
 use glam::Vec4;
 
 const fn spec(entry: &'static str, bindings: &'static [BindingSpec]) -> KernelSpec {
-    KernelSpec { entry, bindings, push_constant_size: 0, workgroup_size: 256 }
+    KernelSpec::new(entry, bindings, THREADS)
 }
 
 pub static SPHERE_BOUNDS: Kernel = Kernel {
@@ -28,7 +28,7 @@ pub static GATHER_SPHERES: Kernel = Kernel {
             BindingSpec::write("sorted"),
         ],
     ),
-    cpu: gather_cpu,
+    cpu: gather_cpu::<Vec4>,
 };
 
 fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
@@ -38,17 +38,6 @@ fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (spheres, bounds) = (spheres.slice::<Vec4>(), bounds.slice_mut::<Aabb>());
     for i in 0..threads.min(c.leaf_count) {
         bounds[i as usize] = sphere_aabb(spheres[i as usize]);
-    }
-    Ok(())
-}
-
-fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
-    let threads = d.invocations();
-    let [collider, spheres, order, sorted] = d.bindings()?;
-    let c: ColliderParams = collider.first()?;
-    let (spheres, order, sorted) = (spheres.slice::<Vec4>(), order.slice::<u32>(), sorted.slice_mut::<Vec4>());
-    for i in 0..threads.min(c.leaf_count) {
-        gather_at(i, spheres, order, sorted);
     }
     Ok(())
 }
