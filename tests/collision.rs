@@ -6,7 +6,8 @@ mod common;
 use common::{Rng, assert_validation_clean, context};
 use drape::lbvh::{GpuLbvh, build_cpu, collider_params};
 use drape::{ClothBuilder, Collider, CpuSimulation, SimSettings, Simulation};
-use drape_kernels::collide::{STACK_SIZE, brute_force, traverse};
+use drape_kernels::contact::{STACK_SIZE, brute_force, traverse};
+use drape_kernels::spheres::Spheres;
 use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT};
 use glam::{Mat4, Vec3, Vec4};
 
@@ -93,10 +94,10 @@ fn bvh_traversal_finds_the_brute_force_contacts() {
         for _ in 0..2000 {
             let p1 = Vec3::new(rng.range(-1.2, 1.2), rng.range(-1.2, 1.2), rng.range(-1.2, 1.2));
             let p0 = p1 + Vec3::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), rng.range(-0.1, 0.1));
-            let (bvh, overflow) = traverse(&params, &tree.nodes, &tree.aabbs, &tree.spheres, p0, p1);
-            let brute = brute_force(&params, &tree.spheres, p0, p1);
+            let (bvh, overflow) = traverse::<Spheres>(&params, &tree.nodes, &tree.aabbs, &tree.spheres, p0, p1);
+            let brute = brute_force::<Spheres>(&params, &tree.spheres, p0, p1);
             assert!(!overflow);
-            assert_eq!((bvh.t, bvh.sphere_index), (brute.t, brute.sphere_index), "n {n}, p0 {p0}, p1 {p1}");
+            assert_eq!((bvh.t, bvh.leaf), (brute.t, brute.leaf), "n {n}, p0 {p0}, p1 {p1}");
             contacts += (brute.t <= 1.0) as u32;
         }
     }
@@ -123,7 +124,7 @@ fn traversal_stack_overflow_is_detected() {
     let everything = Aabb { min: Vec4::splat(-1.0), max: Vec4::splat(1.0) };
     let aabbs = vec![everything; nodes.len()];
     let params = ColliderParams { leaf_count: leaf, thickness: 0.0, ..Default::default() };
-    let (_, overflow) = traverse(&params, &nodes, &aabbs, &spheres, Vec3::ZERO, Vec3::ZERO);
+    let (_, overflow) = traverse::<Spheres>(&params, &nodes, &aabbs, &spheres, Vec3::ZERO, Vec3::ZERO);
     assert!(overflow, "a {levels}-level spine must overflow a {STACK_SIZE}-entry stack");
 }
 
@@ -193,8 +194,8 @@ fn collision_work_is_skipped_when_not_needed() {
     let cloth = draped_cloth();
     let mut plain = Simulation::new(&ctx, &cloth, SimSettings::default()).unwrap();
     let timings = plain.step().unwrap();
-    assert!(timings.skipped.contains(&"collide"));
-    assert!(timings.passes.iter().all(|p| !p.label.starts_with("collide")));
+    assert!(timings.skipped.contains(&"contact"));
+    assert!(timings.passes.iter().all(|p| !p.label.starts_with("contact")));
 
     let far = Collider::new(vec![Vec4::new(50.0, -50.0, 0.0, 1.0), Vec4::new(52.0, -50.0, 0.0, 1.0)], 0.01);
     let mut sim = Simulation::with_collider(&ctx, &cloth, SimSettings::default(), Some(&far)).unwrap();

@@ -61,7 +61,7 @@ fn frame_timings_name_every_pass() {
         labels,
         vec![("rk4: k1", 3), ("rk4: k2", 3), ("rk4: k3", 3), ("rk4: k4 + update", 3), ("health check", 1)]
     );
-    assert_eq!(timings.skipped, vec!["collide", "normals"]);
+    assert_eq!(timings.skipped, vec!["contact", "normals"]);
     assert!(ctx.info().timestamp_valid_bits > 0, "lavapipe and real GPUs have compute timestamps");
     for pass in &timings.passes {
         let micros = pass.micros.expect("timestamps");

@@ -54,7 +54,7 @@ impl ClothProgram {
             let params = collider_params(&c.spheres, c.thickness, c.friction)?;
             let name = if i == 0 { "collider".to_string() } else { format!("collider {i}") };
             let mode = if c.use_bvh { ContactMode::Bvh } else { ContactMode::BruteForce };
-            let b = ColliderBuffers::declare(&mut resources, &name, params.leaf_count, mode);
+            let b = ColliderBuffers::declare(&mut resources, &name, params.leaf_count, buffers.particles, mode);
             initial.push((b.lbvh.tree.collider.id(), bytemuck::bytes_of(&params).to_vec()));
             initial.push((b.lbvh.spheres.id(), bytes(&c.spheres)));
             let pose = ColliderPose { previous: c.pose, current: c.pose };

@@ -3,7 +3,7 @@
 //! own functions from `drape-kernels` over host buffers. Adding a kernel means adding it to its
 //! family's file and to `ALL`.
 
-pub mod collide;
+pub mod contact;
 pub mod integrate;
 pub mod lbvh;
 pub mod normals;
@@ -13,7 +13,7 @@ pub mod spheres;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 16] = [
+pub const ALL: [&Kernel; 17] = [
     &integrate::INTEGRATE_STAGE,
     &normals::VERTEX_NORMALS,
     &normals::CHECK_HEALTH,
@@ -27,7 +27,8 @@ pub const ALL: [&Kernel; 16] = [
     &lbvh::REFIT,
     &spheres::SPHERE_BOUNDS,
     &spheres::GATHER_SPHERES,
-    &collide::COLLIDE,
-    &collide::COLLIDE_BRUTE_FORCE,
-    &collide::CULL_COLLISION,
+    &spheres::DETECT_SPHERES,
+    &spheres::DETECT_SPHERES_BRUTE_FORCE,
+    &contact::CULL_CONTACT,
+    &contact::RESPOND_CONTACTS,
 ];

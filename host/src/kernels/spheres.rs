@@ -1,9 +1,13 @@
-//! The sphere leaf kind's kernels (`drape_kernels::spheres`): leaf boxes for the LBVH build and
-//! the spheres gathered into the tree's order.
+//! The sphere leaf kind's kernels (`drape_kernels::spheres`): leaf boxes for the LBVH build,
+//! the spheres gathered into the tree's order, and contact detection over them.
 
+use super::contact::{
+    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, contact_spec, detect_brute_force_cpu, detect_cpu,
+};
 use super::lbvh::{THREADS, gather_cpu};
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
-use drape_kernels::spheres::sphere_aabb;
+use drape_kernels::contact::CONTACT_THREADS;
+use drape_kernels::spheres::{Spheres, sphere_aabb};
 use drape_types::{Aabb, ColliderParams};
 use glam::Vec4;
 
@@ -29,6 +33,13 @@ pub static GATHER_SPHERES: Kernel = Kernel {
         ],
     ),
     cpu: gather_cpu::<Vec4>,
+};
+
+pub static DETECT_SPHERES: Kernel =
+    Kernel { spec: contact_spec("spheres::detect", DETECT_BINDINGS, CONTACT_THREADS), cpu: detect_cpu::<Spheres> };
+pub static DETECT_SPHERES_BRUTE_FORCE: Kernel = Kernel {
+    spec: contact_spec("spheres::detect_brute_force", DETECT_BRUTE_FORCE_BINDINGS, CONTACT_THREADS),
+    cpu: detect_brute_force_cpu::<Spheres>,
 };
 
 fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {

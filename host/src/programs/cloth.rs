@@ -113,7 +113,7 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[ColliderB
         }
         // A skipped pass is listed once, not once per substep.
         if colliders.is_empty() && substep == 0 {
-            steps.push(Step::Skip { label: "collide" });
+            steps.push(Step::Skip { label: super::contact::CONTACT_LABEL });
         }
     }
     if plan.normals {

@@ -1,25 +1,45 @@
-//! Cloth-vs-collider contact after each substep: a culling pass against the collider's root box
-//! writes the traversal's indirect dispatch (zero workgroups when they cannot touch), then every
-//! particle walks the LBVH. The brute-force mode tests every sphere instead.
+//! Cloth-vs-collider contact after each substep, for any leaf kind: a culling pass against the
+//! collider's root box writes the indirect dispatch of the next two passes (zero workgroups when
+//! they cannot touch), the leaf kind's detect pass writes each particle's earliest contact, and
+//! the respond pass applies them. The brute-force mode detects by testing every leaf instead.
 
 use super::cloth::ClothBuffers;
+use super::lbvh::LbvhBuffers;
 use super::spheres::SphereBvh;
-use crate::graph::{Dispatch, Handle, Resources, Step};
-use crate::kernels::collide::{COLLIDE, COLLIDE_BRUTE_FORCE, CULL_COLLISION};
-use drape_types::{ColliderPose, CollisionStatus, ContactPush, DispatchArgs};
+use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
+use crate::kernels::contact::{CULL_CONTACT, RESPOND_CONTACTS};
+use drape_types::{ColliderPose, CollisionStatus, Contact, ContactPush, DispatchArgs};
 
-/// Label of the collision traversal pass.
-pub const COLLIDE_LABEL: &str = "collide (BVH)";
+/// Label of the skipped contact passes of a cloth without colliders.
+pub const CONTACT_LABEL: &str = "contact";
+/// Label of the detect pass through the LBVH.
+pub const DETECT_LABEL: &str = "contact: detect (BVH)";
+/// Label of the brute-force detect pass.
+pub const DETECT_BRUTE_FORCE_LABEL: &str = "contact: detect (brute force)";
 /// Label of the culling pass.
-pub const CULL_LABEL: &str = "collide: cull";
+pub const CULL_LABEL: &str = "contact: cull";
+/// Label of the respond pass.
+pub const RESPOND_LABEL: &str = "contact: respond";
 
 /// How a frame collides a cloth with a collider.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum ContactMode {
     /// Cull against the root box, then traverse the LBVH (indirect dispatch).
     Bvh,
-    /// Test every sphere for every particle (baseline for benchmarks and tests).
+    /// Test every leaf for every particle (baseline for benchmarks and tests).
     BruteForce,
+}
+
+/// A collider's leaves as contact sees them: the LBVH over them, the leaves in its order, and
+/// the detect kernels of their kind. Each leaf kind implements it in its own file.
+pub trait ContactLeaves {
+    fn tree(&self) -> &LbvhBuffers;
+    /// The leaves in the tree's order (what the detect passes read).
+    fn sorted_leaves(&self) -> BufferId;
+    /// Detect through the LBVH (`kernels::contact::DETECT_BINDINGS`).
+    fn detect_kernel(&self) -> &'static Kernel;
+    /// Detect by testing every leaf (`kernels::contact::DETECT_BRUTE_FORCE_BINDINGS`).
+    fn detect_brute_force_kernel(&self) -> &'static Kernel;
 }
 
 /// One collider as a cloth frame sees it: its LBVH (built in the collider's own frame), its
@@ -31,12 +51,13 @@ pub struct ColliderBuffers {
 }
 
 impl ColliderBuffers {
-    /// Buffers of a collider with `leaves` leaves; `name` prefixes their debug names.
-    pub fn declare(resources: &mut Resources, name: &str, leaves: u32, mode: ContactMode) -> Self {
+    /// Buffers of a collider with `leaves` leaves against a cloth of `particles` particles;
+    /// `name` prefixes their debug names.
+    pub fn declare(resources: &mut Resources, name: &str, leaves: u32, particles: u32, mode: ContactMode) -> Self {
         ColliderBuffers {
             lbvh: SphereBvh::declare(resources, name, leaves),
             pose: resources.device(format!("{name}: pose"), 1),
-            contact: ContactBuffers::declare(resources, &format!("{name} contact"), mode),
+            contact: ContactBuffers::declare(resources, &format!("{name} contact"), particles, mode),
         }
     }
 
@@ -50,44 +71,48 @@ impl ColliderBuffers {
 pub struct ContactBuffers {
     pub mode: ContactMode,
     pub args: Handle<DispatchArgs>,
+    /// Each particle's contact of the current substep (detect writes, respond reads).
+    pub contacts: Handle<Contact>,
     /// Counters the host reads after every frame.
     pub status: Handle<CollisionStatus>,
 }
 
 impl ContactBuffers {
-    pub fn declare(resources: &mut Resources, name: &str, mode: ContactMode) -> Self {
+    pub fn declare(resources: &mut Resources, name: &str, particles: u32, mode: ContactMode) -> Self {
         ContactBuffers {
             mode,
             args: resources.device(format!("{name}: dispatch args"), 1),
+            contacts: resources.device(format!("{name}: contacts"), particles),
             status: resources.readback(format!("{name}: status")),
         }
     }
 
-    /// The contact passes of substep `substep` of `substeps`, against the collider whose LBVH
-    /// (in its own frame) is `collider` and whose frame-start and frame-end poses are in `pose`.
-    fn substep_steps(
+    /// The contact passes of substep `substep` of `substeps`, against `leaves` (in the
+    /// collider's own frame) whose frame-start and frame-end poses are in `pose`.
+    pub fn substep_steps(
         &self,
         cloth: &ClothBuffers,
-        collider: &SphereBvh,
+        leaves: &dyn ContactLeaves,
         pose: Handle<ColliderPose>,
         (substep, substeps): (u32, u32),
         out: &mut Vec<Step>,
     ) {
-        let (c, tree) = (collider, &collider.tree);
+        let tree = leaves.tree();
         let span = ContactPush {
             from: substep as f32 / substeps as f32,
             to: (substep + 1) as f32 / substeps as f32,
             _pad: [0; 2],
         };
         let push: [u32; 4] = bytemuck::cast(span);
-        match self.mode {
+        let (params, collider) = (cloth.params.id(), tree.collider.id());
+        let dispatch = match self.mode {
             ContactMode::Bvh => {
                 out.push(Step::run_with(
                     CULL_LABEL,
-                    &CULL_COLLISION,
+                    &CULL_CONTACT,
                     vec![
-                        cloth.params.id(),
-                        tree.collider.id(),
+                        params,
+                        collider,
                         pose.id(),
                         tree.aabbs.id(),
                         tree.sorted_bounds.id(),
@@ -100,39 +125,50 @@ impl ContactBuffers {
                     Dispatch::Workgroups(1),
                 ));
                 out.push(Step::run_with(
-                    COLLIDE_LABEL,
-                    &COLLIDE,
+                    DETECT_LABEL,
+                    leaves.detect_kernel(),
                     vec![
-                        cloth.params.id(),
-                        tree.collider.id(),
+                        params,
+                        collider,
                         pose.id(),
                         tree.nodes.id(),
                         tree.aabbs.id(),
-                        c.sorted.id(),
+                        leaves.sorted_leaves(),
                         cloth.x.id(),
-                        cloth.v.id(),
                         cloth.x_prev.id(),
+                        self.contacts.id(),
                         self.status.id(),
                     ],
                     push,
                     Dispatch::Indirect(self.args),
                 ));
+                Dispatch::Indirect(self.args)
             }
-            ContactMode::BruteForce => out.push(Step::run_with(
-                "collide (brute force)",
-                &COLLIDE_BRUTE_FORCE,
-                vec![
-                    cloth.params.id(),
-                    tree.collider.id(),
-                    pose.id(),
-                    c.sorted.id(),
-                    cloth.x.id(),
-                    cloth.v.id(),
-                    cloth.x_prev.id(),
-                ],
-                push,
-                Dispatch::Threads(cloth.particles),
-            )),
-        }
+            ContactMode::BruteForce => {
+                out.push(Step::run_with(
+                    DETECT_BRUTE_FORCE_LABEL,
+                    leaves.detect_brute_force_kernel(),
+                    vec![
+                        params,
+                        collider,
+                        pose.id(),
+                        leaves.sorted_leaves(),
+                        cloth.x.id(),
+                        cloth.x_prev.id(),
+                        self.contacts.id(),
+                    ],
+                    push,
+                    Dispatch::Threads(cloth.particles),
+                ));
+                Dispatch::Threads(cloth.particles)
+            }
+        };
+        out.push(Step::run_with(
+            RESPOND_LABEL,
+            &RESPOND_CONTACTS,
+            vec![params, collider, pose.id(), self.contacts.id(), cloth.x.id(), cloth.v.id()],
+            push,
+            dispatch,
+        ));
     }
 }

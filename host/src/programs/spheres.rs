@@ -1,9 +1,11 @@
 //! An LBVH over spheres (the paper's voxel spheres): the sphere leaf kind's passes around the
-//! generic build, box per sphere before it, spheres gathered into the tree's order after it.
+//! generic build, box per sphere before it, spheres gathered into the tree's order after it;
+//! contact detects through it with the sphere kind's detect kernels.
 
+use super::contact::ContactLeaves;
 use super::lbvh::LbvhBuffers;
-use crate::graph::{Dispatch, Handle, Resources, Step};
-use crate::kernels::spheres::{GATHER_SPHERES, SPHERE_BOUNDS};
+use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
+use crate::kernels::spheres::{DETECT_SPHERES, DETECT_SPHERES_BRUTE_FORCE, GATHER_SPHERES, SPHERE_BOUNDS};
 use glam::Vec4;
 
 /// A sphere collider's buffers: its spheres (input and tree order) and its LBVH.
@@ -62,5 +64,20 @@ impl SphereBvh {
             vec![t.collider.id(), self.spheres.id(), t.order.id(), self.sorted.id()],
             Dispatch::Threads(t.leaves),
         )
+    }
+}
+
+impl ContactLeaves for SphereBvh {
+    fn tree(&self) -> &LbvhBuffers {
+        &self.tree
+    }
+    fn sorted_leaves(&self) -> BufferId {
+        self.sorted.id()
+    }
+    fn detect_kernel(&self) -> &'static Kernel {
+        &DETECT_SPHERES
+    }
+    fn detect_brute_force_kernel(&self) -> &'static Kernel {
+        &DETECT_SPHERES_BRUTE_FORCE
     }
 }

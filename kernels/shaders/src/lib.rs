@@ -10,7 +10,7 @@
 
 pub mod atomics;
 pub mod cloth;
-pub mod collide;
+pub mod contact;
 pub mod health;
 pub mod integrate;
 pub mod lbvh;

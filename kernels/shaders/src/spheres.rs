@@ -1,9 +1,14 @@
 //! The sphere leaf kind (the paper's voxel spheres: xyz centre, w radius): each sphere's box for
-//! the LBVH build, and the spheres gathered into the tree's leaf order for the traversal.
+//! the LBVH build, the spheres gathered into the tree's leaf order, and the contact detect pass
+//! over them (the generic traversal of `contact` with the sphere's hit test).
 
+use crate::atomics;
+use crate::contact::{LeafKind, detect_at, detect_brute_force_at, point_in_aabb, substep_motion};
 use crate::lbvh::gather_at;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{Aabb, ColliderParams};
+use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, SimParams};
+#[cfg(target_arch = "spirv")]
+use spirv_std::num_traits::Float;
 use spirv_std::spirv;
 
 /// Bounds of a sphere (xyz centre, w radius).
@@ -11,6 +16,71 @@ use spirv_std::spirv;
 pub fn sphere_aabb(s: Vec4) -> Aabb {
     let r = Vec3::splat(s.w);
     Aabb { min: (s.xyz() - r).extend(0.0), max: (s.xyz() + r).extend(0.0) }
+}
+
+/// If p1 lies within `sphere` inflated by `thickness`, the parameter in [0, 1] of the first
+/// point of p0 -> p1 on the inflated sphere (0 when p0 is inside too); otherwise > 1.
+#[inline]
+pub fn hit_parameter(p0: Vec3, p1: Vec3, sphere: Vec4, thickness: f32) -> f32 {
+    let c = sphere.xyz();
+    let radius = sphere.w + thickness;
+    let r2 = radius * radius;
+    if (p1 - c).length_squared() >= r2 {
+        return 2.0;
+    }
+    let from = p0 - c;
+    let c0 = from.length_squared() - r2;
+    if c0 <= 0.0 {
+        return 0.0;
+    }
+    // |from + t d|^2 = r^2 has a root in (0, 1): p0 outside, p1 inside.
+    let d = p1 - p0;
+    let a = d.length_squared();
+    let b = from.dot(d);
+    let disc = (b * b - a * c0).max(0.0);
+    let t = (-b - disc.sqrt()) * (1.0 / a.max(1e-30));
+    t.clamp(0.0, 1.0)
+}
+
+/// Spheres as contact leaves: a particle is in contact when its substep motion ends within
+/// radius + thickness of a centre (the paper's test), and goes to the first point of its motion
+/// on the inflated sphere (radially out if it started inside).
+pub struct Spheres;
+
+impl LeafKind for Spheres {
+    type Leaf = Vec4;
+
+    /// Only the motion's end point counts, so a subtree matters when its grown box holds it.
+    #[inline]
+    fn may_touch(b: &Aabb, _p0: Vec3, p1: Vec3, thickness: f32) -> bool {
+        point_in_aabb(p1, b, thickness)
+    }
+
+    #[inline]
+    fn hit(sphere: Vec4, p0: Vec3, p1: Vec3, thickness: f32) -> (f32, f32) {
+        let t = hit_parameter(p0, p1, sphere, thickness);
+        let depth = if t > 1.0 { 0.0 } else { sphere.w + thickness - (p1 - sphere.xyz()).length() };
+        (t, depth)
+    }
+
+    #[inline]
+    fn surface(sphere: Vec4, p0: Vec3, p1: Vec3, t: f32, thickness: f32) -> (Vec3, Vec3) {
+        let c = sphere.xyz();
+        let radius = sphere.w + thickness;
+        if t <= 0.0 {
+            // Started inside: push p1 radially onto the surface.
+            let out = p1 - c;
+            let len = out.length();
+            let n = if len > 1e-12 { out * (1.0 / len) } else { Vec3::Y };
+            (c + n * radius, n)
+        } else {
+            let hit = p0 + (p1 - p0) * t;
+            let out = hit - c;
+            let len = out.length();
+            let n = if len > 1e-12 { out * (1.0 / len) } else { Vec3::Y };
+            (hit, n)
+        }
+    }
 }
 
 /// `bounds[i]` = the box of sphere `i` (input order).
@@ -40,4 +110,51 @@ pub fn gather_spheres(
     if i < collider.leaf_count {
         gather_at(i, spheres, order, sorted);
     }
+}
+
+/// Detect through the LBVH over spheres (tree order): one contact per particle.
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn detect(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &ContactPush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] contacts: &mut [Contact],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] status: &mut CollisionStatus,
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    let motion = substep_motion(params, pose, push);
+    if detect_at::<Spheres>(id.x, collider, &motion, nodes, aabbs, leaves, x, x_prev, contacts) {
+        atomics::add(&mut status.overflows, 1);
+    }
+}
+
+/// Detect by testing every sphere (the baseline).
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn detect_brute_force(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &ContactPush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaves: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] contacts: &mut [Contact],
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    let motion = substep_motion(params, pose, push);
+    detect_brute_force_at::<Spheres>(id.x, collider, &motion, leaves, x, x_prev, contacts);
 }

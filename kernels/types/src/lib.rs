@@ -211,6 +211,36 @@ pub struct CollisionStatus {
     pub _pad: u32,
 }
 
+/// "No leaf" in a `Contact`.
+pub const NO_LEAF: u32 = u32::MAX;
+
+/// A particle's contact with a collider, in the collider's frame: what a detect pass writes
+/// (one per particle per substep) and the respond pass applies.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct Contact {
+    /// xyz: where the particle goes (on the thickness-grown surface); w: the hit parameter along
+    /// the particle's substep motion (0 = it started within the thickness; > 1 = no contact).
+    pub position: Vec4,
+    /// xyz: the surface's outward unit normal there; w: how deep the motion ended inside (m).
+    pub normal: Vec4,
+    /// The leaf touched (tree order), `NO_LEAF` for none.
+    pub leaf: u32,
+    pub _pad: [u32; 3],
+}
+
+impl Contact {
+    /// No contact.
+    pub const NONE: Contact = Contact { position: Vec4::new(0.0, 0.0, 0.0, 2.0), normal: Vec4::ZERO, leaf: NO_LEAF, _pad: [0; 3] };
+
+    /// Whether there is a contact to respond to.
+    #[inline]
+    pub fn is_some(&self) -> bool {
+        self.position.w <= 1.0
+    }
+}
+
 /// `vkCmdDispatchIndirect` arguments, written by the culling kernel.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
@@ -233,3 +263,4 @@ const _: () = assert!(core::mem::size_of::<ContactPush>() == 16);
 const _: () = assert!(core::mem::size_of::<SurfacePush>() == 128);
 const _: () = assert!(core::mem::size_of::<CollisionStatus>() == 16);
 const _: () = assert!(core::mem::size_of::<DispatchArgs>() == 16);
+const _: () = assert!(core::mem::size_of::<Contact>() == 48);

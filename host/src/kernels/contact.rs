@@ -1,0 +1,157 @@
+//! Contact kernels shared by every leaf kind (`drape_kernels::contact`): the culling pass that
+//! writes the detect and respond passes' indirect dispatch, the respond pass, and the generic
+//! CPU adapters of a leaf kind's detect passes (`detect_cpu::<K>`, `detect_brute_force_cpu::<K>`;
+//! each leaf kind's file declares its own detect `Kernel`s with them).
+
+use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use drape_kernels::contact::{
+    CONTACT_THREADS, CULL_THREADS, LeafKind, aabbs_overlap, detect_at, detect_brute_force_at, respond_at, root_aabb,
+    substep_motion, swept_bounds,
+};
+use drape_types::{
+    Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, DispatchArgs, SimParams,
+};
+use glam::Vec4;
+
+const fn read(name: &'static str) -> BindingSpec {
+    BindingSpec::read(name)
+}
+const fn write(name: &'static str) -> BindingSpec {
+    BindingSpec::write(name)
+}
+
+/// Push-constant bytes of every contact pass.
+pub const CONTACT_PUSH: u32 = size_of::<ContactPush>() as u32;
+
+/// The interface of a contact pass (push constants: `ContactPush`).
+pub const fn contact_spec(entry: &'static str, bindings: &'static [BindingSpec], workgroup_size: u32) -> KernelSpec {
+    KernelSpec { entry, bindings, push_constant_size: CONTACT_PUSH, workgroup_size }
+}
+
+/// The binding table of every leaf kind's LBVH detect pass (the kernel names its leaves
+/// `leaves`, whatever they are).
+pub const DETECT_BINDINGS: &[BindingSpec] = &[
+    read("params"),
+    read("collider"),
+    read("pose"),
+    read("nodes"),
+    read("aabbs"),
+    read("leaves"),
+    read("x"),
+    read("x_prev"),
+    write("contacts"),
+    write("status"),
+];
+
+/// The binding table of every leaf kind's brute-force detect pass.
+pub const DETECT_BRUTE_FORCE_BINDINGS: &[BindingSpec] =
+    &[read("params"), read("collider"), read("pose"), read("leaves"), read("x"), read("x_prev"), write("contacts")];
+
+pub static RESPOND_CONTACTS: Kernel = Kernel {
+    spec: contact_spec(
+        "contact::respond_contacts",
+        &[read("params"), read("collider"), read("pose"), read("contacts"), write("x"), write("v")],
+        CONTACT_THREADS,
+    ),
+    cpu: respond_cpu,
+};
+
+pub static CULL_CONTACT: Kernel = Kernel {
+    spec: contact_spec(
+        "contact::cull_contact",
+        &[
+            read("params"),
+            read("collider"),
+            read("pose"),
+            read("aabbs"),
+            read("leaf_bounds"),
+            read("x"),
+            read("x_prev"),
+            write("args"),
+            write("status"),
+        ],
+        CULL_THREADS,
+    ),
+    cpu: cull_cpu,
+};
+
+/// CPU adapter of leaf kind `K`'s LBVH detect pass (bindings: `DETECT_BINDINGS`).
+pub fn detect_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String>
+where
+    K::Leaf: bytemuck::Pod,
+{
+    let threads = d.invocations();
+    let push: ContactPush = d.push_as();
+    let [params, collider, pose, nodes, aabbs, leaves, x, x_prev, contacts, status] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let c: ColliderParams = collider.first()?;
+    let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
+    let (nodes, aabbs, leaves) = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<K::Leaf>());
+    let (x, x_prev, contacts) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), contacts.slice_mut::<Contact>());
+    let status = status.first_mut::<CollisionStatus>()?;
+    for i in 0..threads.min(p.particle_count) {
+        if detect_at::<K>(i, &c, &motion, nodes, aabbs, leaves, x, x_prev, contacts) {
+            status.overflows += 1;
+        }
+    }
+    Ok(())
+}
+
+/// CPU adapter of leaf kind `K`'s brute-force detect pass (`DETECT_BRUTE_FORCE_BINDINGS`).
+pub fn detect_brute_force_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String>
+where
+    K::Leaf: bytemuck::Pod,
+{
+    let threads = d.invocations();
+    let push: ContactPush = d.push_as();
+    let [params, collider, pose, leaves, x, x_prev, contacts] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let c: ColliderParams = collider.first()?;
+    let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
+    let (leaves, x, x_prev) = (leaves.slice::<K::Leaf>(), x.slice::<Vec4>(), x_prev.slice::<Vec4>());
+    let contacts = contacts.slice_mut::<Contact>();
+    for i in 0..threads.min(p.particle_count) {
+        detect_brute_force_at::<K>(i, &c, &motion, leaves, x, x_prev, contacts);
+    }
+    Ok(())
+}
+
+fn respond_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let push: ContactPush = d.push_as();
+    let [params, collider, pose, contacts, x, v] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let c: ColliderParams = collider.first()?;
+    let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
+    let (contacts, x, v) = (contacts.slice::<Contact>(), x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>());
+    for i in 0..threads.min(p.particle_count) {
+        respond_at(i, &contacts[i as usize], &c, &motion, x, v);
+    }
+    Ok(())
+}
+
+/// One workgroup: the lanes' swept bounds reduced (min/max is exact in any order), the root-box
+/// test, and the indirect dispatch size, as the kernel does.
+fn cull_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: ContactPush = d.push_as();
+    let [params, collider, pose, aabbs, leaf_bounds, x, x_prev, args, status] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let c: ColliderParams = collider.first()?;
+    let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
+    let (x, x_prev) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>());
+    let cloth = (0..CULL_THREADS)
+        .map(|lane| swept_bounds(&motion, x, x_prev, p.particle_count, lane, CULL_THREADS))
+        .reduce(|a, b| Aabb { min: a.min.min(b.min), max: a.max.max(b.max) })
+        .ok_or("cull: no lanes")?;
+    let root = root_aabb(&c, aabbs.slice(), leaf_bounds.slice());
+    let run = aabbs_overlap(&cloth, &root, c.thickness);
+    *args.first_mut::<DispatchArgs>()? =
+        DispatchArgs { x: if run { p.particle_count.div_ceil(CONTACT_THREADS) } else { 0 }, y: 1, z: 1, _pad: 0 };
+    let status = status.first_mut::<CollisionStatus>()?;
+    if run {
+        status.ran += 1;
+    } else {
+        status.skipped += 1;
+    }
+    Ok(())
+}

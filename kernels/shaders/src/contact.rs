@@ -1,0 +1,341 @@
+//! Cloth-vs-collider contact (design.md §1), generic over the collider's leaf kind, in two
+//! passes per substep:
+//! - **detect**: each particle walks the collider's LBVH with a fixed-size stack and writes its
+//!   earliest contact (`drape_types::Contact`: where it goes and the surface normal there) or
+//!   "none". What a leaf is (a sphere, later a triangle) is a `LeafKind`: its hit test, the box
+//!   test that prunes subtrees, and the contact geometry of the chosen leaf.
+//! - **respond**: each particle with a contact moves to it and keeps only the tangential part of
+//!   its velocity relative to the collider's surface (Coulomb friction on top).
+//!
+//! A one-workgroup culling pass first tests the cloth's swept bounds against the collider's root
+//! box and writes both passes' indirect dispatch, with zero workgroups when they cannot touch.
+//!
+//! The LBVH lives in the collider's own frame. Each substep, a particle's start and end
+//! positions are taken into that frame with the collider's pose at the substep's start and end
+//! (interpolated from the frame's previous and current pose), so the test sees the motion
+//! relative to the collider: a moving collider sweeps the cloth instead of jumping through it.
+//! A static collider (identity poses) gives exactly the frame-fixed test.
+
+use crate::pose::{SubstepMotion, rotate, rotate_inverse, to_local, to_world};
+use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
+use drape_types::{
+    Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, DispatchArgs, LEAF_BIT,
+    NO_LEAF, SimParams,
+};
+use spirv_std::spirv;
+
+/// Traversal stack entries per particle: the LBVH of 30-bit Morton codes is at most ~30 +
+/// log2(N) deep, and each level pushes at most one node.
+pub const STACK_SIZE: usize = 64;
+
+/// What the traversal needs to know about a kind of leaf. Implemented by zero-sized types
+/// (`spheres::Spheres`); the traversal is monomorphised per kind, on the GPU and the CPU.
+pub trait LeafKind {
+    /// One leaf as the detect pass reads it (tree order).
+    type Leaf: Copy;
+    /// Whether the subtree under box `b` can hold a contact of the motion `p0 -> p1`.
+    fn may_touch(b: &Aabb, p0: Vec3, p1: Vec3, thickness: f32) -> bool;
+    /// The contact of `p0 -> p1` with `leaf` grown by `thickness`: hit parameter in [0, 1]
+    /// (0 = `p0` already within it; > 1 = no contact) and how deep `p1` ends inside.
+    fn hit(leaf: Self::Leaf, p0: Vec3, p1: Vec3, thickness: f32) -> (f32, f32);
+    /// Where a particle with the hit `t` goes and the outward unit normal there.
+    fn surface(leaf: Self::Leaf, p0: Vec3, p1: Vec3, t: f32, thickness: f32) -> (Vec3, Vec3);
+}
+
+/// The best leaf found so far: hit parameter, depth, leaf index (tree order).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Candidate {
+    pub t: f32,
+    pub depth: f32,
+    pub leaf: u32,
+}
+
+/// No contact.
+pub const NO_CANDIDATE: Candidate = Candidate { t: 2.0, depth: 0.0, leaf: NO_LEAF };
+
+/// Whether `p` is inside `b` grown by `margin`.
+#[inline]
+pub fn point_in_aabb(p: Vec3, b: &Aabb, margin: f32) -> bool {
+    p.cmpge(b.min.xyz() - Vec3::splat(margin)).all() && p.cmple(b.max.xyz() + Vec3::splat(margin)).all()
+}
+
+/// Keeps the better of `best` and leaf `leaf` hit at `t` with `depth`: the earlier hit; among
+/// equal hits (typically t = 0, p0 already inside several overlapping leaves) the shallowest,
+/// whose push-out moves the particle least (pushing out of a deep sphere can push it through a
+/// thin part of the mesh); then the lower index. A total order, so any visiting order gives the
+/// same answer: the BVH and the brute-force loop agree exactly.
+#[inline]
+pub fn consider(best: Candidate, t: f32, depth: f32, leaf: u32) -> Candidate {
+    if t > 1.0 {
+        return best;
+    }
+    let better = t < best.t || (t == best.t && (depth < best.depth || (depth == best.depth && leaf < best.leaf)));
+    if better { Candidate { t, depth, leaf } } else { best }
+}
+
+/// Earliest contact of p0 -> p1 with the LBVH's leaves. Returns it and whether the stack
+/// overflowed (some subtrees were then not visited).
+pub fn traverse<K: LeafKind>(
+    collider: &ColliderParams,
+    nodes: &[BvhNode],
+    aabbs: &[Aabb],
+    leaves: &[K::Leaf],
+    p0: Vec3,
+    p1: Vec3,
+) -> (Candidate, bool) {
+    let thickness = collider.thickness;
+    if collider.leaf_count == 1 {
+        let (t, depth) = K::hit(leaves[0], p0, p1, thickness);
+        return (consider(NO_CANDIDATE, t, depth, 0), false);
+    }
+    let mut best = NO_CANDIDATE;
+    let mut stack = [0u32; STACK_SIZE];
+    let mut top = 1; // stack[0] = root
+    let mut overflow = false;
+    while top > 0 {
+        top -= 1;
+        let node = nodes[stack[top] as usize];
+        let mut side = 0;
+        while side < 2 {
+            let child = if side == 0 { node.left } else { node.right };
+            if child & LEAF_BIT != 0 {
+                let leaf = child & !LEAF_BIT;
+                let (t, depth) = K::hit(leaves[leaf as usize], p0, p1, thickness);
+                best = consider(best, t, depth, leaf);
+            } else if K::may_touch(&aabbs[child as usize], p0, p1, thickness) {
+                if top < STACK_SIZE {
+                    stack[top] = child;
+                    top += 1;
+                } else {
+                    overflow = true;
+                }
+            }
+            side += 1;
+        }
+    }
+    (best, overflow)
+}
+
+/// The same contact by testing every leaf (reference and benchmark baseline).
+pub fn brute_force<K: LeafKind>(collider: &ColliderParams, leaves: &[K::Leaf], p0: Vec3, p1: Vec3) -> Candidate {
+    let mut best = NO_CANDIDATE;
+    let mut i = 0;
+    while i < collider.leaf_count {
+        let (t, depth) = K::hit(leaves[i as usize], p0, p1, collider.thickness);
+        best = consider(best, t, depth, i);
+        i += 1;
+    }
+    best
+}
+
+/// The contact record of `best` (found for the collider-frame motion `p0 -> p1`).
+#[inline]
+pub fn contact_of<K: LeafKind>(best: Candidate, leaves: &[K::Leaf], p0: Vec3, p1: Vec3, thickness: f32) -> Contact {
+    if best.t > 1.0 {
+        return Contact::NONE;
+    }
+    let (position, normal) = K::surface(leaves[best.leaf as usize], p0, p1, best.t, thickness);
+    Contact { position: position.extend(best.t), normal: normal.extend(best.depth), leaf: best.leaf, _pad: [0; 3] }
+}
+
+/// Particle `index`'s substep motion in the collider's frame (start, end).
+#[inline]
+pub fn local_motion(index: u32, motion: &SubstepMotion, x: &[Vec4], x_prev: &[Vec4]) -> (Vec3, Vec3) {
+    let i = index as usize;
+    (to_local(&motion.start, x_prev[i].xyz()), to_local(&motion.end, x[i].xyz()))
+}
+
+/// Detect for one particle through the LBVH: writes `contacts[index]`; returns whether its stack
+/// overflowed. Pinned particles get no contact.
+#[allow(clippy::too_many_arguments)]
+pub fn detect_at<K: LeafKind>(
+    index: u32,
+    collider: &ColliderParams,
+    motion: &SubstepMotion,
+    nodes: &[BvhNode],
+    aabbs: &[Aabb],
+    leaves: &[K::Leaf],
+    x: &[Vec4],
+    x_prev: &[Vec4],
+    contacts: &mut [Contact],
+) -> bool {
+    let i = index as usize;
+    if x[i].w == 0.0 {
+        contacts[i] = Contact::NONE;
+        return false;
+    }
+    let (p0, p1) = local_motion(index, motion, x, x_prev);
+    let (best, overflow) = traverse::<K>(collider, nodes, aabbs, leaves, p0, p1);
+    contacts[i] = contact_of::<K>(best, leaves, p0, p1, collider.thickness);
+    overflow
+}
+
+/// Detect for one particle by testing every leaf.
+#[allow(clippy::too_many_arguments)]
+pub fn detect_brute_force_at<K: LeafKind>(
+    index: u32,
+    collider: &ColliderParams,
+    motion: &SubstepMotion,
+    leaves: &[K::Leaf],
+    x: &[Vec4],
+    x_prev: &[Vec4],
+    contacts: &mut [Contact],
+) {
+    let i = index as usize;
+    if x[i].w == 0.0 {
+        contacts[i] = Contact::NONE;
+        return;
+    }
+    let (p0, p1) = local_motion(index, motion, x, x_prev);
+    let best = brute_force::<K>(collider, leaves, p0, p1);
+    contacts[i] = contact_of::<K>(best, leaves, p0, p1, collider.thickness);
+}
+
+/// Contact response in the collider's frame: the particle moves to `position` and the normal
+/// velocity into the surface (`outward` is its unit normal) is removed (design.md §1); with
+/// `friction` > 0 the tangential velocity also loses up to `friction` times the removed normal
+/// speed (Coulomb: it stops when that covers it). Returns the new position and velocity.
+#[inline]
+pub fn respond(position: Vec3, outward: Vec3, v: Vec3, friction: f32) -> (Vec3, Vec3) {
+    let into = v.dot(outward).min(0.0);
+    let tangential = v - outward * v.dot(outward);
+    let speed = tangential.length();
+    let kept = if speed > 1e-12 { (1.0 - friction * -into * (1.0 / speed)).max(0.0) } else { 0.0 };
+    let normal = outward * (v.dot(outward) - into);
+    (position, normal + tangential * kept)
+}
+
+/// Applies particle `index`'s detected contact, if any: the response acts in the collider's
+/// frame on the velocity relative to the collider's surface at the particle.
+#[inline]
+pub fn respond_at(
+    index: u32,
+    contact: &Contact,
+    collider: &ColliderParams,
+    motion: &SubstepMotion,
+    x: &mut [Vec4],
+    v: &mut [Vec4],
+) {
+    let i = index as usize;
+    if !contact.is_some() {
+        return;
+    }
+    let p1 = to_local(&motion.end, x[i].xyz());
+    let surface = motion.velocity_at(p1);
+    let relative = rotate_inverse(motion.end.rotation, v[i].xyz() - surface);
+    let (position, velocity) = respond(contact.position.xyz(), contact.normal.xyz(), relative, collider.friction);
+    x[i] = to_world(&motion.end, position).extend(x[i].w);
+    v[i] = (rotate(motion.end.rotation, velocity) + surface).extend(0.0);
+}
+
+/// The collider's motion over the substep a contact pass runs in.
+#[inline]
+pub fn substep_motion(params: &SimParams, pose: &ColliderPose, push: &ContactPush) -> SubstepMotion {
+    SubstepMotion::of(pose, push.from, push.to, params.substep)
+}
+
+/// Threads per workgroup of the detect and respond passes (their `threads(64)`).
+pub const CONTACT_THREADS: u32 = 64;
+
+#[spirv(compute(threads(64)))]
+pub fn respond_contacts(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &ContactPush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] contacts: &[Contact],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] x: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] v: &mut [Vec4],
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    let motion = substep_motion(params, pose, push);
+    respond_at(id.x, &contacts[id.x as usize], collider, &motion, x, v);
+}
+
+/// Root box of the collider (the leaf's box when there is one leaf).
+#[inline]
+pub fn root_aabb(collider: &ColliderParams, aabbs: &[Aabb], leaf_bounds: &[Aabb]) -> Aabb {
+    if collider.leaf_count == 1 { leaf_bounds[0] } else { aabbs[0] }
+}
+
+/// Bounds, in the collider's frame, of particles `lane, lane + stride, ...` over both ends of
+/// their substep motion relative to the collider.
+pub fn swept_bounds(motion: &SubstepMotion, x: &[Vec4], x_prev: &[Vec4], count: u32, lane: u32, stride: u32) -> Aabb {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    let mut i = lane;
+    while i < count {
+        let (b, a) = local_motion(i, motion, x, x_prev);
+        lo = lo.min(a).min(b);
+        hi = hi.max(a).max(b);
+        i += stride;
+    }
+    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
+}
+
+/// Whether two boxes, one grown by `margin`, overlap.
+#[inline]
+pub fn aabbs_overlap(a: &Aabb, b: &Aabb, margin: f32) -> bool {
+    let m = Vec3::splat(margin);
+    (a.min.xyz() - m).cmple(b.max.xyz()).all() && (a.max.xyz() + m).cmpge(b.min.xyz()).all()
+}
+
+/// Threads of the culling pass (one workgroup).
+pub const CULL_THREADS: u32 = 256;
+
+/// One workgroup: reduce the cloth's swept bounds in shared memory, test them against the
+/// collider's root box, and write the detect and respond passes' indirect dispatch size
+/// (0 = skip).
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(256)))]
+pub fn cull_contact(
+    #[spirv(local_invocation_id)] lid: UVec3,
+    #[spirv(push_constant)] push: &ContactPush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] args: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] status: &mut CollisionStatus,
+    #[spirv(workgroup)] lows: &mut [Vec4; 256],
+    #[spirv(workgroup)] highs: &mut [Vec4; 256],
+) {
+    let lane = lid.x;
+    let motion = substep_motion(params, pose, push);
+    let own = swept_bounds(&motion, x, x_prev, params.particle_count, lane, CULL_THREADS);
+    lows[lane as usize] = own.min;
+    highs[lane as usize] = own.max;
+    let mut stride = CULL_THREADS / 2;
+    while stride > 0 {
+        #[cfg(target_arch = "spirv")]
+        spirv_std::arch::workgroup_memory_barrier_with_group_sync();
+        if lane < stride {
+            let other = (lane + stride) as usize;
+            lows[lane as usize] = lows[lane as usize].min(lows[other]);
+            highs[lane as usize] = highs[lane as usize].max(highs[other]);
+        }
+        stride /= 2;
+    }
+    if lane == 0 {
+        let cloth = Aabb { min: lows[0], max: highs[0] };
+        let root = root_aabb(collider, aabbs, leaf_bounds);
+        let run = aabbs_overlap(&cloth, &root, collider.thickness);
+        *args = DispatchArgs {
+            x: if run { params.particle_count.div_ceil(CONTACT_THREADS) } else { 0 },
+            y: 1,
+            z: 1,
+            _pad: 0,
+        };
+        if run {
+            status.ran += 1;
+        } else {
+            status.skipped += 1;
+        }
+    }
+}
