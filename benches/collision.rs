@@ -8,8 +8,11 @@ use drape::mesh::Mesh;
 use drape::metrics::{TriangleBvh, accuracy};
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, shared_model};
 use drape::timing::{TimingReport, median};
-use drape::{Collider, Context, SimSettings, Simulation, Validation};
+use drape::{ClothId, Collider, Context, Model, SimSettings, Solver, Validation};
 use std::time::Instant;
+
+/// The only cloth of the models here.
+const CLOTH: ClothId = ClothId::new(0);
 
 const VOXELS: [u32; 6] = [1, 3, 5, 16, 32, 64];
 
@@ -26,19 +29,22 @@ struct Row {
 fn run(ctx: &std::sync::Arc<Context>, scene: &DrapeScene, collider: &Collider, bvh: &TriangleBvh) -> Row {
     let cloth = scene.cloth.build().expect("cloth");
     // Untimed run: wall time per frame over the whole 2 s settle, and the final state.
-    let untimed = SimSettings { timestamps: false, ..SimSettings::default() };
-    let mut sim = Simulation::with_collider(ctx, &cloth, untimed, Some(collider)).expect("simulation");
+    let untimed = SimSettings::default().with_timestamps(false);
+    let mut sim =
+        Solver::new(ctx, &Model::single(&cloth, std::slice::from_ref(collider), untimed).unwrap()).expect("simulation");
     let mut walls = Vec::new();
     for _ in 0..SETTLE_FRAMES {
         let start = Instant::now();
         sim.step().expect("stable");
         walls.push(start.elapsed().as_secs_f64() * 1e3);
     }
-    let x = sim.positions().expect("positions");
-    let p = *sim.params();
+    let x = sim.positions(CLOTH).expect("positions");
+    let p = *sim.params(CLOTH).unwrap();
     let accuracy = accuracy(bvh, &collider.spheres, collider.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
     // Timed run (timestamps) for the per-kernel split: 30 frames into the fall.
-    let mut timed = Simulation::with_collider(ctx, &cloth, SimSettings::default(), Some(collider)).expect("simulation");
+    let mut timed =
+        Solver::new(ctx, &Model::single(&cloth, std::slice::from_ref(collider), SimSettings::default()).unwrap())
+            .expect("simulation");
     let lbvh_ms = timed.lbvh_timings().map(|t| t.total_micros() / 1e3).unwrap_or(0.0);
     let mut report = TimingReport::default();
     for frame in 0..60 {
@@ -137,8 +143,9 @@ fn frame_ms(
     warmup: u32,
     measured: u32,
 ) -> f64 {
-    let settings = SimSettings { timestamps: false, ..SimSettings::default() };
-    let mut sim = Simulation::with_collider(ctx, cloth, settings, Some(collider)).expect("simulation");
+    let settings = SimSettings::default().with_timestamps(false);
+    let mut sim =
+        Solver::new(ctx, &Model::single(cloth, std::slice::from_ref(collider), settings).unwrap()).expect("simulation");
     let mut walls = Vec::new();
     for frame in 0..warmup + measured {
         let start = Instant::now();

@@ -5,19 +5,22 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use drape::timing::TimingReport;
-use drape::{Context, SimSettings, Simulation, Validation};
+use drape::{ClothId, Context, Model, SimSettings, Solver, Validation};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+/// The only cloth of the models here.
+const CLOTH: ClothId = ClothId::new(0);
+
 const SIZES: [u32; 4] = [32, 64, 128, 256];
 
-fn simulation(ctx: &Arc<Context>, grid: u32, settings: SimSettings) -> Simulation {
+fn simulation(ctx: &Arc<Context>, grid: u32, settings: SimSettings) -> Solver {
     let cloth = drape::scenes::swinging_cloth(grid).build().expect("cloth");
-    Simulation::new(ctx, &cloth, settings).expect("simulation")
+    Solver::new(ctx, &Model::single(&cloth, &[], settings).unwrap()).expect("simulation")
 }
 
 /// Median timings over `frames` frames (after 3 warm-up frames).
-fn measure(sim: &mut Simulation, frames: u32) -> TimingReport {
+fn measure(sim: &mut Solver, frames: u32) -> TimingReport {
     for _ in 0..3 {
         sim.step().expect("stable");
     }
@@ -33,7 +36,7 @@ fn measure(sim: &mut Simulation, frames: u32) -> TimingReport {
 fn frame(c: &mut Criterion) {
     let ctx = Context::new(Validation::Off).expect("a Vulkan driver");
     println!("device: {} ({})", ctx.info().name, ctx.info().driver);
-    let untimed = SimSettings { timestamps: false, ..SimSettings::default() };
+    let untimed = SimSettings::default().with_timestamps(false);
     let mut group = c.benchmark_group("frame");
     group.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(3));
     for grid in SIZES {
@@ -67,13 +70,13 @@ fn frame(c: &mut Criterion) {
         let stage = rows.iter().find(|r| r.0 == "rk4: k2").map(|r| r.2 / r.1 as f64).unwrap_or(0.0);
         if grid == 64 {
             stage_64 = stage;
-            substeps_64 = sim.stability().substeps;
+            substeps_64 = sim.stability(CLOTH).unwrap().substeps;
             println!("{}", timed.table());
         }
         println!(
             "{:>9} {:>9} {:>11} {:>14.1} {:>14.2} {:>12.2} {:>16.2} {:>16.2}",
             format!("{grid}^2"),
-            sim.stability().substeps,
+            sim.stability(CLOTH).unwrap().substeps,
             dispatches,
             stage,
             timed.median_gpu_micros() / 1e3,
@@ -85,10 +88,11 @@ fn frame(c: &mut Criterion) {
 
     // Fixed cost: the 64^2 schedule (same dispatch count) on a 2x2 cloth, which has no work.
     let tiny = drape::scenes::swinging_cloth(2).build().expect("cloth");
-    let fixed = SimSettings { substeps: Some(substeps_64), ..untimed };
-    let mut sim = Simulation::new(&ctx, &tiny, fixed).expect("simulation");
+    let fixed = untimed.with_substeps(Some(substeps_64));
+    let mut sim = Solver::new(&ctx, &Model::single(&tiny, &[], fixed).unwrap()).expect("simulation");
     let overhead = measure(&mut sim, 20);
-    let mut sim = Simulation::new(&ctx, &tiny, SimSettings { timestamps: true, ..fixed }).expect("simulation");
+    let mut sim =
+        Solver::new(&ctx, &Model::single(&tiny, &[], fixed.with_timestamps(true)).unwrap()).expect("simulation");
     let overhead_timed = measure(&mut sim, 20);
     let dispatches = 4 * substeps_64 + 2;
     println!(

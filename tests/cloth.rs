@@ -5,8 +5,11 @@ mod common;
 
 use common::{assert_validation_clean, context, max_distance};
 use drape::reference::{ReferenceCloth, energy};
-use drape::{Cloth, ClothBuilder, CpuSimulation, Error, Integrator, SimSettings, Simulation};
+use drape::{Cloth, ClothBuilder, ClothId, CpuSolver, Error, Integrator, Model, SimSettings, Solver};
 use glam::{Vec3, Vec4};
+
+/// The only cloth of the models here.
+const CLOTH: ClothId = ClothId::new(0);
 
 /// The default scene's cloth at a smaller size: pinned at two corners, wind, default springs.
 fn swinging(n: u32) -> Cloth {
@@ -15,11 +18,11 @@ fn swinging(n: u32) -> Cloth {
 
 fn run_gpu(cloth: &Cloth, settings: SimSettings, frames: u32) -> (Vec<Vec4>, Vec<Vec4>) {
     let ctx = context();
-    let mut sim = Simulation::new(&ctx, cloth, settings).unwrap();
+    let mut sim = Solver::new(&ctx, &Model::single(cloth, &[], settings).unwrap()).unwrap();
     for _ in 0..frames {
         sim.step().unwrap();
     }
-    let out = (sim.positions().unwrap(), sim.velocities().unwrap());
+    let out = (sim.positions(CLOTH).unwrap(), sim.velocities(CLOTH).unwrap());
     drop(sim);
     assert_validation_clean(&ctx);
     out
@@ -39,22 +42,22 @@ fn gpu_equals_cpu_after_one_and_100_frames() {
     let cloth = swinging(32);
     let settings = SimSettings::default();
     let ctx = context();
-    let mut gpu = Simulation::new(&ctx, &cloth, settings).unwrap();
-    let mut cpu = CpuSimulation::new(&cloth, settings).unwrap();
+    let mut gpu = Solver::new(&ctx, &Model::single(&cloth, &[], settings).unwrap()).unwrap();
+    let mut cpu = CpuSolver::new(&Model::single(&cloth, &[], settings).unwrap()).unwrap();
     gpu.step().unwrap();
     cpu.step().unwrap();
-    let one = max_distance(&gpu.positions().unwrap(), &cpu.positions());
+    let one = max_distance(&gpu.positions(CLOTH).unwrap(), &cpu.positions(CLOTH).unwrap());
     assert!(one <= 1e-5, "after 1 frame GPU and CPU differ by {one} m");
     for _ in 1..100 {
         gpu.step().unwrap();
         cpu.step().unwrap();
     }
-    let hundred = max_distance(&gpu.positions().unwrap(), &cpu.positions());
-    let velocity = max_distance(&gpu.velocities().unwrap(), &cpu.velocities());
+    let hundred = max_distance(&gpu.positions(CLOTH).unwrap(), &cpu.positions(CLOTH).unwrap());
+    let velocity = max_distance(&gpu.velocities(CLOTH).unwrap(), &cpu.velocities(CLOTH).unwrap());
     println!("GPU vs CPU: {one:e} m after 1 frame, {hundred:e} m / {velocity:e} m/s after 100");
     assert!(hundred <= 1e-3, "after 100 frames GPU and CPU differ by {hundred} m");
     // The cloth did move (this is not a comparison of two frozen states).
-    let moved = max_distance(&gpu.positions().unwrap(), &cloth.positions);
+    let moved = max_distance(&gpu.positions(CLOTH).unwrap(), &cloth.positions);
     assert!(moved > 0.3, "cloth moved only {moved} m");
     drop(gpu);
     assert_validation_clean(&ctx);
@@ -74,8 +77,8 @@ fn rk4_matches_f64_reference() {
     println!("RK4 (auto substeps) vs f64 reference after 0.5 s: {error:e} m");
     assert!(error < 1e-3, "RK4 error {error} m");
     // Four times the substeps: the error falls by two orders of magnitude (4th order).
-    let auto = SimSettings::default().resolve(&cloth).unwrap().1.substeps;
-    let (x, _) = run_gpu(&cloth, SimSettings { substeps: Some(4 * auto), ..SimSettings::default() }, frames);
+    let auto = SimSettings::default().stability(&cloth).unwrap().substeps;
+    let (x, _) = run_gpu(&cloth, SimSettings::default().with_substeps(Some(4 * auto)), frames);
     let finer = error_vs_reference(&x, &reference);
     println!("RK4 ({} substeps/frame) vs f64 reference: {finer:e} m", 4 * auto);
     assert!(finer < error / 50.0, "error {error} -> {finer} with 4x substeps");
@@ -98,7 +101,7 @@ fn convergence_orders(integrator: Integrator) -> (f64, f64, [f64; 3]) {
     let mut reference = ReferenceCloth::new(&cloth);
     reference.run(frames as f64 / 60.0, frames * 400);
     let errors = [1, 2, 4].map(|substeps| {
-        let settings = SimSettings { substeps: Some(substeps), integrator, ..SimSettings::default() };
+        let settings = SimSettings::default().with_substeps(Some(substeps)).with_integrator(integrator);
         let (x, _) = run_gpu(&cloth, settings, frames);
         error_vs_reference(&x, &reference)
     });
@@ -125,7 +128,7 @@ fn semi_implicit_euler_converges_with_order_one() {
 fn pinned_particles_stay_bit_identical() {
     let cloth = swinging(16);
     for integrator in [Integrator::Rk4, Integrator::SemiImplicitEuler] {
-        let (x, v) = run_gpu(&cloth, SimSettings { integrator, ..SimSettings::default() }, 40);
+        let (x, v) = run_gpu(&cloth, SimSettings::default().with_integrator(integrator), 40);
         let mut pinned = 0;
         for (i, p) in cloth.positions.iter().enumerate() {
             if p.w == 0.0 {
@@ -163,12 +166,12 @@ fn energy_never_rises_with_damping_and_no_driving_force() {
     let cloth =
         ClothBuilder::new(16, 16).spring_damping(0.005).velocity_damping(0.0005).pin_top_corners().build().unwrap();
     let ctx = context();
-    let mut sim = Simulation::new(&ctx, &cloth, SimSettings::default()).unwrap();
+    let mut sim = Solver::new(&ctx, &Model::single(&cloth, &[], SimSettings::default()).unwrap()).unwrap();
     let initial = energy(&cloth, &cloth.positions, &cloth.velocities);
     let mut previous = initial;
     for frame in 0..120 {
         sim.step().unwrap();
-        let e = energy(&cloth, &sim.positions().unwrap(), &sim.velocities().unwrap());
+        let e = energy(&cloth, &sim.positions(CLOTH).unwrap(), &sim.velocities(CLOTH).unwrap());
         // f32 positions carry ~1e-7 relative rounding into the potential energy.
         let slack = 1e-6 * initial.abs().max(1e-3);
         assert!(e <= previous + slack, "frame {frame}: energy rose from {previous} to {e} J");
@@ -182,13 +185,13 @@ fn energy_never_rises_with_damping_and_no_driving_force() {
 fn normals_are_unit_and_equal_the_cpu() {
     let cloth = swinging(24);
     let ctx = context();
-    let mut gpu = Simulation::new(&ctx, &cloth, SimSettings::default()).unwrap();
-    let mut cpu = CpuSimulation::new(&cloth, SimSettings::default()).unwrap();
+    let mut gpu = Solver::new(&ctx, &Model::single(&cloth, &[], SimSettings::default()).unwrap()).unwrap();
+    let mut cpu = CpuSolver::new(&Model::single(&cloth, &[], SimSettings::default()).unwrap()).unwrap();
     for _ in 0..20 {
         gpu.step().unwrap();
         cpu.step().unwrap();
     }
-    let (gn, cn) = (gpu.normals().unwrap(), cpu.normals());
+    let (gn, cn) = (gpu.normals(CLOTH).unwrap(), cpu.normals(CLOTH).unwrap());
     for (i, n) in gn.iter().enumerate() {
         assert!((n.truncate().length() - 1.0).abs() < 1e-5, "normal {i} has length {}", n.length());
     }
@@ -196,9 +199,9 @@ fn normals_are_unit_and_equal_the_cpu() {
     assert!(difference < 1e-4, "GPU and CPU normals differ by {difference}");
     // A flat cloth in its local XZ plane faces +Y.
     let flat = ClothBuilder::new(4, 4).gravity(Vec3::ZERO).build().unwrap();
-    let mut sim = Simulation::new(&ctx, &flat, SimSettings::default()).unwrap();
+    let mut sim = Solver::new(&ctx, &Model::single(&flat, &[], SimSettings::default()).unwrap()).unwrap();
     sim.step().unwrap();
-    for n in sim.normals().unwrap() {
+    for n in sim.normals(CLOTH).unwrap() {
         assert!((n.truncate() - Vec3::Y).length() < 1e-6, "flat normal {n}");
     }
     assert_validation_clean(&ctx);
@@ -218,14 +221,14 @@ fn stability_bound_separates_stable_from_unstable_runs() {
             .pin_top_corners()
             .build()
             .unwrap();
-        let auto = SimSettings { safety: 1.0, ..SimSettings::default() };
-        let bound = auto.resolve(&cloth).unwrap().1;
+        let auto = SimSettings::default().with_safety(1.0);
+        let bound = auto.stability(&cloth).unwrap();
         for ratio in [0.5f32, 1.0, 3.0, 6.0] {
             // Substeps per frame that give this ratio of substep to bound.
             let substeps = ((bound.substeps as f32) * bound.ratio / ratio).round().max(1.0) as u32;
-            let settings = SimSettings { substeps: Some(substeps), ..SimSettings::default() };
-            let mut sim = Simulation::new(&ctx, &cloth, settings).unwrap();
-            let actual = sim.stability().ratio;
+            let settings = SimSettings::default().with_substeps(Some(substeps));
+            let mut sim = Solver::new(&ctx, &Model::single(&cloth, &[], settings).unwrap()).unwrap();
+            let actual = sim.stability(CLOTH).unwrap().ratio;
             let outcome = (0..60).try_for_each(|_| sim.step().map(|_| ()));
             println!(
                 "k {k}: substeps {substeps}, h/bound {actual:.2}: {}",
@@ -233,7 +236,7 @@ fn stability_bound_separates_stable_from_unstable_runs() {
             );
             if actual <= 1.0 {
                 outcome.unwrap_or_else(|e| panic!("k {k}, h/bound {actual}: {e}"));
-                let x = sim.positions().unwrap();
+                let x = sim.positions(CLOTH).unwrap();
                 assert!(x.iter().all(|p| p.is_finite()));
             } else if actual >= 3.0 {
                 match outcome {
@@ -249,17 +252,17 @@ fn stability_bound_separates_stable_from_unstable_runs() {
 #[test]
 fn blow_up_is_an_error_that_says_what_to_change() {
     let cloth = ClothBuilder::new(8, 8).stiffness(5000.0, 1000.0, 100.0).pin_top_corners().build().unwrap();
-    let settings = SimSettings { substeps: Some(1), ..SimSettings::default() };
+    let settings = SimSettings::default().with_substeps(Some(1));
     let ctx = context();
-    let mut sim = Simulation::new(&ctx, &cloth, settings).unwrap();
-    assert!(sim.stability().warning().is_some(), "a substep over the bound must warn");
+    let mut sim = Solver::new(&ctx, &Model::single(&cloth, &[], settings).unwrap()).unwrap();
+    assert!(sim.stability(CLOTH).unwrap().warning().is_some(), "a substep over the bound must warn");
     let error = (0..30).find_map(|_| sim.step().err()).expect("must blow up");
     let message = error.to_string();
     assert!(matches!(error, Error::Unstable { .. }), "{message}");
     assert!(message.contains("substeps"), "{message}");
     // Automatic substeps for the same cloth are stable and do not warn.
-    let mut sim = Simulation::new(&ctx, &cloth, SimSettings::default()).unwrap();
-    assert!(sim.stability().warning().is_none());
+    let mut sim = Solver::new(&ctx, &Model::single(&cloth, &[], SimSettings::default()).unwrap()).unwrap();
+    assert!(sim.stability(CLOTH).unwrap().warning().is_none());
     for _ in 0..30 {
         sim.step().unwrap();
     }
@@ -283,13 +286,13 @@ fn invalid_parameters_are_errors_not_panics() {
     }
     let cloth = ClothBuilder::new(4, 4).build().unwrap();
     for settings in [
-        SimSettings { frame_dt: 0.0, ..SimSettings::default() },
-        SimSettings { substeps: Some(0), ..SimSettings::default() },
-        SimSettings { safety: 1.5, ..SimSettings::default() },
+        SimSettings::default().with_frame_dt(0.0),
+        SimSettings::default().with_substeps(Some(0)),
+        SimSettings::default().with_safety(1.5),
     ] {
-        assert!(matches!(CpuSimulation::new(&cloth, settings), Err(Error::InvalidParameter { .. })));
+        assert!(matches!(Model::single(&cloth, &[], settings), Err(Error::InvalidParameter { .. })));
     }
     // Absurd stiffness would need millions of substeps: refused up front.
     let stiff = ClothBuilder::new(4, 4).stiffness(1e12, 1e12, 1e12).build().unwrap();
-    assert!(matches!(CpuSimulation::new(&stiff, SimSettings::default()), Err(Error::InvalidParameter { .. })));
+    assert!(matches!(Model::single(&stiff, &[], SimSettings::default()), Err(Error::InvalidParameter { .. })));
 }

@@ -5,11 +5,14 @@ mod common;
 
 use common::{Rng, assert_validation_clean, context};
 use drape::lbvh::{GpuLbvh, build_cpu, collider_params};
-use drape::{ClothBuilder, Collider, CpuSimulation, SimSettings, Simulation};
+use drape::{ClothBuilder, ClothId, Collider, ColliderId, CpuSolver, Model, SimSettings, Solver};
 use drape_kernels::contact::{STACK_SIZE, brute_force, traverse};
 use drape_kernels::spheres::Spheres;
 use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT};
 use glam::{Mat4, Vec3, Vec4};
+
+/// The only cloth of the models here.
+const CLOTH: ClothId = ClothId::new(0);
 
 fn random_spheres(rng: &mut Rng, n: usize, spread: f32) -> Vec<Vec4> {
     (0..n)
@@ -158,29 +161,32 @@ fn collision_gpu_equals_cpu_and_bvh_equals_brute_force() {
     let ctx = context();
     let cloth = draped_cloth();
     let collider = ball_collider();
-    let brute = Collider { use_bvh: false, ..collider.clone() };
+    let brute = collider.clone().brute_force();
     let settings = SimSettings::default();
-    let mut gpu = Simulation::with_collider(&ctx, &cloth, settings, Some(&collider)).unwrap();
-    let mut gpu_brute = Simulation::with_collider(&ctx, &cloth, settings, Some(&brute)).unwrap();
-    let mut cpu = CpuSimulation::with_collider(&cloth, settings, Some(&collider)).unwrap();
+    let mut gpu =
+        Solver::new(&ctx, &Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap()).unwrap();
+    let mut gpu_brute =
+        Solver::new(&ctx, &Model::single(&cloth, std::slice::from_ref(&brute), settings).unwrap()).unwrap();
+    let mut cpu = CpuSolver::new(&Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap()).unwrap();
     let mut ran = 0;
     for frame in 0..40 {
         let report = gpu.step_report().unwrap();
         ran += report.collision_ran;
         gpu_brute.step().unwrap();
         cpu.step().unwrap();
-        let (a, b, c) = (gpu.positions().unwrap(), gpu_brute.positions().unwrap(), cpu.positions());
+        let (a, b, c) =
+            (gpu.positions(CLOTH).unwrap(), gpu_brute.positions(CLOTH).unwrap(), cpu.positions(CLOTH).unwrap());
         assert_eq!(a, b, "frame {frame}: BVH and brute force disagree");
         let diff = common::max_distance(&a, &c);
         assert!(diff <= 1e-5, "frame {frame}: GPU and CPU differ by {diff}");
     }
     assert!(ran > 0, "the traversal must have run");
     // The cloth rests on the ball: the centre particle sits on top, not fallen through.
-    let x = gpu.positions().unwrap();
+    let x = gpu.positions(CLOTH).unwrap();
     let centre = x[12 * 24 + 12].truncate();
     let top = 0.3 + 0.06 + 0.005;
     assert!(centre.y > top - 0.02 && centre.y < top + 0.05, "centre particle at {centre}");
-    let tree = gpu.collider_bvh(0).unwrap().unwrap();
+    let tree = gpu.collider_bvh(ColliderId::new(0)).unwrap();
     tree.validate(&collider.spheres).unwrap();
     drop((gpu, gpu_brute));
     assert_validation_clean(&ctx);
@@ -192,20 +198,23 @@ fn collision_gpu_equals_cpu_and_bvh_equals_brute_force() {
 fn collision_work_is_skipped_when_not_needed() {
     let ctx = context();
     let cloth = draped_cloth();
-    let mut plain = Simulation::new(&ctx, &cloth, SimSettings::default()).unwrap();
+    let mut plain = Solver::new(&ctx, &Model::single(&cloth, &[], SimSettings::default()).unwrap()).unwrap();
     let timings = plain.step().unwrap();
     assert!(timings.skipped.contains(&"contact"));
     assert!(timings.passes.iter().all(|p| !p.label.starts_with("contact")));
 
     let far = Collider::new(vec![Vec4::new(50.0, -50.0, 0.0, 1.0), Vec4::new(52.0, -50.0, 0.0, 1.0)], 0.01);
-    let mut sim = Simulation::with_collider(&ctx, &cloth, SimSettings::default(), Some(&far)).unwrap();
-    let substeps = sim.stability().substeps;
+    let mut sim =
+        Solver::new(&ctx, &Model::single(&cloth, std::slice::from_ref(&far), SimSettings::default()).unwrap()).unwrap();
+    let substeps = sim.stability(CLOTH).unwrap().substeps;
     for _ in 0..5 {
         let report = sim.step_report().unwrap();
         assert_eq!((report.collision_ran, report.collision_skipped), (0, substeps));
     }
     let near = ball_collider();
-    let mut sim = Simulation::with_collider(&ctx, &cloth, SimSettings::default(), Some(&near)).unwrap();
+    let mut sim =
+        Solver::new(&ctx, &Model::single(&cloth, std::slice::from_ref(&near), SimSettings::default()).unwrap())
+            .unwrap();
     let mut ran = 0;
     for _ in 0..30 {
         ran += sim.step_report().unwrap().collision_ran;
@@ -214,17 +223,17 @@ fn collision_work_is_skipped_when_not_needed() {
     assert_validation_clean(&ctx);
 }
 
-/// Bad colliders are errors, not panics.
+/// Bad colliders are errors when the model is built (before anything reaches the GPU), not
+/// panics.
 #[test]
 fn invalid_colliders_are_errors() {
-    let ctx = context();
     let cloth = draped_cloth();
     for (what, collider) in [
         ("empty", Collider::new(vec![], 0.01)),
         ("NaN centre", Collider::new(vec![Vec4::new(f32::NAN, 0.0, 0.0, 1.0)], 0.01)),
         ("negative thickness", Collider::new(vec![Vec4::new(0.0, 0.0, 0.0, 1.0)], -1.0)),
     ] {
-        let result = Simulation::with_collider(&ctx, &cloth, SimSettings::default(), Some(&collider));
+        let result = Model::single(&cloth, std::slice::from_ref(&collider), SimSettings::default());
         assert!(matches!(result, Err(drape::Error::InvalidParameter { .. })), "{what}");
     }
 }
@@ -242,12 +251,14 @@ fn draped_cloth_rests_outside_the_true_mesh_and_finer_voxels_hug_it() {
     let mut gaps = Vec::new();
     for n in [3, 12] {
         let collider = scene.collider(n).unwrap();
-        let mut sim = Simulation::with_collider(&ctx, &cloth, SimSettings::default(), Some(&collider)).unwrap();
+        let mut sim =
+            Solver::new(&ctx, &Model::single(&cloth, std::slice::from_ref(&collider), SimSettings::default()).unwrap())
+                .unwrap();
         for _ in 0..SETTLE_FRAMES {
             sim.step().unwrap();
         }
-        let x = sim.positions().unwrap();
-        let p = *sim.params();
+        let x = sim.positions(CLOTH).unwrap();
+        let p = *sim.params(CLOTH).unwrap();
         let a = accuracy(&bvh, &collider.spheres, collider.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
         println!("n = {n}: {a:?}");
         assert!(a.all_finite);
@@ -275,11 +286,13 @@ fn friction_holds_the_cloth_on_the_collider() {
     for friction in [0.0, 0.6] {
         let mut collider = scene.collider(6).unwrap();
         collider.friction = friction;
-        let mut sim = Simulation::with_collider(&ctx, &cloth, SimSettings::default(), Some(&collider)).unwrap();
+        let mut sim =
+            Solver::new(&ctx, &Model::single(&cloth, std::slice::from_ref(&collider), SimSettings::default()).unwrap())
+                .unwrap();
         for _ in 0..SETTLE_FRAMES {
             sim.step().unwrap();
         }
-        let x = sim.positions().unwrap();
+        let x = sim.positions(CLOTH).unwrap();
         highest.push(x.iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max));
     }
     // The highest particle: on the collider's top with friction, far below it without.

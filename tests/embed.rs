@@ -5,10 +5,13 @@ mod common;
 
 use ash::vk;
 use common::{assert_validation_clean, context};
-use drape::{ClothBuilder, Context, ExternalDevice, SimSettings, Simulation};
+use drape::{ClothBuilder, ClothId, ColliderId, Context, ExternalDevice, Model, SimSettings, Solver};
 use glam::{Vec3, Vec4};
 use std::ffi::c_void;
 use std::sync::Mutex;
+
+/// The only cloth of the models here.
+const CLOTH: ClothId = ClothId::new(0);
 
 /// Validation errors seen by the test's own messenger (the caller owns validation here).
 static CALLER_VALIDATION: Mutex<Vec<String>> = Mutex::new(Vec::new());
@@ -117,21 +120,21 @@ fn an_imported_device_steps_a_cloth_and_survives_drape() {
     let caller = CallerDevice::new();
     let ctx = caller.import();
     assert!(!ctx.owns_device());
-    let settings = SimSettings { substeps: Some(4), ..SimSettings::default() };
-    let mut sim = Simulation::new(&ctx, &cloth(), settings).unwrap();
+    let settings = SimSettings::default().with_substeps(Some(4));
+    let mut sim = Solver::new(&ctx, &Model::single(&cloth(), &[], settings).unwrap()).unwrap();
     for _ in 0..10 {
         sim.step().unwrap();
     }
-    let imported = sim.positions().unwrap();
+    let imported = sim.positions(CLOTH).unwrap();
     drop(sim);
     drop(ctx);
 
     let own = context();
-    let mut reference = Simulation::new(&own, &cloth(), settings).unwrap();
+    let mut reference = Solver::new(&own, &Model::single(&cloth(), &[], settings).unwrap()).unwrap();
     for _ in 0..10 {
         reference.step().unwrap();
     }
-    assert_eq!(imported, reference.positions().unwrap(), "same driver, same kernels: same bits");
+    assert_eq!(imported, reference.positions(CLOTH).unwrap(), "same driver, same kernels: same bits");
     assert_validation_clean(&own);
 
     // The caller's device still works: drape destroyed nothing of it.
@@ -164,10 +167,10 @@ fn importing_a_wrong_queue_family_is_an_error() {
 #[test]
 fn vertex_buffers_are_stable_and_describe_the_cloth() {
     let ctx = context();
-    let mut sim = Simulation::new(&ctx, &cloth(), SimSettings::default()).unwrap();
-    let before = sim.vertex_buffers().unwrap();
+    let mut sim = Solver::new(&ctx, &Model::single(&cloth(), &[], SimSettings::default()).unwrap()).unwrap();
+    let before = sim.vertex_buffers(CLOTH).unwrap();
     sim.step().unwrap();
-    assert_eq!(sim.vertex_buffers().unwrap(), before);
+    assert_eq!(sim.vertex_buffers(CLOTH).unwrap(), before);
     assert_eq!(before.vertex_count, 144);
     assert_eq!(before.index_count, 6 * 11 * 11);
     assert_eq!((before.offset, before.stride, before.format), (0, 16, vk::Format::R32G32B32A32_SFLOAT));
@@ -180,31 +183,31 @@ fn vertex_buffers_are_stable_and_describe_the_cloth() {
 fn runtime_changes_take_effect() {
     let ctx = context();
     let free = ClothBuilder::new(8, 8).build().unwrap();
-    let mut sim = Simulation::new(&ctx, &free, SimSettings::default()).unwrap();
-    let start = sim.positions().unwrap();
+    let mut sim = Solver::new(&ctx, &Model::single(&free, &[], SimSettings::default()).unwrap()).unwrap();
+    let start = sim.positions(CLOTH).unwrap();
     // No gravity, at rest: the cloth stays where it is.
     sim.set_gravity(Vec3::ZERO).unwrap();
     for _ in 0..5 {
         sim.step().unwrap();
     }
-    let still = sim.positions().unwrap();
+    let still = sim.positions(CLOTH).unwrap();
     assert!(common::max_distance(&start, &still) < 1e-5, "moved {}", common::max_distance(&start, &still));
     // Wind along +x: every particle moves +x.
     sim.set_external_force(Vec3::new(0.01, 0.0, 0.0)).unwrap();
     for _ in 0..5 {
         sim.step().unwrap();
     }
-    let blown = sim.positions().unwrap();
+    let blown = sim.positions(CLOTH).unwrap();
     assert!(blown.iter().zip(&still).all(|(b, s)| b.x > s.x), "wind had no effect");
     // Teleport: positions and velocities are what was set.
     let moved: Vec<Vec3> = start.iter().map(|p| p.truncate() + Vec3::Y).collect();
-    sim.set_state(&moved, &vec![Vec3::ZERO; moved.len()]).unwrap();
-    assert_eq!(sim.positions().unwrap(), moved.iter().map(|p| p.extend(1.0)).collect::<Vec<Vec4>>());
-    assert!(sim.velocities().unwrap().iter().all(|v| *v == Vec4::ZERO));
+    sim.teleport(CLOTH, &moved, &vec![Vec3::ZERO; moved.len()]).unwrap();
+    assert_eq!(sim.positions(CLOTH).unwrap(), moved.iter().map(|p| p.extend(1.0)).collect::<Vec<Vec4>>());
+    assert!(sim.velocities(CLOTH).unwrap().iter().all(|v| *v == Vec4::ZERO));
     // Bad values are refused.
     assert!(sim.set_gravity(Vec3::NAN).is_err());
-    assert!(sim.set_state(&moved[1..], &[]).is_err());
-    assert!(sim.set_contact(0, 0.01, 0.5).is_err(), "no collider");
+    assert!(sim.teleport(CLOTH, &moved[1..], &[]).is_err());
+    assert!(sim.set_contact(ColliderId::new(0), 0.01, 0.5).is_err(), "no collider");
     assert_validation_clean(&ctx);
 }
 
@@ -218,39 +221,41 @@ fn a_10000_frame_soak_with_motion_and_runtime_changes_allocates_nothing() {
     let small = ClothBuilder::new(4, 4).pin_top_corners().build().unwrap();
     let spheres = vec![Vec4::new(0.0, 0.0, 0.0, 0.1), Vec4::new(0.3, 0.0, 0.0, 0.1)];
     let collider = drape::Collider::new(spheres.clone(), 0.005);
-    let settings = SimSettings { timestamps: false, ..SimSettings::default() };
-    let mut sim = Simulation::with_collider(&ctx, &small, settings, Some(&collider)).unwrap();
+    let settings = SimSettings::default().with_timestamps(false);
+    let mut sim =
+        Solver::new(&ctx, &Model::single(&small, std::slice::from_ref(&collider), settings).unwrap()).unwrap();
     sim.step().unwrap();
-    let start = sim.positions().unwrap();
+    let start = sim.positions(CLOTH).unwrap();
     let rest: Vec<Vec3> = start.iter().map(|p| p.truncate()).collect();
     let zero = vec![Vec3::ZERO; rest.len()];
-    sim.set_state(&rest, &zero).unwrap(); // first use of the staging pool
+    sim.teleport(CLOTH, &rest, &zero).unwrap(); // first use of the staging pool
     let before = sim.memory_report();
     let mut substep_counts = std::collections::BTreeSet::new();
     for frame in 0..10_000u32 {
         let phase = frame as f32 * 0.01;
         let orbit = glam::Quat::from_rotation_y(phase);
-        sim.set_collider_pose(0, orbit, Vec3::new(0.2 * phase.cos(), -0.3, 0.2 * phase.sin())).unwrap();
+        sim.set_collider_pose(ColliderId::new(0), orbit, Vec3::new(0.2 * phase.cos(), -0.3, 0.2 * phase.sin()))
+            .unwrap();
         sim.set_gravity(Vec3::new(0.0, -9.81 + phase.sin(), 0.0)).unwrap();
         sim.set_external_force(Vec3::new(0.001 * phase.cos(), 0.0, 0.0)).unwrap();
         if frame % 500 == 0 {
             let k = if frame % 1000 == 0 { 40.0 } else { 160.0 };
-            sim.set_stiffness(k, k / 4.0, k / 20.0).unwrap();
-            sim.set_contact(0, 0.005 + 0.001 * (frame % 3) as f32, 0.2).unwrap();
+            sim.set_stiffness(CLOTH, k, k / 4.0, k / 20.0).unwrap();
+            sim.set_contact(ColliderId::new(0), 0.005 + 0.001 * (frame % 3) as f32, 0.2).unwrap();
             let swollen: Vec<Vec4> =
                 spheres.iter().map(|s| s.truncate().extend(s.w * (1.0 + 0.1 * phase.sin()))).collect();
-            sim.set_collider_spheres(0, &swollen).unwrap();
+            sim.set_collider_spheres(ColliderId::new(0), &swollen).unwrap();
         }
         if frame % 100 == 0 {
-            sim.set_state(&rest, &zero).unwrap();
+            sim.teleport(CLOTH, &rest, &zero).unwrap();
         }
-        sim.pin(3, Some(rest[3] + Vec3::new(0.0, 0.05 * phase.sin(), 0.0))).unwrap();
+        sim.pin(CLOTH, 3, Some(rest[3] + Vec3::new(0.0, 0.05 * phase.sin(), 0.0))).unwrap();
         sim.step().unwrap();
-        substep_counts.insert(sim.stability().substeps);
+        substep_counts.insert(sim.stability(CLOTH).unwrap().substeps);
     }
     assert_eq!(sim.memory_report(), before, "memory changed over the soak");
     assert!(substep_counts.len() >= 2, "the stiffness changes should change the substep count");
-    assert!(sim.positions().unwrap().iter().all(|p| p.is_finite()));
+    assert!(sim.positions(CLOTH).unwrap().iter().all(|p| p.is_finite()));
     assert_validation_clean(&ctx);
 }
 
@@ -328,8 +333,8 @@ impl Drop for CallerFrames<'_> {
 fn frames_recorded_into_a_callers_command_buffers_match_step() {
     let caller = CallerDevice::new();
     let ctx = caller.import();
-    let settings = SimSettings { substeps: Some(4), timestamps: false, ..SimSettings::default() };
-    let mut sim = Simulation::new(&ctx, &cloth(), settings).unwrap();
+    let settings = SimSettings::default().with_substeps(Some(4)).with_timestamps(false);
+    let mut sim = Solver::new(&ctx, &Model::single(&cloth(), &[], settings).unwrap()).unwrap();
     let frames = CallerFrames::new(&caller, 2);
     // Frame 5 waits on the GPU for an event the host sets only after polling, so it provably
     // has not finished while `poll_status` runs: the poll must return (no stall) without it.
@@ -367,21 +372,21 @@ fn frames_recorded_into_a_callers_command_buffers_match_step() {
     sim.poll_status().unwrap();
     assert_eq!(sim.frames_checked(), 20, "every frame's status is read");
     assert_eq!(sim.frames_in_flight(), 0);
-    let recorded = sim.positions().unwrap();
+    let recorded = sim.positions(CLOTH).unwrap();
     drop(frames);
     unsafe { caller.device.destroy_event(gate, None) };
     drop(sim);
     drop(ctx);
 
     let own = context();
-    let mut reference = Simulation::new(&own, &cloth(), settings).unwrap();
+    let mut reference = Solver::new(&own, &Model::single(&cloth(), &[], settings).unwrap()).unwrap();
     for frame in 0..20 {
         if frame == 10 {
             reference.set_external_force(Vec3::new(0.02, 0.0, 0.0)).unwrap();
         }
         reference.step().unwrap();
     }
-    assert_eq!(recorded, reference.positions().unwrap(), "recorded frames == step()");
+    assert_eq!(recorded, reference.positions(CLOTH).unwrap(), "recorded frames == step()");
     assert_validation_clean(&own);
     let errors = std::mem::take(&mut *CALLER_VALIDATION.lock().unwrap());
     assert!(errors.is_empty(), "validation errors:\n{}", errors.join("\n"));
@@ -395,9 +400,9 @@ fn a_blow_up_in_a_recorded_frame_is_reported_late_without_a_stall() {
     let ctx = caller.import();
     // 1 substep of a very stiff cloth: far beyond the stability bound.
     let stiff = ClothBuilder::new(8, 8).pin_top_corners().stiffness(1e6, 1e6, 1e6).build().unwrap();
-    let settings = SimSettings { substeps: Some(1), timestamps: false, ..SimSettings::default() };
-    let mut sim = Simulation::new(&ctx, &stiff, settings).unwrap();
-    assert!(sim.stability().ratio > 10.0);
+    let settings = SimSettings::default().with_substeps(Some(1)).with_timestamps(false);
+    let mut sim = Solver::new(&ctx, &Model::single(&stiff, &[], settings).unwrap()).unwrap();
+    assert!(sim.stability(CLOTH).unwrap().ratio > 10.0);
     let frames = CallerFrames::new(&caller, 2);
     let mut failure = None;
     for frame in 0..60 {

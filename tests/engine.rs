@@ -5,7 +5,10 @@ mod common;
 
 use common::{assert_validation_clean, context};
 use drape::gpu::reflect::{EXECUTION_MODEL_FRAGMENT, EXECUTION_MODEL_GL_COMPUTE, EXECUTION_MODEL_VERTEX, reflect};
-use drape::{ClothBuilder, SimSettings, Simulation};
+use drape::{ClothBuilder, ClothId, Model, SimSettings, Solver};
+
+/// The only cloth of the models here.
+const CLOTH: ClothId = ClothId::new(0);
 
 /// Each kernel's binding table (written once, in `drape::kernels`) equals what the SPIR-V
 /// declares: same bindings in the same order, same names, same writability, push constants.
@@ -53,8 +56,8 @@ fn reflection_rejects_garbage() {
 fn frame_timings_name_every_pass() {
     let ctx = context();
     let cloth = ClothBuilder::new(16, 16).pin_top_corners().build().unwrap();
-    let settings = SimSettings { substeps: Some(3), normals: false, ..SimSettings::default() };
-    let mut sim = Simulation::new(&ctx, &cloth, settings).unwrap();
+    let settings = SimSettings::default().with_substeps(Some(3)).with_normals(false);
+    let mut sim = Solver::new(&ctx, &Model::single(&cloth, &[], settings).unwrap()).unwrap();
     let timings = sim.step().unwrap();
     let labels: Vec<_> = timings.by_label().iter().map(|(l, n, _)| (*l, *n)).collect();
     assert_eq!(
@@ -77,9 +80,9 @@ fn objects_are_destroyed_cleanly() {
     let ctx = context();
     for n in [4, 9, 33] {
         let cloth = ClothBuilder::new(n, n + 1).build().unwrap();
-        let mut sim = Simulation::new(&ctx, &cloth, SimSettings::default()).unwrap();
+        let mut sim = Solver::new(&ctx, &Model::single(&cloth, &[], SimSettings::default()).unwrap()).unwrap();
         sim.step().unwrap();
-        assert_eq!(sim.positions().unwrap().len(), (n * (n + 1)) as usize);
+        assert_eq!(sim.positions(CLOTH).unwrap().len(), (n * (n + 1)) as usize);
     }
     assert_validation_clean(&ctx);
     drop(ctx);
@@ -137,8 +140,8 @@ fn barriers_follow_declared_reads_and_writes() {
 fn a_cloth_frame_records_only_the_barriers_its_data_needs() {
     let ctx = context();
     let cloth = ClothBuilder::new(16, 16).pin_top_corners().build().unwrap();
-    let settings = SimSettings { substeps: Some(3), normals: true, ..SimSettings::default() };
-    let mut sim = Simulation::new(&ctx, &cloth, settings).unwrap();
+    let settings = SimSettings::default().with_substeps(Some(3)).with_normals(true);
+    let mut sim = Solver::new(&ctx, &Model::single(&cloth, &[], settings).unwrap()).unwrap();
     // fill health, 12 stages, normals, health check = 15 commands; the fill needs no barrier
     // before stage 1, normals and the health check both only read x after stage 12.
     assert_eq!(sim.barriers_per_frame(), 12, "one before each stage after the first, one before normals+health");

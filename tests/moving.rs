@@ -5,8 +5,11 @@
 mod common;
 
 use common::{assert_validation_clean, context};
-use drape::{Cloth, ClothBuilder, Collider, CpuSimulation, SimSettings, Simulation};
+use drape::{Cloth, ClothBuilder, ClothId, Collider, ColliderId, CpuSolver, Model, SimSettings, Solver};
 use glam::{Mat4, Quat, Vec3, Vec4};
+
+/// The only cloth of the models here.
+const CLOTH: ClothId = ClothId::new(0);
 
 /// A rod of `n` separate spheres of radius `r` along x, 2.5 r apart (gaps wider than the
 /// contact thickness, so pushing a particle out of one cannot push it into another).
@@ -80,17 +83,20 @@ fn a_rising_turning_collider_lifts_the_cloth_without_entering_it() {
     let spheres = plate(6, 0.03, 0.072);
     let (q0, t0) = plate_pose(0);
     let collider = Collider::new(spheres.clone(), 0.005).with_pose(q0, t0);
-    let mut sim =
-        Simulation::with_collider(&ctx, &trampoline(24, 0.0), SimSettings::default(), Some(&collider)).unwrap();
+    let mut sim = Solver::new(
+        &ctx,
+        &Model::single(&trampoline(24, 0.0), std::slice::from_ref(&collider), SimSettings::default()).unwrap(),
+    )
+    .unwrap();
     let mut worst = f32::INFINITY;
     for f in 1..=30 {
         let (rotation, translation) = plate_pose(f);
-        sim.set_collider_pose(0, rotation, translation).unwrap();
+        sim.set_collider_pose(ColliderId::new(0), rotation, translation).unwrap();
         sim.step().unwrap();
-        worst = worst.min(clearance(&sim.positions().unwrap(), &spheres, rotation, translation));
+        worst = worst.min(clearance(&sim.positions(CLOTH).unwrap(), &spheres, rotation, translation));
     }
     assert!(worst > -1e-4, "a particle ended {:.2} mm inside the moving plate", -worst * 1e3);
-    let top = sim.positions().unwrap().iter().map(|p| p.y).fold(f32::MIN, f32::max);
+    let top = sim.positions(CLOTH).unwrap().iter().map(|p| p.y).fold(f32::MIN, f32::max);
     assert!(top > plate_pose(30).1.y, "the cloth was not lifted (top {top})");
     assert_validation_clean(&ctx);
 }
@@ -104,20 +110,23 @@ fn a_fast_plate_does_not_jump_through_the_cloth_between_frames() {
     let spheres = plate(7, 0.03, 0.03);
     let start = Vec3::new(0.0, -0.1, 0.0);
     let collider = Collider::new(spheres.clone(), 0.005).with_pose(Quat::IDENTITY, start);
-    let mut sim =
-        Simulation::with_collider(&ctx, &trampoline(24, 0.0), SimSettings::default(), Some(&collider)).unwrap();
+    let mut sim = Solver::new(
+        &ctx,
+        &Model::single(&trampoline(24, 0.0), std::slice::from_ref(&collider), SimSettings::default()).unwrap(),
+    )
+    .unwrap();
     let per_frame = 4.0 / 60.0;
     assert!(per_frame > 2.0 * 0.03 + 0.005);
     let mut position = start;
     let mut below = 0;
     for _ in 0..6 {
         position.y += per_frame;
-        sim.set_collider_pose(0, Quat::IDENTITY, position).unwrap();
+        sim.set_collider_pose(ColliderId::new(0), Quat::IDENTITY, position).unwrap();
         sim.step().unwrap();
-        below = below.max(below_plate(&sim.positions().unwrap(), Quat::IDENTITY, position, 0.08));
+        below = below.max(below_plate(&sim.positions(CLOTH).unwrap(), Quat::IDENTITY, position, 0.08));
     }
     assert_eq!(below, 0, "particles ended below the fast plate: it jumped through the cloth");
-    let top = sim.positions().unwrap().iter().map(|p| p.y).fold(f32::MIN, f32::max);
+    let top = sim.positions(CLOTH).unwrap().iter().map(|p| p.y).fold(f32::MIN, f32::max);
     assert!(top >= position.y, "cloth top {top}, plate at {}: the plate passed through", position.y);
     assert_validation_clean(&ctx);
 }
@@ -130,25 +139,27 @@ fn a_moving_collider_gpu_equals_cpu_and_bvh_equals_brute_force() {
     let cloth = trampoline(12, 0.0);
     let (q0, t0) = plate_pose(0);
     let collider = Collider::new(plate(5, 0.05, 0.05), 0.005).with_pose(q0, t0);
-    let brute = Collider { use_bvh: false, ..collider.clone() };
-    let settings = SimSettings { timestamps: false, ..SimSettings::default() };
-    let mut gpu = Simulation::with_collider(&ctx, &cloth, settings, Some(&collider)).unwrap();
-    let mut gpu_brute = Simulation::with_collider(&ctx, &cloth, settings, Some(&brute)).unwrap();
-    let mut cpu = CpuSimulation::with_collider(&cloth, settings, Some(&collider)).unwrap();
+    let brute = collider.clone().brute_force();
+    let settings = SimSettings::default().with_timestamps(false);
+    let mut gpu =
+        Solver::new(&ctx, &Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap()).unwrap();
+    let mut gpu_brute =
+        Solver::new(&ctx, &Model::single(&cloth, std::slice::from_ref(&brute), settings).unwrap()).unwrap();
+    let mut cpu = CpuSolver::new(&Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap()).unwrap();
     for f in 1..=20 {
         let (rotation, translation) = plate_pose(f);
-        gpu.set_collider_pose(0, rotation, translation).unwrap();
-        gpu_brute.set_collider_pose(0, rotation, translation).unwrap();
-        cpu.set_collider_pose(0, rotation, translation).unwrap();
+        gpu.set_collider_pose(ColliderId::new(0), rotation, translation).unwrap();
+        gpu_brute.set_collider_pose(ColliderId::new(0), rotation, translation).unwrap();
+        cpu.set_collider_pose(ColliderId::new(0), rotation, translation).unwrap();
         gpu.step().unwrap();
         gpu_brute.step().unwrap();
         cpu.step().unwrap();
-        let positions = gpu.positions().unwrap();
-        assert_eq!(positions, cpu.positions(), "frame {f}: GPU != CPU");
-        assert_eq!(gpu.velocities().unwrap(), cpu.velocities(), "frame {f}: GPU != CPU velocities");
-        assert_eq!(positions, gpu_brute.positions().unwrap(), "frame {f}: BVH != brute force");
+        let positions = gpu.positions(CLOTH).unwrap();
+        assert_eq!(positions, cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
+        assert_eq!(gpu.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU velocities");
+        assert_eq!(positions, gpu_brute.positions(CLOTH).unwrap(), "frame {f}: BVH != brute force");
     }
-    assert!(cpu.positions().iter().any(|p| p.y > 0.1), "the plate did not push the cloth");
+    assert!(cpu.positions(CLOTH).unwrap().iter().any(|p| p.y > 0.1), "the plate did not push the cloth");
     assert_validation_clean(&ctx);
 }
 
@@ -161,9 +172,10 @@ fn a_deforming_collider_is_refit_and_not_entered() {
     let cloth = ClothBuilder::new(20, 20).transform(Mat4::from_translation(Vec3::new(0.0, 0.12, 0.0))).build().unwrap();
     let base = rod(7, 0.04);
     let collider = Collider::new(base.clone(), 0.005);
-    let settings = SimSettings { timestamps: false, ..SimSettings::default() };
-    let mut gpu = Simulation::with_collider(&ctx, &cloth, settings, Some(&collider)).unwrap();
-    let mut cpu = CpuSimulation::with_collider(&cloth, settings, Some(&collider)).unwrap();
+    let settings = SimSettings::default().with_timestamps(false);
+    let mut gpu =
+        Solver::new(&ctx, &Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap()).unwrap();
+    let mut cpu = CpuSolver::new(&Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap()).unwrap();
     let mut worst = f32::INFINITY;
     let mut spheres = base.clone();
     for f in 1..=30 {
@@ -175,18 +187,18 @@ fn a_deforming_collider_is_refit_and_not_entered() {
                 Vec4::new(s.x, bend, s.z, s.w * (1.0 + 0.008 * f as f32))
             })
             .collect();
-        gpu.set_collider_spheres(0, &spheres).unwrap();
-        cpu.set_collider_spheres(0, &spheres).unwrap();
+        gpu.set_collider_spheres(ColliderId::new(0), &spheres).unwrap();
+        cpu.set_collider_spheres(ColliderId::new(0), &spheres).unwrap();
         gpu.step().unwrap();
         cpu.step().unwrap();
-        let positions = gpu.positions().unwrap();
-        assert_eq!(positions, cpu.positions(), "frame {f}: GPU != CPU");
+        let positions = gpu.positions(CLOTH).unwrap();
+        assert_eq!(positions, cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
         worst = worst.min(clearance(&positions, &spheres, Quat::IDENTITY, Vec3::ZERO));
     }
     assert!(worst > -1e-4, "a particle ended {:.2} mm inside the deforming collider", -worst * 1e3);
-    let tree = gpu.collider_bvh(0).unwrap().unwrap();
+    let tree = gpu.collider_bvh(ColliderId::new(0)).unwrap();
     tree.validate(&spheres).expect("the refit tree bounds the deformed leaves");
-    assert!(gpu.set_collider_spheres(0, &spheres[1..]).is_err(), "a different leaf count is refused");
+    assert!(gpu.set_collider_spheres(ColliderId::new(0), &spheres[1..]).is_err(), "a different leaf count is refused");
     assert_validation_clean(&ctx);
 }
 
@@ -196,32 +208,34 @@ fn a_deforming_collider_is_refit_and_not_entered() {
 fn stiffness_and_dt_changes_equal_building_with_them() {
     let ctx = context();
     let builder = ClothBuilder::new(10, 10).pin_top_corners();
-    let settings = SimSettings { timestamps: false, ..SimSettings::default() };
-    let mut changed = Simulation::new(&ctx, &builder.clone().build().unwrap(), settings).unwrap();
-    let substeps_before = changed.stability().substeps;
-    changed.set_stiffness(160.0, 40.0, 8.0).unwrap();
+    let settings = SimSettings::default().with_timestamps(false);
+    let mut changed =
+        Solver::new(&ctx, &Model::single(&builder.clone().build().unwrap(), &[], settings).unwrap()).unwrap();
+    let substeps_before = changed.stability(CLOTH).unwrap().substeps;
+    changed.set_stiffness(CLOTH, 160.0, 40.0, 8.0).unwrap();
     changed.set_frame_dt(1.0 / 30.0).unwrap();
     let stiff = builder.stiffness(160.0, 40.0, 8.0).build().unwrap();
-    let mut built = Simulation::new(&ctx, &stiff, SimSettings { frame_dt: 1.0 / 30.0, ..settings }).unwrap();
-    assert_eq!(changed.stability(), built.stability());
+    let mut built =
+        Solver::new(&ctx, &Model::single(&stiff, &[], settings.with_frame_dt(1.0 / 30.0)).unwrap()).unwrap();
+    assert_eq!(changed.stability(CLOTH).unwrap(), built.stability(CLOTH).unwrap());
     // 4x stiffness doubles omega; twice the frame time doubles again.
     assert!(
-        changed.stability().substeps >= 3 * substeps_before,
+        changed.stability(CLOTH).unwrap().substeps >= 3 * substeps_before,
         "{} vs {substeps_before}",
-        changed.stability().substeps
+        changed.stability(CLOTH).unwrap().substeps
     );
     for _ in 0..10 {
         changed.step().unwrap();
         built.step().unwrap();
     }
-    assert_eq!(changed.positions().unwrap(), built.positions().unwrap());
+    assert_eq!(changed.positions(CLOTH).unwrap(), built.positions(CLOTH).unwrap());
     // Damping too; bad values are refused and change nothing.
-    changed.set_damping(0.01, 0.001).unwrap();
+    changed.set_damping(CLOTH, 0.01, 0.001).unwrap();
     changed.step().unwrap();
-    assert!(changed.set_stiffness(-1.0, 0.0, 0.0).is_err());
+    assert!(changed.set_stiffness(CLOTH, -1.0, 0.0, 0.0).is_err());
     assert!(changed.set_frame_dt(0.0).is_err());
-    assert!(changed.set_damping(f32::NAN, 0.0).is_err());
-    assert_eq!(changed.params().spring_damping, 0.01);
+    assert!(changed.set_damping(CLOTH, f32::NAN, 0.0).is_err());
+    assert_eq!(changed.params(CLOTH).unwrap().spring_damping, 0.01);
     assert_validation_clean(&ctx);
 }
 
@@ -232,34 +246,34 @@ fn pins_can_be_released_and_animated() {
     let n = 10u32;
     let cloth = ClothBuilder::new(n, n).pin_top_corners().build().unwrap();
     let corners = [(n - 1) * n, n * n - 1];
-    let mut sim = Simulation::new(&ctx, &cloth, SimSettings::default()).unwrap();
-    let mut cpu = CpuSimulation::new(&cloth, SimSettings::default()).unwrap();
-    let start = sim.positions().unwrap();
+    let mut sim = Solver::new(&ctx, &Model::single(&cloth, &[], SimSettings::default()).unwrap()).unwrap();
+    let mut cpu = CpuSolver::new(&Model::single(&cloth, &[], SimSettings::default()).unwrap()).unwrap();
+    let start = sim.positions(CLOTH).unwrap();
     // Animate corner 0 on a circle; release corner 1.
-    sim.unpin(corners[1]).unwrap();
-    cpu.unpin(corners[1]).unwrap();
+    sim.unpin(CLOTH, corners[1]).unwrap();
+    cpu.unpin(CLOTH, corners[1]).unwrap();
     for f in 1..=20 {
         let angle = f as f32 * 0.1;
         let target = start[corners[0] as usize].truncate() + 0.1 * Vec3::new(angle.cos() - 1.0, angle.sin(), 0.0);
-        sim.pin(corners[0], Some(target)).unwrap();
-        cpu.pin(corners[0], Some(target)).unwrap();
+        sim.pin(CLOTH, corners[0], Some(target)).unwrap();
+        cpu.pin(CLOTH, corners[0], Some(target)).unwrap();
         sim.step().unwrap();
         cpu.step().unwrap();
-        let p = sim.positions().unwrap()[corners[0] as usize];
+        let p = sim.positions(CLOTH).unwrap()[corners[0] as usize];
         assert_eq!(p, target.extend(0.0), "frame {f}: the animated pin is not where it was put");
     }
-    let end = sim.positions().unwrap();
-    assert_eq!(end, cpu.positions(), "GPU != CPU with pin changes");
+    let end = sim.positions(CLOTH).unwrap();
+    assert_eq!(end, cpu.positions(CLOTH).unwrap(), "GPU != CPU with pin changes");
     let released = corners[1] as usize;
     assert!(end[released].y < start[released].y - 0.05, "the released corner did not fall");
     assert_eq!(end[released].w, 1.0);
     // Pin a free particle where it is: it stays there.
     let middle = (n / 2 * n + n / 2) as usize;
-    sim.pin(middle as u32, None).unwrap();
+    sim.pin(CLOTH, middle as u32, None).unwrap();
     sim.step().unwrap();
-    let held = sim.positions().unwrap()[middle];
+    let held = sim.positions(CLOTH).unwrap()[middle];
     sim.step().unwrap();
-    assert_eq!(sim.positions().unwrap()[middle], held);
-    assert!(sim.pin(n * n, None).is_err(), "out-of-range particle");
+    assert_eq!(sim.positions(CLOTH).unwrap()[middle], held);
+    assert!(sim.pin(CLOTH, n * n, None).is_err(), "out-of-range particle");
     assert_validation_clean(&ctx);
 }

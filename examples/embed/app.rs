@@ -6,7 +6,7 @@
 use crate::render::{Draw, Renderer, Result};
 use ash::vk;
 use drape::scenes::DrapeScene;
-use drape::{Context, ExternalDevice, SimSettings, Simulation, rigid_pose};
+use drape::{Context, ExternalDevice, Model, SimSettings, Solver, rigid_pose};
 use drape_types::{RigidPose, SurfacePush};
 use glam::{Mat4, Quat, Vec3, Vec4};
 use std::ffi::c_void;
@@ -331,11 +331,13 @@ fn simulate_and_draw(engine: &Engine, options: &Options) -> Result<Outcome> {
         )?
     };
     let scene = DrapeScene::standard(&drape::scenes::default_mesh(), options.grid);
-    let cloth = scene.cloth.build()?;
-    let collider = scene.collider(options.voxels)?;
-    let settings = SimSettings { timestamps: false, ..SimSettings::default() };
-    let mut sim = Simulation::with_collider(&ctx, &cloth, settings, Some(&collider))?;
-    let buffers = sim.vertex_buffers()?;
+    // The model: what is simulated, fixed once built; the solver advances its state.
+    let mut model = Model::builder();
+    let cloth = model.add_cloth(scene.cloth.build()?);
+    let body = model.add_collider(scene.collider(options.voxels)?);
+    let model = model.settings(SimSettings::default().with_timestamps(false)).build()?;
+    let mut sim = Solver::new(&ctx, &model)?;
+    let buffers = sim.vertex_buffers(cloth)?;
     let frame_dt = sim.settings().frame_dt;
 
     let mesh = &scene.mesh;
@@ -354,7 +356,7 @@ fn simulate_and_draw(engine: &Engine, options: &Options) -> Result<Outcome> {
     let mut pose = RigidPose::IDENTITY;
     for frame in 1..=options.frames {
         let (rotation, translation) = collider_pose(frame as f32 * frame_dt);
-        sim.set_collider_pose(0, rotation, translation)?;
+        sim.set_collider_pose(body, rotation, translation)?;
         pose = rigid_pose(rotation, translation);
         let draws = [
             Draw {
@@ -401,8 +403,8 @@ fn simulate_and_draw(engine: &Engine, options: &Options) -> Result<Outcome> {
         width: options.width,
         height: options.height,
         view_projection,
-        cloth_positions: sim.positions()?,
-        cloth_triangles: cloth.triangles(),
+        cloth_positions: sim.positions(cloth)?,
+        cloth_triangles: model.cloths()[cloth.index()].triangles(),
         collider_triangles,
         written,
         validated: false,

@@ -5,10 +5,11 @@
 //! the GPU `Simulation` and the `CpuSimulation` drive their frames through this.
 
 use crate::error::{Error, Result};
-use crate::graph::Step;
-use crate::program::ClothProgram;
-use crate::programs::cloth::{FramePlan, frame_steps};
-use crate::sim::SimSettings;
+use crate::graph::{Handle, Step};
+use crate::model::{ClothId, ColliderId};
+use crate::program::SolverProgram;
+use crate::programs::cloth::FramePlan;
+use crate::settings::SimSettings;
 use crate::stability::Stability;
 use drape_types::{ColliderParams, ColliderPose, RigidPose, SimParams};
 use glam::{Quat, Vec3, Vec4};
@@ -36,14 +37,19 @@ struct ColliderControl {
     deformed: Option<Vec<Vec4>>,
 }
 
-/// Host-side values of a simulation and the writes that publish them.
-pub(crate) struct Controls {
+/// One cloth's host-side values.
+pub(crate) struct ClothControl {
     pub params: SimParams,
-    pub settings: SimSettings,
     pub stability: Stability,
     params_dirty: bool,
-    colliders: Vec<ColliderControl>,
     pins: Vec<(u32, PinChange)>,
+}
+
+/// Host-side values of a solver and the writes that publish them.
+pub(crate) struct Controls {
+    pub settings: SimSettings,
+    pub cloths: Vec<ClothControl>,
+    colliders: Vec<ColliderControl>,
 }
 
 fn invalid(name: &'static str, problem: String) -> Error {
@@ -63,11 +69,14 @@ fn non_negative(name: &'static str, values: &[f32]) -> Result<()> {
 
 impl Controls {
     pub fn new(
-        params: SimParams,
+        cloths: Vec<(SimParams, Stability)>,
         settings: SimSettings,
-        stability: Stability,
         colliders: &[(ColliderParams, RigidPose)],
     ) -> Self {
+        let cloths = cloths
+            .into_iter()
+            .map(|(params, stability)| ClothControl { params, stability, params_dirty: false, pins: Vec::new() })
+            .collect();
         let colliders = colliders
             .iter()
             .map(|&(params, pose)| ColliderControl {
@@ -79,95 +88,101 @@ impl Controls {
                 deformed: None,
             })
             .collect();
-        Controls { params, settings, stability, params_dirty: false, colliders, pins: Vec::new() }
+        Controls { settings, cloths, colliders }
     }
 
-    /// The frame schedule for the current values.
-    pub fn plan(&self) -> FramePlan {
-        self.settings.plan(&self.params, &self.stability)
+    /// Each cloth's frame schedule for the current values.
+    pub fn plans(&self) -> Vec<FramePlan> {
+        self.cloths.iter().map(|c| self.settings.plan(&c.params, &c.stability)).collect()
     }
 
+    pub fn cloth(&self, id: ClothId) -> Result<&ClothControl> {
+        let count = self.cloths.len();
+        self.cloths.get(id.0).ok_or_else(|| no_such("cloth", id.0, count))
+    }
+
+    fn cloth_mut(&mut self, id: ClothId) -> Result<&mut ClothControl> {
+        let count = self.cloths.len();
+        self.cloths.get_mut(id.0).ok_or_else(|| no_such("cloth", id.0, count))
+    }
+
+    /// Gravity of every cloth.
     pub fn set_gravity(&mut self, gravity: Vec3) -> Result<()> {
         finite_vec("gravity", gravity)?;
-        self.params.gravity = gravity.extend(0.0);
-        self.params_dirty = true;
+        for c in &mut self.cloths {
+            c.params.gravity = gravity.extend(0.0);
+            c.params_dirty = true;
+        }
         Ok(())
     }
 
+    /// The external force (wind) on every cloth.
     pub fn set_external_force(&mut self, force: Vec3) -> Result<()> {
         finite_vec("external_force", force)?;
-        self.params.external_force = force.extend(0.0);
-        self.params_dirty = true;
+        for c in &mut self.cloths {
+            c.params.external_force = force.extend(0.0);
+            c.params_dirty = true;
+        }
         Ok(())
     }
 
-    /// New spring stiffnesses; returns whether the substep count changed.
-    pub fn set_stiffness(&mut self, k_struct: f32, k_shear: f32, k_bend: f32) -> Result<bool> {
+    /// New spring stiffnesses of `cloth`; returns whether a substep count changed.
+    pub fn set_stiffness(&mut self, cloth: ClothId, k_struct: f32, k_shear: f32, k_bend: f32) -> Result<bool> {
         non_negative("stiffness", &[k_struct, k_shear, k_bend])?;
-        let mut params = self.params;
+        let mut params = self.cloth(cloth)?.params;
         (params.k_struct, params.k_shear, params.k_bend) = (k_struct, k_shear, k_bend);
-        self.restabilise(params, self.settings)
+        let settings = self.settings;
+        self.restabilise(cloth, params, settings)
     }
 
-    /// New spring-axis and velocity damping; returns whether the substep count changed.
-    pub fn set_damping(&mut self, spring: f32, velocity: f32) -> Result<bool> {
+    /// New spring-axis and velocity damping of `cloth`; returns whether a substep count changed.
+    pub fn set_damping(&mut self, cloth: ClothId, spring: f32, velocity: f32) -> Result<bool> {
         non_negative("damping", &[spring, velocity])?;
-        let mut params = self.params;
+        let mut params = self.cloth(cloth)?.params;
         (params.spring_damping, params.velocity_damping) = (spring, velocity);
-        self.restabilise(params, self.settings)
+        let settings = self.settings;
+        self.restabilise(cloth, params, settings)
     }
 
-    /// New simulated time per frame; returns whether the substep count changed.
+    /// New simulated time per frame; returns whether a substep count changed. Checked for every
+    /// cloth before any changes.
     pub fn set_frame_dt(&mut self, frame_dt: f32) -> Result<bool> {
         let settings = SimSettings { frame_dt, ..self.settings };
-        self.restabilise(self.params, settings)
-    }
-
-    /// Chooses the substep for `params` under `settings` (automatic substeps follow the
-    /// stability bound) and adopts both if valid.
-    fn restabilise(&mut self, params: SimParams, settings: SimSettings) -> Result<bool> {
-        let (resolved, stability) = settings.resolve_params(&params)?;
-        if let Some(warning) = stability.warning() {
-            log::warn!("{warning}");
+        let resolved = self.cloths.iter().map(|c| settings.resolve_params(&c.params)).collect::<Result<Vec<_>>>()?;
+        let mut changed = false;
+        for (c, (params, stability)) in self.cloths.iter_mut().zip(resolved) {
+            changed |= adopt(c, params, stability);
         }
-        let changed = stability.substeps != self.stability.substeps;
-        self.params = resolved;
         self.settings = settings;
-        self.stability = stability;
-        self.params_dirty = true;
         Ok(changed)
     }
 
-    fn collider(&mut self, index: usize) -> Result<&mut ColliderControl> {
-        let count = self.colliders.len();
-        self.colliders.get_mut(index).ok_or_else(|| {
-            invalid(
-                "collider",
-                format!("index {index}, but this simulation has {count} colliders; add them with `with_colliders`"),
-            )
-        })
+    /// Chooses `cloth`'s substep for `params` under `settings` (automatic substeps follow the
+    /// stability bound) and adopts both if valid.
+    fn restabilise(&mut self, cloth: ClothId, params: SimParams, settings: SimSettings) -> Result<bool> {
+        let (resolved, stability) = settings.resolve_params(&params)?;
+        Ok(adopt(self.cloth_mut(cloth)?, resolved, stability))
     }
 
-    pub fn set_contact(&mut self, index: usize, thickness: f32, friction: f32) -> Result<()> {
+    fn collider(&mut self, id: ColliderId) -> Result<&mut ColliderControl> {
+        let count = self.colliders.len();
+        self.colliders.get_mut(id.0).ok_or_else(|| no_such("collider", id.0, count))
+    }
+
+    pub fn set_contact(&mut self, id: ColliderId, thickness: f32, friction: f32) -> Result<()> {
         let checked = crate::lbvh::collider_params(&[Vec4::ZERO], thickness, friction)?;
-        let c = self.collider(index)?;
+        let c = self.collider(id)?;
         c.params.thickness = checked.thickness;
         c.params.friction = checked.friction;
         c.params_dirty = true;
         Ok(())
     }
 
-    /// Where collider `index` is at the end of the next frame (it moves there from where the
-    /// last frame left it over the frame's substeps).
-    pub fn set_collider_pose(&mut self, index: usize, pose: RigidPose) -> Result<()> {
-        let rotation = Quat::from_vec4(pose.rotation);
-        if !(rotation.is_finite() && pose.translation.is_finite() && (rotation.length() - 1.0).abs() < 1e-3) {
-            return Err(invalid(
-                "collider pose",
-                format!("rotation must be a unit quaternion and translation finite, got {pose:?}"),
-            ));
-        }
-        let c = self.collider(index)?;
+    /// Where collider `id` is at the end of the next frame (it moves there from where the last
+    /// frame left it over the frame's substeps).
+    pub fn set_collider_pose(&mut self, id: ColliderId, pose: RigidPose) -> Result<()> {
+        check_pose(&pose)?;
+        let c = self.collider(id)?;
         // The shorter way round: interpolation between q and -q would pass through zero.
         let previous = c.end_of_last_frame.rotation;
         let q = if previous.dot(pose.rotation) < 0.0 { -pose.rotation } else { pose.rotation };
@@ -175,52 +190,70 @@ impl Controls {
         Ok(())
     }
 
-    /// New leaves of collider `index` in its own frame (a deforming collider): same count.
-    pub fn set_collider_spheres(&mut self, index: usize, leaves: u32, spheres: &[Vec4]) -> Result<()> {
+    /// Puts collider `id` at `pose` without sweeping there: the next frame starts and ends at it.
+    pub fn teleport_collider(&mut self, id: ColliderId, pose: RigidPose) -> Result<()> {
+        check_pose(&pose)?;
+        let c = self.collider(id)?;
+        let pose =
+            RigidPose { rotation: pose.rotation.normalize(), translation: pose.translation.truncate().extend(0.0) };
+        (c.end_of_last_frame, c.target) = (pose, pose);
+        Ok(())
+    }
+
+    /// Where each collider is (the end of the last frame, or its teleport target).
+    pub fn collider_poses(&self) -> Vec<RigidPose> {
+        self.colliders.iter().map(|c| c.end_of_last_frame).collect()
+    }
+
+    /// New leaves of collider `id` in its own frame (a deforming collider): same count.
+    pub fn set_collider_spheres(&mut self, id: ColliderId, leaves: u32, spheres: &[Vec4]) -> Result<()> {
         if spheres.len() != leaves as usize {
             return Err(invalid("collider spheres", format!("expected {leaves} spheres, got {}", spheres.len())));
         }
         if let Some(s) = spheres.iter().find(|s| !s.is_finite() || s.w < 0.0) {
             return Err(invalid("collider spheres", format!("centres must be finite and radii >= 0, got {s}")));
         }
-        self.collider(index)?.deformed = Some(spheres.to_vec());
+        self.collider(id)?.deformed = Some(spheres.to_vec());
         Ok(())
     }
 
-    pub fn pin(&mut self, particle: u32, at: Option<Vec3>) -> Result<()> {
-        self.check_particle(particle)?;
+    pub fn pin(&mut self, cloth: ClothId, particle: u32, at: Option<Vec3>) -> Result<()> {
         if let Some(p) = at {
             finite_vec("pin position", p)?;
         }
-        self.pins.push((particle, at.map_or(PinChange::Here, PinChange::At)));
+        let c = self.particle_of(cloth, particle)?;
+        c.pins.push((particle, at.map_or(PinChange::Here, PinChange::At)));
         Ok(())
     }
 
-    pub fn unpin(&mut self, particle: u32) -> Result<()> {
-        self.check_particle(particle)?;
-        self.pins.push((particle, PinChange::Unpin));
+    pub fn unpin(&mut self, cloth: ClothId, particle: u32) -> Result<()> {
+        self.particle_of(cloth, particle)?.pins.push((particle, PinChange::Unpin));
         Ok(())
     }
 
-    fn check_particle(&self, particle: u32) -> Result<()> {
-        let n = self.params.particle_count;
+    fn particle_of(&mut self, cloth: ClothId, particle: u32) -> Result<&mut ClothControl> {
+        let c = self.cloth_mut(cloth)?;
+        let n = c.params.particle_count;
         if particle >= n {
-            return Err(invalid("particle", format!("index {particle}, but the cloth has {n} particles")));
+            return Err(invalid("particle", format!("index {particle}, but cloth {} has {n} particles", cloth.0)));
         }
-        Ok(())
+        Ok(c)
     }
 
-    /// The frame's steps when the substep count changed.
-    pub fn frame_steps(&self, program: &ClothProgram) -> Vec<Step> {
-        frame_steps(self.plan(), &program.cloth, &program.colliders)
+    /// The frame's steps when a substep count changed.
+    pub fn frame_steps(&self, program: &SolverProgram) -> Vec<Step> {
+        program.frame_steps(&self.plans())
     }
 
     /// The writes (and refits) the next frame starts with; empty when nothing changed. Marks
     /// everything published.
-    pub fn begin_frame(&mut self, program: &ClothProgram) -> Vec<Step> {
+    pub fn begin_frame(&mut self, program: &SolverProgram) -> Vec<Step> {
         let mut steps = Vec::new();
-        if std::mem::take(&mut self.params_dirty) {
-            steps.push(Step::write(program.cloth.params, 0, &[self.params]));
+        for (c, buffers) in self.cloths.iter_mut().zip(&program.cloths) {
+            if std::mem::take(&mut c.params_dirty) {
+                steps.push(Step::write(buffers.params, 0, &[c.params]));
+            }
+            pin_writes(&mut c.pins, buffers.x, buffers.v, &mut steps);
         }
         for (c, buffers) in self.colliders.iter_mut().zip(&program.colliders) {
             if std::mem::take(&mut c.params_dirty) {
@@ -237,56 +270,92 @@ impl Controls {
                 steps.extend(buffers.lbvh.refit_steps());
             }
         }
-        let x = program.cloth.x;
-        // The last change of each particle wins; one write range per particle.
-        let latest: std::collections::BTreeMap<u32, PinChange> = self.pins.drain(..).collect();
-        for (particle, change) in latest {
-            // w is the pin weight: 0 pinned, 1 free. A pinned particle's velocity is zero.
-            let w_offset = (particle as usize * size_of::<Vec4>() + 3 * size_of::<f32>()) as u64;
-            match change {
-                PinChange::Here => {
-                    steps.push(Step::Write { buffer: x.id(), offset: w_offset, bytes: 0f32.to_le_bytes().to_vec() });
-                    steps.push(Step::write(program.cloth.v, particle, &[Vec4::ZERO]));
-                }
-                PinChange::At(p) => {
-                    steps.push(Step::write(x, particle, &[p.extend(0.0)]));
-                    steps.push(Step::write(program.cloth.v, particle, &[Vec4::ZERO]));
-                }
-                PinChange::Unpin => {
-                    steps.push(Step::Write { buffer: x.id(), offset: w_offset, bytes: 1f32.to_le_bytes().to_vec() })
-                }
-            }
-        }
         steps
     }
 }
 
-/// The runtime setters of a simulation type with `controls: Controls`, `program: ClothProgram`
-/// and `fn replan(&mut self, substeps_changed: bool) -> Result<()>`: one definition for the GPU
-/// simulation and its CPU twin. Each takes effect at the start of the next frame.
+/// Adopts a cloth's new params and stability; returns whether its substep count changed.
+fn adopt(c: &mut ClothControl, params: SimParams, stability: Stability) -> bool {
+    if let Some(warning) = stability.warning() {
+        log::warn!("{warning}");
+    }
+    let changed = stability.substeps != c.stability.substeps;
+    (c.params, c.stability, c.params_dirty) = (params, stability, true);
+    changed
+}
+
+fn no_such(kind: &str, index: usize, count: usize) -> Error {
+    Error::InvalidParameter {
+        name: "id",
+        problem: format!("{kind} {index}, but the model has {count} {kind}s; use the ids its builder returned"),
+    }
+}
+
+fn check_pose(pose: &RigidPose) -> Result<()> {
+    let rotation = Quat::from_vec4(pose.rotation);
+    if rotation.is_finite() && pose.translation.is_finite() && (rotation.length() - 1.0).abs() < 1e-3 {
+        return Ok(());
+    }
+    Err(invalid("collider pose", format!("rotation must be a unit quaternion and translation finite, got {pose:?}")))
+}
+
+/// The writes of a cloth's pending pin changes (the last change of each particle wins; one
+/// write range per particle).
+fn pin_writes(pins: &mut Vec<(u32, PinChange)>, x: Handle<Vec4>, v: Handle<Vec4>, steps: &mut Vec<Step>) {
+    let latest: std::collections::BTreeMap<u32, PinChange> = pins.drain(..).collect();
+    for (particle, change) in latest {
+        // w is the pin weight: 0 pinned, 1 free. A pinned particle's velocity is zero.
+        let w_offset = (particle as usize * size_of::<Vec4>() + 3 * size_of::<f32>()) as u64;
+        match change {
+            PinChange::Here => {
+                steps.push(Step::Write { buffer: x.id(), offset: w_offset, bytes: 0f32.to_le_bytes().to_vec() });
+                steps.push(Step::write(v, particle, &[Vec4::ZERO]));
+            }
+            PinChange::At(p) => {
+                steps.push(Step::write(x, particle, &[p.extend(0.0)]));
+                steps.push(Step::write(v, particle, &[Vec4::ZERO]));
+            }
+            PinChange::Unpin => {
+                steps.push(Step::Write { buffer: x.id(), offset: w_offset, bytes: 1f32.to_le_bytes().to_vec() })
+            }
+        }
+    }
+}
+
+/// The runtime setters of a solver type with `controls: Controls`, `program: SolverProgram` and
+/// `fn replan(&mut self, substeps_changed: bool) -> Result<()>`: one definition for the GPU
+/// solver and its CPU twin. Each takes effect at the start of the next frame.
 macro_rules! runtime_setters {
-    ($sim:ty) => {
-        impl $sim {
-            /// Sets gravity (m/s^2).
+    ($solver:ty) => {
+        impl $solver {
+            /// Sets gravity (m/s^2) of every cloth.
             pub fn set_gravity(&mut self, gravity: glam::Vec3) -> $crate::Result<()> {
                 self.controls.set_gravity(gravity)
             }
 
-            /// Sets the constant external force on every free particle (N), e.g. wind.
+            /// Sets the constant external force on every free particle of every cloth (N), e.g.
+            /// wind.
             pub fn set_external_force(&mut self, force: glam::Vec3) -> $crate::Result<()> {
                 self.controls.set_external_force(force)
             }
 
-            /// Sets the spring stiffnesses (N/m); automatic substeps follow the stability bound.
-            pub fn set_stiffness(&mut self, k_struct: f32, k_shear: f32, k_bend: f32) -> $crate::Result<()> {
-                let changed = self.controls.set_stiffness(k_struct, k_shear, k_bend)?;
+            /// Sets `cloth`'s spring stiffnesses (N/m); automatic substeps follow the stability
+            /// bound.
+            pub fn set_stiffness(
+                &mut self,
+                cloth: $crate::ClothId,
+                k_struct: f32,
+                k_shear: f32,
+                k_bend: f32,
+            ) -> $crate::Result<()> {
+                let changed = self.controls.set_stiffness(cloth, k_struct, k_shear, k_bend)?;
                 self.replan(changed)
             }
 
-            /// Sets the spring-axis damping and the velocity damping (N s/m); automatic
+            /// Sets `cloth`'s spring-axis damping and velocity damping (N s/m); automatic
             /// substeps follow the stability bound.
-            pub fn set_damping(&mut self, spring: f32, velocity: f32) -> $crate::Result<()> {
-                let changed = self.controls.set_damping(spring, velocity)?;
+            pub fn set_damping(&mut self, cloth: $crate::ClothId, spring: f32, velocity: f32) -> $crate::Result<()> {
+                let changed = self.controls.set_damping(cloth, spring, velocity)?;
                 self.replan(changed)
             }
 
@@ -297,40 +366,68 @@ macro_rules! runtime_setters {
                 self.replan(changed)
             }
 
-            /// Sets collider `index`'s contact thickness (m) and Coulomb friction coefficient.
-            pub fn set_contact(&mut self, index: usize, thickness: f32, friction: f32) -> $crate::Result<()> {
-                self.controls.set_contact(index, thickness, friction)
+            /// Sets `collider`'s contact thickness (m) and Coulomb friction coefficient.
+            pub fn set_contact(
+                &mut self,
+                collider: $crate::ColliderId,
+                thickness: f32,
+                friction: f32,
+            ) -> $crate::Result<()> {
+                self.controls.set_contact(collider, thickness, friction)
             }
 
-            /// Moves collider `index`: the next frame ends with it at `rotation`, `translation`
-            /// (its frame in the world). Over the frame it moves there from where the last frame
-            /// left it, substep by substep, so it sweeps the cloth instead of jumping through it.
-            /// A collider not moved in a frame stays where it is.
+            /// Moves `collider`: the next frame ends with it at `rotation`, `translation` (its
+            /// frame in the world). Over the frame it moves there from where the last frame left
+            /// it, substep by substep, so it sweeps the cloth instead of jumping through it. A
+            /// collider not moved in a frame stays where it is.
             pub fn set_collider_pose(
                 &mut self,
-                index: usize,
+                collider: $crate::ColliderId,
                 rotation: glam::Quat,
                 translation: glam::Vec3,
             ) -> $crate::Result<()> {
-                self.controls.set_collider_pose(index, $crate::sim::rigid_pose(rotation, translation))
+                self.controls.set_collider_pose(collider, $crate::rigid_pose(rotation, translation))
             }
 
-            /// Deforms collider `index`: new spheres in its own frame, as many as it was built
-            /// with. The next frame writes them and refits the LBVH on the GPU (same tree).
-            pub fn set_collider_spheres(&mut self, index: usize, spheres: &[glam::Vec4]) -> $crate::Result<()> {
-                let leaves = self.program.colliders.get(index).map_or(0, |c| c.lbvh.leaves());
-                self.controls.set_collider_spheres(index, leaves, spheres)
+            /// Deforms `collider`: new spheres in its own frame, as many as it was built with. The
+            /// next frame writes them and refits the LBVH on the GPU (same tree).
+            pub fn set_collider_spheres(
+                &mut self,
+                collider: $crate::ColliderId,
+                spheres: &[glam::Vec4],
+            ) -> $crate::Result<()> {
+                let leaves = self.program.colliders.get(collider.index()).map_or(0, |c| c.lbvh.leaves());
+                self.controls.set_collider_spheres(collider, leaves, spheres)
             }
 
-            /// Pins particle `particle` where it is (`None`) or at `position` (moving it there:
-            /// call every frame for an animated pin).
-            pub fn pin(&mut self, particle: u32, position: Option<glam::Vec3>) -> $crate::Result<()> {
-                self.controls.pin(particle, position)
+            /// Pins particle `particle` of `cloth` where it is (`None`) or at `position` (moving
+            /// it there: call every frame for an animated pin).
+            pub fn pin(
+                &mut self,
+                cloth: $crate::ClothId,
+                particle: u32,
+                position: Option<glam::Vec3>,
+            ) -> $crate::Result<()> {
+                self.controls.pin(cloth, particle, position)
             }
 
-            /// Frees particle `particle`.
-            pub fn unpin(&mut self, particle: u32) -> $crate::Result<()> {
-                self.controls.unpin(particle)
+            /// Frees particle `particle` of `cloth`.
+            pub fn unpin(&mut self, cloth: $crate::ClothId, particle: u32) -> $crate::Result<()> {
+                self.controls.unpin(cloth, particle)
+            }
+
+            /// `cloth`'s current parameters (what its kernels read).
+            pub fn params(&self, cloth: $crate::ClothId) -> $crate::Result<&drape_types::SimParams> {
+                Ok(&self.controls.cloth(cloth)?.params)
+            }
+
+            /// `cloth`'s stability bound and substeps.
+            pub fn stability(&self, cloth: $crate::ClothId) -> $crate::Result<&$crate::Stability> {
+                Ok(&self.controls.cloth(cloth)?.stability)
+            }
+
+            pub fn settings(&self) -> &$crate::SimSettings {
+                &self.controls.settings
             }
         }
     };

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 /// Errors returned by drape. The library never panics on bad input or Vulkan failures.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum Error {
     /// No Vulkan loader could be opened.
     #[error(
@@ -37,11 +38,11 @@ pub enum Error {
     InvalidParameter { name: &'static str, problem: String },
     /// The simulation blew up; the message says what to change.
     #[error(
-        "the simulation became unstable at frame {frame} ({detail}); the substep {substep:.3e} s \
+        "cloth {cloth} became unstable at frame {frame} ({detail}); the substep {substep:.3e} s \
          should be at most the stability bound {bound:.3e} s: use at least {suggested_substeps} \
          substeps per frame (or automatic substeps), or lower the stiffness / raise the mass"
     )]
-    Unstable { frame: u64, detail: String, substep: f32, bound: f32, suggested_substeps: u32 },
+    Unstable { cloth: usize, frame: u64, detail: String, substep: f32, bound: f32, suggested_substeps: u32 },
     /// A mesh file or mesh parameter is unusable; names the file and line where there is one.
     #[error("mesh {path}: {problem}")]
     Mesh { path: PathBuf, problem: String },

@@ -4,46 +4,73 @@
 //! LBVH, after Mei et al. 2022. Kernels are Rust compiled to SPIR-V by rust-gpu
 //! (`kernels/shaders`); this crate drives them with Vulkan through `ash`.
 //!
+//! The API has the shape of Warp/Newton and NvCloth: builders produce an immutable [`Model`]
+//! (cloths, colliders, settings), a [`Solver`] advances its state on the GPU (a [`CpuSolver`]
+//! on the CPU, bit for bit the same), and a [`State`] holds what changes as values.
+//!
 //! ```no_run
-//! use drape::{ClothBuilder, Context, SimSettings, Simulation, Validation};
+//! use drape::{ClothBuilder, Context, Model, SimSettings, Solver, Validation};
 //! let ctx = Context::new(Validation::from_env())?;
-//! let cloth = ClothBuilder::new(64, 64).pin_top_corners().build()?;
-//! let mut sim = Simulation::new(&ctx, &cloth, SimSettings::default())?;
+//! let mut builder = Model::builder();
+//! let cloth = builder.add_cloth(ClothBuilder::new(64, 64).pin_top_corners().build()?);
+//! let model = builder.settings(SimSettings::default()).build()?;
+//! let mut solver = Solver::new(&ctx, &model)?;
 //! for _ in 0..60 {
-//!     let timings = sim.step()?; // per-pass GPU microseconds
+//!     let timings = solver.step()?; // per-pass GPU microseconds
 //! }
-//! let positions = sim.positions()?;
+//! let positions = solver.positions(cloth)?;
 //! # Ok::<(), drape::Error>(())
 //! ```
+//!
+//! The modules below the public API (the description layer `graph`, the Vulkan executor `gpu`,
+//! the kernels' binding tables, the sub-graphs, the CPU executor, the f64 reference) are
+//! visible only with the `internals` feature, which drape's own tests and benchmarks enable;
+//! they are not part of the API and change without notice.
+
+/// Declares modules that are public only with the `internals` feature (tests, benchmarks).
+macro_rules! internal_modules {
+    ($($name:ident),* $(,)?) => {
+        $(
+            #[cfg(feature = "internals")]
+            #[doc(hidden)]
+            pub mod $name;
+            #[cfg(not(feature = "internals"))]
+            #[allow(dead_code, unused_imports)]
+            mod $name;
+        )*
+    };
+}
+
+internal_modules!(cpu, gpu, graph, kernels, lbvh, programs, reference);
 
 pub mod cloth;
 pub mod collider;
 mod controls;
-pub mod cpu;
-mod cpu_sim;
+mod cpu_solver;
 pub mod error;
-pub mod gpu;
-pub mod graph;
-pub mod kernels;
-pub mod lbvh;
 pub mod mesh;
 pub mod metrics;
+mod model;
 pub mod obj;
 mod program;
-pub mod programs;
-pub mod reference;
 pub mod scenes;
-pub mod sim;
+mod settings;
+mod solver;
 pub mod stability;
+mod state;
 pub mod timing;
 
 pub use cloth::{Cloth, ClothBuilder};
-pub use cpu_sim::CpuSimulation;
-pub use drape_types::RigidPose;
+pub use cpu_solver::CpuSolver;
+pub use drape_types::{RigidPose, SimParams};
 pub use error::{Error, Result};
-pub use gpu::{Context, ExternalDevice, FrameTimings, Validation};
+pub use gpu::{AllocatorStats, Context, DeviceInfo, ExternalDevice, FrameTimings, PassTiming, Validation};
+pub use lbvh::Lbvh;
 pub use mesh::Mesh;
-pub use sim::{Collider, FrameReport, Integrator, MemoryReport, SimSettings, Simulation, VertexBuffers, rigid_pose};
+pub use model::{ClothId, Collider, ColliderId, Model, ModelBuilder, rigid_pose};
+pub use settings::{Integrator, SimSettings};
+pub use solver::{FrameReport, MemoryReport, Solver, VertexBuffers};
 pub use stability::Stability;
+pub use state::{ClothState, State};
 
 include!(concat!(env!("OUT_DIR"), "/kernels_spv.rs"));

@@ -6,7 +6,7 @@ use drape::mesh::Mesh;
 use drape::metrics::{Accuracy, TriangleBvh, accuracy};
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, shared_model};
 use drape::timing::TimingReport;
-use drape::{Context, Integrator, SimSettings, Simulation, Validation};
+use drape::{ClothId, Context, Integrator, Model, SimSettings, Solver, Validation};
 use glam::Vec3;
 use std::io::Write;
 use std::path::PathBuf;
@@ -154,16 +154,14 @@ fn run(args: &Args) -> drape::Result<()> {
         .stiffness(args.stiffness[0], args.stiffness[1], args.stiffness[2])
         .spring_damping(args.spring_damping)
         .build()?;
-    let settings = SimSettings {
-        substeps: args.substeps,
-        integrator: match args.integrator {
+    let settings = SimSettings::default()
+        .with_substeps(args.substeps)
+        .with_integrator(match args.integrator {
             IntegratorArg::Rk4 => Integrator::Rk4,
             IntegratorArg::Euler => Integrator::SemiImplicitEuler,
-        },
-        normals: !args.no_normals,
-        timestamps: !args.no_timestamps,
-        ..SimSettings::default()
-    };
+        })
+        .with_normals(!args.no_normals)
+        .with_timestamps(!args.no_timestamps);
     let collider = match &mut scene {
         Some(s) => {
             s.thickness = args.thickness;
@@ -184,8 +182,10 @@ fn run(args: &Args) -> drape::Result<()> {
         }
         None => None,
     };
-    let mut sim = Simulation::with_collider(&ctx, &cloth, settings, collider.as_ref())?;
-    print_setup(args, &sim, &settings);
+    let model = Model::single(&cloth, collider.as_slice(), settings)?;
+    let cloth = model.first_cloth();
+    let mut sim = Solver::new(&ctx, &model)?;
+    print_setup(args, &sim, cloth, &settings)?;
     println!("GPU memory ({} barriers per frame):\n{}", sim.barriers_per_frame(), sim.memory_report());
     if let Some(t) = sim.lbvh_timings() {
         println!("LBVH build on the GPU: {:.3} ms", t.total_micros() / 1e3);
@@ -215,7 +215,7 @@ fn run(args: &Args) -> drape::Result<()> {
         };
         if let (Some(dir), true) = (&args.obj_dir, write_this) {
             let path = dir.join(format!("frame_{frame:05}.obj"));
-            drape::obj::write_cloth_obj(&path, args.grid, args.grid, &sim.positions()?, &sim.normals()?)?;
+            drape::obj::write_cloth_obj(&path, args.grid, args.grid, &sim.positions(cloth)?, &sim.normals(cloth)?)?;
         }
     }
     eprintln!();
@@ -224,11 +224,11 @@ fn run(args: &Args) -> drape::Result<()> {
     if collider.is_some() {
         println!("collision traversal: ran in {ran} substeps, culled (cloth cannot touch) in {skipped}");
     }
-    let x = sim.positions()?;
+    let x = sim.positions(cloth)?;
     if let (Some(s), Some(c)) = (&scene, &collider) {
         let start = Instant::now();
         let bvh = TriangleBvh::new(&s.mesh);
-        let p = sim.params();
+        let p = sim.params(cloth)?;
         let a = accuracy(&bvh, &c.spheres, c.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
         print_accuracy(&a, args.frames, start.elapsed().as_secs_f64());
     } else {
@@ -238,8 +238,8 @@ fn run(args: &Args) -> drape::Result<()> {
     ctx.check_validation()
 }
 
-fn print_setup(args: &Args, sim: &Simulation, settings: &SimSettings) {
-    let s = sim.stability();
+fn print_setup(args: &Args, sim: &Solver, cloth: ClothId, settings: &SimSettings) -> drape::Result<()> {
+    let s = sim.stability(cloth)?;
     println!(
         "cloth: {g} x {g} particles, {:?}, {} substeps/frame of {:.3e} s",
         settings.integrator,
@@ -258,6 +258,7 @@ fn print_setup(args: &Args, sim: &Simulation, settings: &SimSettings) {
     if let Some(w) = s.warning() {
         eprintln!("warning: {w}");
     }
+    Ok(())
 }
 
 fn print_accuracy(a: &Accuracy, frames: u32, seconds: f64) {

@@ -1,69 +1,108 @@
-//! A simulation's work as data: the buffers of its cloth and colliders, the initial contents of
-//! each, the LBVH builds and the frame's steps. The GPU `Simulation` and the `CpuSimulation`
-//! both run exactly this.
+//! A solver's work as data: the buffers of its cloths, its colliders and each cloth-collider
+//! contact, the initial contents of each, the LBVH builds and the frame's steps. The GPU
+//! `Solver` and the `CpuSolver` both run exactly this.
 
-use crate::cloth::Cloth;
 use crate::controls::Controls;
 use crate::error::Result;
 use crate::graph::{BufferId, Resources, Step};
 use crate::lbvh::collider_params;
+use crate::model::Model;
 use crate::programs::cloth::{ClothBuffers, FramePlan, frame_steps};
-use crate::programs::contact::{ColliderBuffers, ContactMode};
-use crate::sim::{Collider, SimSettings};
-use drape_types::{ColliderParams, ColliderPose, RigidPose, SimParams};
+use crate::programs::contact::{ColliderBuffers, ContactBuffers, ContactMode};
+use drape_types::ColliderPose;
 
-pub(crate) struct ClothProgram {
+pub(crate) struct SolverProgram {
     pub resources: Resources,
-    pub cloth: ClothBuffers,
+    pub cloths: Vec<ClothBuffers>,
     pub colliders: Vec<ColliderBuffers>,
+    /// `contacts[cloth][collider]`: the buffers of that pair's contact.
+    pub contacts: Vec<Vec<ContactBuffers>>,
     /// Buffer contents to upload before anything runs.
     pub initial: Vec<(BufferId, Vec<u8>)>,
     pub frame: Vec<Step>,
 }
 
-impl ClothProgram {
-    /// The program of `cloth` colliding with `colliders` under `settings`, and the host-side
-    /// controls holding its starting values (what both simulations start from).
-    pub fn with_controls(cloth: &Cloth, settings: SimSettings, colliders: &[Collider]) -> Result<(Self, Controls)> {
-        let (params, stability) = settings.resolve(cloth)?;
-        let (program, collider_start) = Self::new(cloth, &params, settings.plan(&params, &stability), colliders)?;
-        Ok((program, Controls::new(params, settings, stability, &collider_start)))
-    }
+/// Debug-name prefix of item `index` of a kind (the first keeps the plain name).
+fn numbered(kind: &str, index: usize) -> String {
+    if index == 0 { kind.to_string() } else { format!("{kind} {index}") }
+}
 
-    /// The program, and each collider's starting parameters and pose.
-    fn new(
-        cloth: &Cloth,
-        params: &SimParams,
-        plan: FramePlan,
-        colliders: &[Collider],
-    ) -> Result<(Self, Vec<(ColliderParams, RigidPose)>)> {
-        let mut resources = Resources::new();
-        let triangles = cloth.triangles();
-        let buffers = ClothBuffers::declare(&mut resources, "cloth", params.particle_count, triangles.len() as u32);
-        let bytes = |data: &[glam::Vec4]| bytemuck::cast_slice::<_, u8>(data).to_vec();
-        let mut initial = vec![(buffers.params.id(), bytemuck::bytes_of(params).to_vec())];
-        // Stage buffers start as copies of the state so pinned particles read sane values.
-        for h in [buffers.x, buffers.xa, buffers.xb, buffers.x_prev] {
-            initial.push((h.id(), bytes(&cloth.positions)));
+impl SolverProgram {
+    /// The program of `model`, and the host-side controls holding its starting values (what
+    /// both solvers start from).
+    pub fn with_controls(model: &Model) -> Result<(Self, Controls)> {
+        let settings = *model.settings();
+        let mut resolved = Vec::new();
+        for cloth in model.cloths() {
+            resolved.push(settings.resolve(cloth)?);
         }
-        initial.push((buffers.v.id(), bytes(&cloth.velocities)));
-        initial.push((buffers.indices.id(), bytemuck::cast_slice::<_, u8>(&triangles).to_vec()));
-        let mut collider_buffers = Vec::with_capacity(colliders.len());
-        let mut collider_start = Vec::with_capacity(colliders.len());
-        for (i, c) in colliders.iter().enumerate() {
+        let mut resources = Resources::new();
+        let bytes = |data: &[glam::Vec4]| bytemuck::cast_slice::<_, u8>(data).to_vec();
+        let mut initial = Vec::new();
+        let mut cloths = Vec::new();
+        for (i, (cloth, (params, _))) in model.cloths().iter().zip(&resolved).enumerate() {
+            let triangles = cloth.triangles();
+            let b = ClothBuffers::declare(
+                &mut resources,
+                &numbered("cloth", i),
+                params.particle_count,
+                triangles.len() as u32,
+            );
+            initial.push((b.params.id(), bytemuck::bytes_of(params).to_vec()));
+            // Stage buffers start as copies of the state so pinned particles read sane values.
+            for h in [b.x, b.xa, b.xb, b.x_prev] {
+                initial.push((h.id(), bytes(&cloth.positions)));
+            }
+            initial.push((b.v.id(), bytes(&cloth.velocities)));
+            initial.push((b.indices.id(), bytemuck::cast_slice::<_, u8>(&triangles).to_vec()));
+            cloths.push(b);
+        }
+        let mut colliders = Vec::new();
+        let mut collider_start = Vec::new();
+        for (i, c) in model.colliders().iter().enumerate() {
             let params = collider_params(&c.spheres, c.thickness, c.friction)?;
-            let name = if i == 0 { "collider".to_string() } else { format!("collider {i}") };
-            let mode = if c.use_bvh { ContactMode::Bvh } else { ContactMode::BruteForce };
-            let b = ColliderBuffers::declare(&mut resources, &name, params.leaf_count, buffers.particles, mode);
+            let b = ColliderBuffers::declare(&mut resources, &numbered("collider", i), params.leaf_count);
             initial.push((b.lbvh.tree.collider.id(), bytemuck::bytes_of(&params).to_vec()));
             initial.push((b.lbvh.spheres.id(), bytes(&c.spheres)));
             let pose = ColliderPose { previous: c.pose, current: c.pose };
             initial.push((b.pose.id(), bytemuck::bytes_of(&pose).to_vec()));
-            collider_buffers.push(b);
+            colliders.push(b);
             collider_start.push((params, c.pose));
         }
-        let frame = frame_steps(plan, &buffers, &collider_buffers);
-        Ok((ClothProgram { resources, cloth: buffers, colliders: collider_buffers, initial, frame }, collider_start))
+        let contacts = cloths
+            .iter()
+            .enumerate()
+            .map(|(i, cloth)| {
+                model
+                    .colliders()
+                    .iter()
+                    .enumerate()
+                    .map(|(j, c)| {
+                        // "collider contact" for the first cloth; "cloth 1 / collider 2 contact".
+                        let name = match i {
+                            0 => format!("{} contact", numbered("collider", j)),
+                            _ => format!("{} / {} contact", numbered("cloth", i), numbered("collider", j)),
+                        };
+                        let mode = if c.use_bvh { ContactMode::Bvh } else { ContactMode::BruteForce };
+                        ContactBuffers::declare(&mut resources, &name, cloth.particles, mode)
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut program = SolverProgram { resources, cloths, colliders, contacts, initial, frame: Vec::new() };
+        let controls = Controls::new(resolved, settings, &collider_start);
+        program.frame = program.frame_steps(&controls.plans());
+        Ok((program, controls))
+    }
+
+    /// One frame: every cloth's frame (each with its own substeps), in order.
+    pub fn frame_steps(&self, plans: &[FramePlan]) -> Vec<Step> {
+        let mut steps = Vec::new();
+        for ((cloth, contacts), plan) in self.cloths.iter().zip(&self.contacts).zip(plans) {
+            let pairs: Vec<_> = self.colliders.iter().zip(contacts).collect();
+            steps.extend(frame_steps(*plan, cloth, &pairs));
+        }
+        steps
     }
 
     /// Every collider's LBVH build, in one list.
@@ -74,5 +113,16 @@ impl ClothProgram {
     /// Every collider's refit (what a frame that deforms colliders may add).
     pub fn refit_steps(&self) -> Vec<Step> {
         self.colliders.iter().flat_map(|c| c.lbvh.refit_steps()).collect()
+    }
+
+    /// Each cloth's status buffers in the order a frame's status is laid out: its health, then
+    /// its contact status with each collider.
+    pub fn status_buffers(&self) -> Vec<BufferId> {
+        let mut ids = Vec::new();
+        for (cloth, contacts) in self.cloths.iter().zip(&self.contacts) {
+            ids.push(cloth.health.id());
+            ids.extend(contacts.iter().map(|c| c.status.id()));
+        }
+        ids
     }
 }

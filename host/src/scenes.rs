@@ -54,8 +54,8 @@ impl DrapeScene {
     }
 
     /// The collider: one sphere per non-empty voxel of an `n x n x n` grid over the mesh.
-    pub fn collider(&self, n: u32) -> crate::Result<crate::sim::Collider> {
-        let mut collider = crate::sim::Collider::new(crate::collider::voxel_spheres(&self.mesh, n)?, self.thickness);
+    pub fn collider(&self, n: u32) -> crate::Result<crate::Collider> {
+        let mut collider = crate::Collider::new(crate::collider::voxel_spheres(&self.mesh, n)?, self.thickness);
         collider.friction = self.friction;
         Ok(collider)
     }

@@ -1,7 +1,7 @@
 //! One frame of a cloth: per substep the integration stages (and the contact, if any), then the
 //! vertex normals and the blow-up check.
 
-use super::contact::ColliderBuffers;
+use super::contact::{CONTACT_LABEL, ColliderBuffers, ContactBuffers};
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::integrate::INTEGRATE_STAGE;
 use crate::kernels::normals::{CHECK_HEALTH, VERTEX_NORMALS};
@@ -89,13 +89,14 @@ pub struct FramePlan {
     pub normals: bool,
 }
 
-/// The steps of one frame of `cloth`, colliding with each of `colliders` after every substep.
-pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[ColliderBuffers]) -> Vec<Step> {
+/// The steps of one frame of `cloth`, colliding with each of `colliders` (with the contact
+/// buffers of that pair) after every substep.
+pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&ColliderBuffers, &ContactBuffers)]) -> Vec<Step> {
     let a = (cloth.xa, cloth.va);
     let b = (cloth.xb, cloth.vb);
     let mut steps = vec![Step::fill(cloth.health, 0)];
-    for c in colliders {
-        steps.push(Step::fill(c.contact.status, 0));
+    for (_, contact) in colliders {
+        steps.push(Step::fill(contact.status, 0));
     }
     for substep in 0..plan.substeps {
         if plan.integrator == integrator::SEMI_IMPLICIT_EULER {
@@ -108,12 +109,12 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[ColliderB
             steps.push(cloth.stage("rk4: k3", 2, b, a));
             steps.push(cloth.stage("rk4: k4 + update", 3, a, b));
         }
-        for c in colliders {
-            c.substep_steps(cloth, (substep, plan.substeps), &mut steps);
+        for (collider, contact) in colliders {
+            contact.substep_steps(cloth, collider, (substep, plan.substeps), &mut steps);
         }
         // A skipped pass is listed once, not once per substep.
         if colliders.is_empty() && substep == 0 {
-            steps.push(Step::Skip { label: super::contact::CONTACT_LABEL });
+            steps.push(Step::Skip { label: CONTACT_LABEL });
         }
     }
     if plan.normals {

@@ -42,28 +42,17 @@ pub trait ContactLeaves {
     fn detect_brute_force_kernel(&self) -> &'static Kernel;
 }
 
-/// One collider as a cloth frame sees it: its LBVH (built in the collider's own frame), its
-/// pose at the frame's start and end, and the contact's buffers.
+/// One collider's buffers: its LBVH (built in the collider's own frame) and its pose at the
+/// frame's start and end. Every cloth's contact with it reads them.
 pub struct ColliderBuffers {
     pub lbvh: SphereBvh,
     pub pose: Handle<ColliderPose>,
-    pub contact: ContactBuffers,
 }
 
 impl ColliderBuffers {
-    /// Buffers of a collider with `leaves` leaves against a cloth of `particles` particles;
-    /// `name` prefixes their debug names.
-    pub fn declare(resources: &mut Resources, name: &str, leaves: u32, particles: u32, mode: ContactMode) -> Self {
-        ColliderBuffers {
-            lbvh: SphereBvh::declare(resources, name, leaves),
-            pose: resources.device(format!("{name}: pose"), 1),
-            contact: ContactBuffers::declare(resources, &format!("{name} contact"), particles, mode),
-        }
-    }
-
-    /// The contact passes of substep `span.0` of `span.1`.
-    pub fn substep_steps(&self, cloth: &ClothBuffers, span: (u32, u32), out: &mut Vec<Step>) {
-        self.contact.substep_steps(cloth, &self.lbvh, self.pose, span, out);
+    /// Buffers of a collider with `leaves` leaves; `name` prefixes their debug names.
+    pub fn declare(resources: &mut Resources, name: &str, leaves: u32) -> Self {
+        ColliderBuffers { lbvh: SphereBvh::declare(resources, name, leaves), pose: resources.device(format!("{name}: pose"), 1) }
     }
 }
 
@@ -87,16 +76,15 @@ impl ContactBuffers {
         }
     }
 
-    /// The contact passes of substep `substep` of `substeps`, against `leaves` (in the
-    /// collider's own frame) whose frame-start and frame-end poses are in `pose`.
+    /// The contact passes of substep `substep` of `substeps` of `cloth` against `collider`.
     pub fn substep_steps(
         &self,
         cloth: &ClothBuffers,
-        leaves: &dyn ContactLeaves,
-        pose: Handle<ColliderPose>,
+        collider: &ColliderBuffers,
         (substep, substeps): (u32, u32),
         out: &mut Vec<Step>,
     ) {
+        let (leaves, pose): (&dyn ContactLeaves, _) = (&collider.lbvh, collider.pose);
         let tree = leaves.tree();
         let span = ContactPush {
             from: substep as f32 / substeps as f32,

@@ -237,6 +237,7 @@ pub fn substep_motion(params: &SimParams, pose: &ColliderPose, push: &ContactPus
 /// Threads per workgroup of the detect and respond passes (their `threads(64)`).
 pub const CONTACT_THREADS: u32 = 64;
 
+#[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
 pub fn respond_contacts(
     #[spirv(global_invocation_id)] id: UVec3,

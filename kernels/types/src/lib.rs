@@ -232,7 +232,8 @@ pub struct Contact {
 
 impl Contact {
     /// No contact.
-    pub const NONE: Contact = Contact { position: Vec4::new(0.0, 0.0, 0.0, 2.0), normal: Vec4::ZERO, leaf: NO_LEAF, _pad: [0; 3] };
+    pub const NONE: Contact =
+        Contact { position: Vec4::new(0.0, 0.0, 0.0, 2.0), normal: Vec4::ZERO, leaf: NO_LEAF, _pad: [0; 3] };
 
     /// Whether there is a contact to respond to.
     #[inline]

@@ -1,171 +1,20 @@
-//! The GPU simulation: uploads a cloth once, records its frame once, and runs frames. State stays
-//! on the GPU between frames; positions, velocities and normals are read back only when asked.
+//! The GPU solver: uploads a model once, records its frame once, and advances its state frame
+//! by frame. The state stays on the GPU between frames; positions, velocities and normals are
+//! read back only when asked.
 
-use crate::cloth::Cloth;
 use crate::controls::Controls;
 use crate::error::{Error, Result};
 use crate::gpu::recording::encode_frame;
 use crate::gpu::status_ring::StatusRing;
 use crate::gpu::{Command, Context, Engine, FrameTimings, RecordedFrame};
 use crate::lbvh;
-use crate::program::ClothProgram;
-use crate::programs::cloth::FramePlan;
-use crate::stability::{self, DEFAULT_SAFETY, Stability};
-use drape_types::{CollisionStatus, Health, RigidPose, SimParams, integrator};
+use crate::model::{ClothId, ColliderId, Model};
+use crate::program::SolverProgram;
+use crate::settings::check_health;
+use crate::state::{ClothState, State};
+use drape_types::{CollisionStatus, Health};
 use glam::Vec4;
 use std::sync::Arc;
-
-/// Time integration scheme.
-#[derive(Copy, Clone, Debug, PartialEq, Eq)]
-pub enum Integrator {
-    /// Classical RK4 (4th order; 4 dispatches per substep).
-    Rk4,
-    /// Semi-implicit Euler, the paper's eq. 3 (1st order; 2 dispatches per substep).
-    SemiImplicitEuler,
-}
-
-impl Integrator {
-    pub fn id(self) -> u32 {
-        match self {
-            Integrator::Rk4 => integrator::RK4,
-            Integrator::SemiImplicitEuler => integrator::SEMI_IMPLICIT_EULER,
-        }
-    }
-}
-
-/// How a simulation runs.
-#[derive(Copy, Clone, Debug, PartialEq)]
-pub struct SimSettings {
-    /// Simulated time per frame (s).
-    pub frame_dt: f32,
-    /// Substeps per frame; `None` = automatic from the stability bound.
-    pub substeps: Option<u32>,
-    /// Fraction of the stability bound that automatic substeps use.
-    pub safety: f32,
-    pub integrator: Integrator,
-    /// Compute vertex normals every frame.
-    pub normals: bool,
-    /// A structural spring longer than this many rest lengths counts as a blow-up.
-    pub max_stretch: f32,
-    /// Time every pass with GPU timestamp queries (costs ~tens of µs per pass on lavapipe).
-    pub timestamps: bool,
-}
-
-impl Default for SimSettings {
-    fn default() -> Self {
-        SimSettings {
-            frame_dt: 1.0 / 60.0,
-            substeps: None,
-            safety: DEFAULT_SAFETY,
-            integrator: Integrator::Rk4,
-            normals: true,
-            max_stretch: 10.0,
-            timestamps: true,
-        }
-    }
-}
-
-impl SimSettings {
-    /// Checks the settings and chooses the substep for `cloth`; returns the params to upload.
-    pub fn resolve(&self, cloth: &Cloth) -> Result<(SimParams, Stability)> {
-        let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
-        let n = cloth.params.rows as usize * cloth.params.cols as usize;
-        if cloth.positions.len() != n || cloth.velocities.len() != n || cloth.params.particle_count as usize != n {
-            return bad("cloth", format!("state arrays must hold rows x cols = {n} particles"));
-        }
-        if !cloth.positions.iter().chain(&cloth.velocities).all(|p| p.is_finite()) {
-            return bad("cloth", "positions and velocities must be finite".into());
-        }
-        self.resolve_params(&cloth.params)
-    }
-
-    /// Checks the settings and chooses the substep for a cloth's `params`.
-    pub fn resolve_params(&self, params: &SimParams) -> Result<(SimParams, Stability)> {
-        let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
-        if !(self.frame_dt.is_finite() && self.frame_dt > 0.0) {
-            return bad("frame_dt", format!("must be finite and > 0, got {}", self.frame_dt));
-        }
-        if !(self.safety > 0.0 && self.safety <= 1.0) {
-            return bad("safety", format!("must be in (0, 1], got {}", self.safety));
-        }
-        if self.substeps == Some(0) || self.substeps.is_some_and(|s| s > 100_000) {
-            return bad("substeps", format!("must be in 1..=100000, got {:?}", self.substeps));
-        }
-        if self.max_stretch.is_nan() || self.max_stretch <= 1.0 {
-            return bad("max_stretch", format!("must be > 1, got {}", self.max_stretch));
-        }
-        let stability = stability::choose_for(params, self.integrator.id(), self.frame_dt, self.substeps, self.safety);
-        if stability.substeps > 100_000 {
-            return bad(
-                "stiffness/mass",
-                format!(
-                    "the stability bound {:.3e} s needs {} substeps per frame; lower the stiffness or raise the mass",
-                    stability.max_substep, stability.substeps
-                ),
-            );
-        }
-        let mut params = *params;
-        params.integrator = self.integrator.id();
-        params.substep = stability.substep;
-        Ok((params, stability))
-    }
-
-    /// The frame schedule for these settings.
-    pub fn plan(&self, params: &SimParams, stability: &Stability) -> FramePlan {
-        FramePlan { substeps: stability.substeps, integrator: params.integrator, normals: self.normals }
-    }
-}
-
-/// Reads the blow-up detector and turns a blow-up into an error.
-pub(crate) fn check_health(health: &Health, frame: u64, settings: &SimSettings, stability: &Stability) -> Result<()> {
-    let stretch = f32::from_bits(health.max_stretch_bits);
-    let detail = if health.non_finite > 0 {
-        format!("{} particles have non-finite position or velocity", health.non_finite)
-    } else if stretch.is_nan() || stretch > settings.max_stretch {
-        format!("a spring stretched to {stretch:.1}x its rest length (limit {})", settings.max_stretch)
-    } else {
-        return Ok(());
-    };
-    Err(Error::Unstable {
-        frame,
-        detail,
-        substep: stability.substep,
-        bound: stability.max_substep,
-        suggested_substeps: stability.min_stable_substeps().max(stability.substeps * 2),
-    })
-}
-
-/// A collider: spheres (xyz centre, w radius, e.g. from `collider::voxel_spheres`) in the
-/// collider's own frame, its initial pose in the world, and the contact thickness (m).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Collider {
-    pub spheres: Vec<Vec4>,
-    pub thickness: f32,
-    /// Coulomb friction coefficient (0 = the paper's frictionless response).
-    pub friction: f32,
-    /// Traverse the LBVH (true) or test every sphere (the brute-force baseline).
-    pub use_bvh: bool,
-    /// Where the collider's frame is in the world at the start (identity: spheres are in world
-    /// coordinates). Move it per frame with `Simulation::set_collider_pose`.
-    pub pose: RigidPose,
-}
-
-impl Collider {
-    pub fn new(spheres: Vec<Vec4>, thickness: f32) -> Self {
-        Collider { spheres, thickness, friction: 0.0, use_bvh: true, pose: RigidPose::IDENTITY }
-    }
-
-    /// The same collider starting at `rotation`, `translation`.
-    pub fn with_pose(mut self, rotation: glam::Quat, translation: glam::Vec3) -> Self {
-        self.pose = rigid_pose(rotation, translation);
-        self
-    }
-}
-
-/// A `RigidPose` from glam types.
-pub fn rigid_pose(rotation: glam::Quat, translation: glam::Vec3) -> RigidPose {
-    RigidPose { rotation: Vec4::from(rotation), translation: translation.extend(0.0) }
-}
 
 /// What a frame reports besides timings.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -180,8 +29,8 @@ pub struct FrameReport {
 /// Frames recorded into callers' command buffers whose status can be pending at once.
 const STATUS_SLOTS: usize = 8;
 
-/// A cloth simulation on the GPU.
-pub struct Simulation {
+/// Advances a model's state on the GPU: every cloth, each colliding with every collider.
+pub struct Solver {
     // Field order is drop order: the status ring goes first (it waits for frames recorded into
     // callers' command buffers that are still running), then the frame, then what it binds.
     status: StatusRing,
@@ -191,7 +40,7 @@ pub struct Simulation {
     /// drape's own command buffer holds outdated leading writes, or an outdated frame.
     own_frame_stale: bool,
     engine: Engine,
-    program: ClothProgram,
+    program: SolverProgram,
     controls: Controls,
     lbvh_timings: Option<FrameTimings>,
     frames_done: u64,
@@ -199,43 +48,26 @@ pub struct Simulation {
     frames_checked: u64,
 }
 
-impl Simulation {
-    /// Uploads `cloth` and records its frame (no collider).
-    pub fn new(ctx: &Arc<Context>, cloth: &Cloth, settings: SimSettings) -> Result<Self> {
-        Self::with_colliders(ctx, cloth, settings, &[])
-    }
-
-    /// Uploads `cloth`, builds the collider's LBVH on the GPU (if any) and records the frame.
-    pub fn with_collider(
-        ctx: &Arc<Context>,
-        cloth: &Cloth,
-        settings: SimSettings,
-        collider: Option<&Collider>,
-    ) -> Result<Self> {
-        Self::with_colliders(ctx, cloth, settings, collider.map(std::slice::from_ref).unwrap_or(&[]))
-    }
-
-    /// Uploads `cloth`, builds every collider's LBVH on the GPU and records the frame; the
-    /// cloth collides with each collider after every substep, in order.
-    pub fn with_colliders(
-        ctx: &Arc<Context>,
-        cloth: &Cloth,
-        settings: SimSettings,
-        colliders: &[Collider],
-    ) -> Result<Self> {
-        let (program, controls) = ClothProgram::with_controls(cloth, settings, colliders)?;
+impl Solver {
+    /// Uploads `model`, builds every collider's LBVH on the GPU and records the frame.
+    pub fn new(ctx: &Arc<Context>, model: &Model) -> Result<Self> {
+        let (program, controls) = SolverProgram::with_controls(model)?;
         let mut engine = Engine::new(ctx)?;
         engine.allocate(&program.resources)?;
         for (id, data) in &program.initial {
             engine.upload_bytes(*id, data)?;
         }
-        let lbvh_timings =
-            if colliders.is_empty() { None } else { Some(engine.record(&program.build_steps(), true)?.submit()?) };
+        let lbvh_timings = if program.colliders.is_empty() {
+            None
+        } else {
+            Some(engine.record(&program.build_steps(), true)?.submit()?)
+        };
         let bindings = engine.bind(&[&program.frame, &program.refit_steps()])?;
         let frame_commands = engine.encode(&bindings, &program.frame)?;
+        let settings = controls.settings;
         let frame = RecordedFrame::new(ctx, bindings, &frame_commands, settings.timestamps)?;
-        let status = StatusRing::new(ctx, STATUS_SLOTS, 16 * (1 + colliders.len() as u64))?;
-        Ok(Simulation {
+        let status = StatusRing::new(ctx, STATUS_SLOTS, 16 * program.status_buffers().len() as u64)?;
+        Ok(Solver {
             status,
             frame,
             frame_commands,
@@ -270,14 +102,16 @@ impl Simulation {
         let timings = self.frame.submit()?;
         self.frames_done += 1;
         self.frames_checked = self.frames_done;
-        let health: Health = self.engine.read_mapped(self.program.cloth.health)?;
-        check_health(&health, self.frames_done, &self.controls.settings, &self.controls.stability)?;
         let mut report = FrameReport { timings, ..FrameReport::default() };
-        for c in &self.program.colliders {
-            let status: CollisionStatus = self.engine.read_mapped(c.contact.status)?;
-            check_collision(&status, self.frames_done)?;
-            report.collision_ran += status.ran;
-            report.collision_skipped += status.skipped;
+        for (i, (cloth, contacts)) in self.program.cloths.iter().zip(&self.program.contacts).enumerate() {
+            let health: Health = self.engine.read_mapped(cloth.health)?;
+            check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i].stability)?;
+            for contact in contacts {
+                let status: CollisionStatus = self.engine.read_mapped(contact.status)?;
+                check_collision(&status, self.frames_done)?;
+                report.collision_ran += status.ran;
+                report.collision_skipped += status.skipped;
+            }
         }
         Ok(report)
     }
@@ -315,10 +149,12 @@ impl Simulation {
         self.own_frame_stale = true;
         let device = &self.engine.context().device;
         let frame = self.frames_done + 1;
-        let mut sources = vec![&**self.engine.buffer(self.program.cloth.health.id())?];
-        for c in &self.program.colliders {
-            sources.push(&**self.engine.buffer(c.contact.status.id())?);
-        }
+        let sources = self
+            .program
+            .status_buffers()
+            .into_iter()
+            .map(|id| self.engine.buffer(id).map(|b| &**b))
+            .collect::<Result<Vec<_>>>()?;
         // SAFETY: the caller's contract for `cmd`; every handle comes from `self.frame`'s
         // bindings or the engine, which live until the ring's drop waits for the queue.
         unsafe {
@@ -338,10 +174,16 @@ impl Simulation {
         while let Some((frame, bytes)) = self.status.poll()? {
             read += 1;
             self.frames_checked = frame;
-            let health: Health = bytemuck::pod_read_unaligned(&bytes[..16]);
-            check_health(&health, frame, &self.controls.settings, &self.controls.stability)?;
-            for chunk in bytes[16..].as_chunks::<16>().0 {
-                check_collision(&bytemuck::pod_read_unaligned(chunk.as_slice()), frame)?;
+            // Per cloth: its health, then its contact status with each collider.
+            let mut chunks = bytes.as_chunks::<16>().0.iter().map(|c| c.as_slice());
+            for (i, contacts) in self.program.contacts.iter().enumerate() {
+                if let Some(health) = chunks.next() {
+                    let stability = &self.controls.cloths[i].stability;
+                    check_health(&bytemuck::pod_read_unaligned(health), frame, i, &self.controls.settings, stability)?;
+                }
+                for status in contacts.iter().filter_map(|_| chunks.next()) {
+                    check_collision(&bytemuck::pod_read_unaligned(status), frame)?;
+                }
             }
         }
         Ok(read)
@@ -352,36 +194,74 @@ impl Simulation {
         self.status.pending()
     }
 
-    fn read_vec4s(&self, buffer: crate::graph::Handle<Vec4>) -> Result<Vec<Vec4>> {
-        self.engine.download(buffer, self.params().particle_count as usize)
+    fn cloth_buffers(&self, cloth: ClothId) -> Result<&crate::programs::cloth::ClothBuffers> {
+        self.controls.cloth(cloth)?;
+        Ok(&self.program.cloths[cloth.index()])
     }
 
-    /// Positions (xyz, w = pin weight), read back from the GPU (after every submitted frame).
-    pub fn positions(&self) -> Result<Vec<Vec4>> {
-        self.read_vec4s(self.program.cloth.x)
+    fn read_vec4s(
+        &self,
+        cloth: ClothId,
+        pick: fn(&crate::programs::cloth::ClothBuffers) -> crate::graph::Handle<Vec4>,
+    ) -> Result<Vec<Vec4>> {
+        let buffers = self.cloth_buffers(cloth)?;
+        self.engine.download(pick(buffers), buffers.particles as usize)
     }
-    /// Velocities, read back from the GPU.
-    pub fn velocities(&self) -> Result<Vec<Vec4>> {
-        self.read_vec4s(self.program.cloth.v)
+
+    /// `cloth`'s positions (xyz, w = pin weight), read back from the GPU (after every submitted
+    /// frame).
+    pub fn positions(&self, cloth: ClothId) -> Result<Vec<Vec4>> {
+        self.read_vec4s(cloth, |b| b.x)
     }
-    /// Vertex normals of the last frame (zero before the first frame or with normals off).
-    pub fn normals(&self) -> Result<Vec<Vec4>> {
-        self.read_vec4s(self.program.cloth.normals)
+    /// `cloth`'s velocities, read back from the GPU.
+    pub fn velocities(&self, cloth: ClothId) -> Result<Vec<Vec4>> {
+        self.read_vec4s(cloth, |b| b.v)
     }
-    /// Collider `index`'s LBVH as built (and refit) on the GPU, in the collider's own frame.
-    pub fn collider_bvh(&self, index: usize) -> Result<Option<lbvh::Lbvh>> {
-        match self.program.colliders.get(index) {
-            Some(c) => Ok(Some(lbvh::download(&self.engine, &c.lbvh)?)),
-            None => Ok(None),
+    /// `cloth`'s vertex normals of the last frame (zero before the first frame or with normals
+    /// off).
+    pub fn normals(&self, cloth: ClothId) -> Result<Vec<Vec4>> {
+        self.read_vec4s(cloth, |b| b.normals)
+    }
+    /// What changes, read back: every cloth's positions and velocities, every collider's pose.
+    pub fn state(&self) -> Result<State> {
+        let cloths = (0..self.program.cloths.len())
+            .map(|i| {
+                Ok(ClothState { positions: self.positions(ClothId(i))?, velocities: self.velocities(ClothId(i))? })
+            })
+            .collect::<Result<_>>()?;
+        Ok(State { cloths, collider_poses: self.controls.collider_poses() })
+    }
+    /// Restores a state (e.g. one `state` returned): every cloth's positions (with their pin
+    /// weights) and velocities are uploaded at once; the colliders are put at their poses
+    /// without sweeping there.
+    pub fn set_state(&mut self, state: &State) -> Result<()> {
+        state.check(&self.program)?;
+        for (i, cloth) in state.cloths.iter().enumerate() {
+            let b = &self.program.cloths[i];
+            self.engine.upload(b.x, &cloth.positions)?;
+            self.engine.upload(b.v, &cloth.velocities)?;
+        }
+        for (i, pose) in state.collider_poses.iter().enumerate() {
+            self.controls.teleport_collider(ColliderId(i), *pose)?;
+        }
+        Ok(())
+    }
+    /// `collider`'s LBVH as built (and refit) on the GPU, in the collider's own frame.
+    pub fn collider_bvh(&self, collider: ColliderId) -> Result<lbvh::Lbvh> {
+        match self.program.colliders.get(collider.index()) {
+            Some(c) => lbvh::download(&self.engine, &c.lbvh),
+            None => {
+                Err(Error::InvalidParameter { name: "collider", problem: format!("no collider {}", collider.index()) })
+            }
         }
     }
     /// GPU time of the LBVH builds per stage (None without a collider).
     pub fn lbvh_timings(&self) -> Option<&FrameTimings> {
         self.lbvh_timings.as_ref()
     }
-    /// The cloth's vertex and index buffers, for a renderer to bind.
-    pub fn vertex_buffers(&self) -> Result<VertexBuffers> {
-        let cloth = &self.program.cloth;
+    /// `cloth`'s vertex and index buffers, for a renderer to bind.
+    pub fn vertex_buffers(&self, cloth: ClothId) -> Result<VertexBuffers> {
+        let cloth = self.cloth_buffers(cloth)?;
         Ok(VertexBuffers {
             positions: self.engine.buffer(cloth.x.id())?.handle,
             normals: self.engine.buffer(cloth.normals.id())?.handle,
@@ -405,13 +285,14 @@ impl Simulation {
         Ok(())
     }
 
-    /// Teleports the cloth: new positions (xyz; w is kept, so pins stay) and velocities.
+    /// Teleports `cloth`: new positions (xyz; w is kept, so pins stay) and velocities.
     /// Uploads at once (ordered after every frame submitted so far).
-    pub fn set_state(&mut self, positions: &[glam::Vec3], velocities: &[glam::Vec3]) -> Result<()> {
-        let old = self.positions()?;
+    pub fn teleport(&mut self, cloth: ClothId, positions: &[glam::Vec3], velocities: &[glam::Vec3]) -> Result<()> {
+        let old = self.positions(cloth)?;
         let (x, v) = teleported(&old, positions, velocities)?;
-        self.engine.upload(self.program.cloth.x, &x)?;
-        self.engine.upload(self.program.cloth.v, &v)
+        let b = &self.program.cloths[cloth.index()];
+        self.engine.upload(b.x, &x)?;
+        self.engine.upload(b.v, &v)
     }
 
     /// Bytes of GPU buffers per part of the simulation (cloth, each collider, each contact, the
@@ -433,15 +314,6 @@ impl Simulation {
     pub fn barriers_per_frame(&self) -> u32 {
         self.frame.barrier_count()
     }
-    pub fn params(&self) -> &SimParams {
-        &self.controls.params
-    }
-    pub fn stability(&self) -> &Stability {
-        &self.controls.stability
-    }
-    pub fn settings(&self) -> &SimSettings {
-        &self.controls.settings
-    }
     /// Frames run by `step` or recorded by `record`.
     pub fn frames_done(&self) -> u64 {
         self.frames_done
@@ -456,7 +328,7 @@ impl Simulation {
     }
 }
 
-crate::controls::runtime_setters!(Simulation);
+crate::controls::runtime_setters!(Solver);
 
 /// New positions and velocities for a teleport, keeping each particle's pin weight.
 pub(crate) fn teleported(

@@ -1,0 +1,120 @@
+//! The CPU twin of `Solver`: the same program (buffers, LBVH build, frame steps) and the same
+//! runtime controls, run by the CPU executor with the kernels' own functions.
+
+use crate::controls::Controls;
+use crate::cpu::CpuExecutor;
+use crate::error::Result;
+use crate::graph::Handle;
+use crate::model::{ClothId, ColliderId, Model};
+use crate::program::SolverProgram;
+use crate::programs::cloth::ClothBuffers;
+use crate::settings::check_health;
+use crate::solver::{check_collision, teleported};
+use crate::state::{ClothState, State};
+use drape_types::{CollisionStatus, Health};
+use glam::Vec4;
+
+/// Advances a model's state on the CPU with the kernels' own functions.
+pub struct CpuSolver {
+    executor: CpuExecutor,
+    program: SolverProgram,
+    controls: Controls,
+    frames_done: u64,
+}
+
+impl CpuSolver {
+    /// Like `Solver::new`, with the LBVHs built by the CPU executor.
+    pub fn new(model: &Model) -> Result<Self> {
+        let (program, controls) = SolverProgram::with_controls(model)?;
+        let mut executor = CpuExecutor::new(&program.resources);
+        for (id, data) in &program.initial {
+            executor.upload_bytes(*id, data)?;
+        }
+        executor.run(&program.build_steps())?;
+        Ok(CpuSolver { executor, program, controls, frames_done: 0 })
+    }
+
+    /// Runs one frame; `Error::Unstable` on blow-up, like the GPU.
+    pub fn step(&mut self) -> Result<()> {
+        let leading = self.controls.begin_frame(&self.program);
+        self.executor.run(&leading)?;
+        self.executor.run(&self.program.frame)?;
+        self.frames_done += 1;
+        for (i, (cloth, contacts)) in self.program.cloths.iter().zip(&self.program.contacts).enumerate() {
+            let health: Health = self.executor.read(cloth.health, 1)?[0];
+            check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i].stability)?;
+            for contact in contacts {
+                check_collision(&self.executor.read(contact.status, 1)?[0], self.frames_done)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn replan(&mut self, substeps_changed: bool) -> Result<()> {
+        if substeps_changed {
+            self.program.frame = self.controls.frame_steps(&self.program);
+        }
+        Ok(())
+    }
+
+    /// Collision counters of the last frame (all cloths and colliders together).
+    pub fn collision_status(&self) -> CollisionStatus {
+        let mut total = CollisionStatus::default();
+        for contact in self.program.contacts.iter().flatten() {
+            if let Ok(s) = self.executor.read(contact.status, 1) {
+                total.overflows += s[0].overflows;
+                total.ran += s[0].ran;
+                total.skipped += s[0].skipped;
+            }
+        }
+        total
+    }
+
+    /// Teleports `cloth` (see `Solver::teleport`).
+    pub fn teleport(&mut self, cloth: ClothId, positions: &[glam::Vec3], velocities: &[glam::Vec3]) -> Result<()> {
+        let (x, v) = teleported(&self.positions(cloth)?, positions, velocities)?;
+        let b = &self.program.cloths[cloth.index()];
+        self.executor.upload(b.x, &x)?;
+        self.executor.upload(b.v, &v)
+    }
+
+    /// What changes (see `Solver::state`).
+    pub fn state(&self) -> Result<State> {
+        let cloths = (0..self.program.cloths.len())
+            .map(|i| {
+                Ok(ClothState { positions: self.positions(ClothId(i))?, velocities: self.velocities(ClothId(i))? })
+            })
+            .collect::<Result<_>>()?;
+        Ok(State { cloths, collider_poses: self.controls.collider_poses() })
+    }
+
+    /// Restores a state (see `Solver::set_state`).
+    pub fn set_state(&mut self, state: &State) -> Result<()> {
+        state.check(&self.program)?;
+        for (cloth, b) in state.cloths.iter().zip(&self.program.cloths) {
+            self.executor.upload(b.x, &cloth.positions)?;
+            self.executor.upload(b.v, &cloth.velocities)?;
+        }
+        for (i, pose) in state.collider_poses.iter().enumerate() {
+            self.controls.teleport_collider(ColliderId(i), *pose)?;
+        }
+        Ok(())
+    }
+
+    fn vec4s(&self, cloth: ClothId, pick: fn(&ClothBuffers) -> Handle<Vec4>) -> Result<Vec<Vec4>> {
+        self.controls.cloth(cloth)?;
+        let b = &self.program.cloths[cloth.index()];
+        self.executor.read(pick(b), b.particles as usize)
+    }
+    pub fn positions(&self, cloth: ClothId) -> Result<Vec<Vec4>> {
+        self.vec4s(cloth, |b| b.x)
+    }
+    pub fn velocities(&self, cloth: ClothId) -> Result<Vec<Vec4>> {
+        self.vec4s(cloth, |b| b.v)
+    }
+    pub fn normals(&self, cloth: ClothId) -> Result<Vec<Vec4>> {
+        self.vec4s(cloth, |b| b.normals)
+    }
+}
+
+crate::controls::runtime_setters!(CpuSolver);

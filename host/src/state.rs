@@ -1,0 +1,59 @@
+//! What changes while a solver runs, as values: every cloth's positions and velocities and
+//! every collider's pose. The live state stays on the GPU (the solver's vertex buffers); a
+//! `State` is read with `Solver::state` and restored with `Solver::set_state` (checkpoints,
+//! rewinds, a scene reset, the same start on the GPU and the CPU twin).
+
+use crate::error::{Error, Result};
+use crate::program::SolverProgram;
+use drape_types::RigidPose;
+use glam::Vec4;
+
+/// One cloth's particles.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct ClothState {
+    /// xyz position (m), w = pin weight (0 pinned, 1 free).
+    pub positions: Vec<Vec4>,
+    /// xyz velocity (m/s), w = 0.
+    pub velocities: Vec<Vec4>,
+}
+
+/// A solver's state: index `i` of `cloths` is `ClothId` i, of `collider_poses` `ColliderId` i.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct State {
+    pub cloths: Vec<ClothState>,
+    /// Where each collider's frame is in the world.
+    pub collider_poses: Vec<RigidPose>,
+}
+
+impl State {
+    /// Whether the state fits `program` (same cloths, particle counts and colliders) and holds
+    /// finite values.
+    pub(crate) fn check(&self, program: &SolverProgram) -> Result<()> {
+        let bad = |problem: String| Err(Error::InvalidParameter { name: "state", problem });
+        if self.cloths.len() != program.cloths.len() || self.collider_poses.len() != program.colliders.len() {
+            return bad(format!(
+                "it holds {} cloths and {} colliders, the model {} and {}",
+                self.cloths.len(),
+                self.collider_poses.len(),
+                program.cloths.len(),
+                program.colliders.len()
+            ));
+        }
+        for (i, (c, b)) in self.cloths.iter().zip(&program.cloths).enumerate() {
+            let n = b.particles as usize;
+            if c.positions.len() != n || c.velocities.len() != n {
+                return bad(format!(
+                    "cloth {i} has {n} particles, the state {} positions and {} velocities",
+                    c.positions.len(),
+                    c.velocities.len()
+                ));
+            }
+            if !c.positions.iter().chain(&c.velocities).all(|v| v.is_finite()) {
+                return bad(format!("cloth {i}: positions and velocities must be finite"));
+            }
+        }
+        Ok(())
+    }
+}
