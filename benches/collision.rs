@@ -40,7 +40,7 @@ fn run(ctx: &std::sync::Arc<Context>, scene: &DrapeScene, collider: &Collider, b
     }
     let x = sim.positions(CLOTH).expect("positions");
     let p = *sim.params(CLOTH).unwrap();
-    let accuracy = accuracy(bvh, &collider.spheres, collider.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
+    let accuracy = accuracy(bvh, collider.spheres(), collider.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
     // Timed run (timestamps) for the per-kernel split: 30 frames into the fall.
     let mut timed =
         Solver::new(ctx, &Model::single(&cloth, std::slice::from_ref(collider), SimSettings::default()).unwrap())
@@ -55,7 +55,7 @@ fn run(ctx: &std::sync::Arc<Context>, scene: &DrapeScene, collider: &Collider, b
         }
     }
     let min_ms = walls[walls.len() / 2..].iter().copied().fold(f64::INFINITY, f64::min);
-    Row { spheres: collider.spheres.len(), wall_ms: median(&walls), min_ms, report, lbvh_ms, accuracy }
+    Row { spheres: collider.spheres().len(), wall_ms: median(&walls), min_ms, report, lbvh_ms, accuracy }
 }
 
 fn main() {
@@ -128,7 +128,7 @@ fn main() {
             let timed_brute = frame_ms(&ctx, &cloth, &collider, 0, 3);
             println!(
                 "  n = {n:>2} ({:>5} spheres): BVH {timed_bvh:>8.2} ms, brute force {timed_brute:>8.2} ms ({:.1}x)",
-                collider.spheres.len(),
+                collider.spheres().len(),
                 timed_brute / timed_bvh
             );
         }

@@ -187,7 +187,7 @@ fn collision_gpu_equals_cpu_and_bvh_equals_brute_force() {
     let top = 0.3 + 0.06 + 0.005;
     assert!(centre.y > top - 0.02 && centre.y < top + 0.05, "centre particle at {centre}");
     let tree = gpu.collider_bvh(ColliderId::new(0)).unwrap();
-    tree.validate(&collider.spheres).unwrap();
+    tree.validate(collider.spheres()).unwrap();
     drop((gpu, gpu_brute));
     assert_validation_clean(&ctx);
 }
@@ -259,7 +259,7 @@ fn draped_cloth_rests_outside_the_true_mesh_and_finer_voxels_hug_it() {
         }
         let x = sim.positions(CLOTH).unwrap();
         let p = *sim.params(CLOTH).unwrap();
-        let a = accuracy(&bvh, &collider.spheres, collider.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
+        let a = accuracy(&bvh, collider.spheres(), collider.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
         println!("n = {n}: {a:?}");
         assert!(a.all_finite);
         assert_eq!(a.inside_fraction, 0.0, "n = {n}: particles inside the mesh");

@@ -33,7 +33,10 @@ struct ColliderControl {
     target: RigidPose,
     /// What the GPU's pose buffer holds.
     written: ColliderPose,
-    /// New leaves (collider frame) for the next frame: written, then the LBVH is refit.
+    /// What deforming it writes (spheres or mesh vertices) and how many.
+    deformable: (&'static str, u32),
+    /// New spheres or vertices (collider frame) for the next frame: written, then the LBVH is
+    /// refit.
     deformed: Option<Vec<Vec4>>,
 }
 
@@ -71,7 +74,7 @@ impl Controls {
     pub fn new(
         cloths: Vec<(SimParams, Stability)>,
         settings: SimSettings,
-        colliders: &[(ColliderParams, RigidPose)],
+        colliders: &[(ColliderParams, RigidPose, (&'static str, u32))],
     ) -> Self {
         let cloths = cloths
             .into_iter()
@@ -79,8 +82,9 @@ impl Controls {
             .collect();
         let colliders = colliders
             .iter()
-            .map(|&(params, pose)| ColliderControl {
+            .map(|&(params, pose, deformable)| ColliderControl {
                 params,
+                deformable,
                 params_dirty: false,
                 end_of_last_frame: pose,
                 target: pose,
@@ -205,15 +209,33 @@ impl Controls {
         self.colliders.iter().map(|c| c.end_of_last_frame).collect()
     }
 
-    /// New leaves of collider `id` in its own frame (a deforming collider): same count.
-    pub fn set_collider_spheres(&mut self, id: ColliderId, leaves: u32, spheres: &[Vec4]) -> Result<()> {
-        if spheres.len() != leaves as usize {
-            return Err(invalid("collider spheres", format!("expected {leaves} spheres, got {}", spheres.len())));
-        }
+    /// New spheres of sphere collider `id` in its own frame (a deforming collider): same count.
+    pub fn set_collider_spheres(&mut self, id: ColliderId, spheres: &[Vec4]) -> Result<()> {
         if let Some(s) = spheres.iter().find(|s| !s.is_finite() || s.w < 0.0) {
             return Err(invalid("collider spheres", format!("centres must be finite and radii >= 0, got {s}")));
         }
-        self.collider(id)?.deformed = Some(spheres.to_vec());
+        self.deform(id, "spheres", spheres.to_vec())
+    }
+
+    /// New vertex positions of mesh collider `id` in its own frame (a deforming body: the same
+    /// triangles).
+    pub fn set_collider_vertices(&mut self, id: ColliderId, vertices: &[Vec3]) -> Result<()> {
+        if let Some(v) = vertices.iter().find(|v| !v.is_finite()) {
+            return Err(invalid("collider vertices", format!("must be finite, got {v}")));
+        }
+        self.deform(id, "vertices", vertices.iter().map(|v| v.extend(0.0)).collect())
+    }
+
+    fn deform(&mut self, id: ColliderId, what: &'static str, data: Vec<Vec4>) -> Result<()> {
+        let c = self.collider(id)?;
+        let (kind, count) = c.deformable;
+        if kind != what {
+            return Err(invalid("collider", format!("collider {} is made of {kind}, not {what}", id.0)));
+        }
+        if data.len() != count as usize {
+            return Err(invalid("collider", format!("expected {count} {what}, got {}", data.len())));
+        }
+        c.deformed = Some(data);
         Ok(())
     }
 
@@ -257,7 +279,7 @@ impl Controls {
         }
         for (c, buffers) in self.colliders.iter_mut().zip(&program.colliders) {
             if std::mem::take(&mut c.params_dirty) {
-                steps.push(Step::write(buffers.lbvh.tree.collider, 0, &[c.params]));
+                steps.push(Step::write(buffers.tree().collider, 0, &[c.params]));
             }
             let pose = ColliderPose { previous: c.end_of_last_frame, current: c.target };
             if pose != c.written {
@@ -265,9 +287,9 @@ impl Controls {
                 c.written = pose;
             }
             c.end_of_last_frame = c.target;
-            if let Some(spheres) = c.deformed.take() {
-                steps.push(Step::write(buffers.lbvh.spheres, 0, &spheres));
-                steps.extend(buffers.lbvh.refit_steps());
+            if let Some(data) = c.deformed.take() {
+                steps.push(Step::write(buffers.leaves.deformable(), 0, &data));
+                steps.extend(buffers.leaves.refit_steps());
             }
         }
         steps
@@ -389,15 +411,25 @@ macro_rules! runtime_setters {
                 self.controls.set_collider_pose(collider, $crate::rigid_pose(rotation, translation))
             }
 
-            /// Deforms `collider`: new spheres in its own frame, as many as it was built with. The
-            /// next frame writes them and refits the LBVH on the GPU (same tree).
+            /// Deforms sphere collider `collider`: new spheres in its own frame, as many as it was
+            /// built with. The next frame writes them and refits the LBVH on the GPU (same tree).
             pub fn set_collider_spheres(
                 &mut self,
                 collider: $crate::ColliderId,
                 spheres: &[glam::Vec4],
             ) -> $crate::Result<()> {
-                let leaves = self.program.colliders.get(collider.index()).map_or(0, |c| c.lbvh.leaves());
-                self.controls.set_collider_spheres(collider, leaves, spheres)
+                self.controls.set_collider_spheres(collider, spheres)
+            }
+
+            /// Deforms mesh collider `collider` (a skinned or simulated body): new positions of
+            /// its vertices in its own frame, the same triangles. The next frame writes them and
+            /// refits the LBVH on the GPU.
+            pub fn set_collider_vertices(
+                &mut self,
+                collider: $crate::ColliderId,
+                vertices: &[glam::Vec3],
+            ) -> $crate::Result<()> {
+                self.controls.set_collider_vertices(collider, vertices)
             }
 
             /// Pins particle `particle` of `cloth` where it is (`None`) or at `position` (moving

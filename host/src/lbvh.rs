@@ -5,10 +5,12 @@ use crate::cpu::CpuExecutor;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Engine, FrameTimings, RecordedFrame};
 use crate::graph::{ReadBuffers, Resources};
+use crate::programs::contact::ColliderLeaves;
 use crate::programs::spheres::SphereBvh;
+use crate::programs::triangles::TriangleBvh;
 use drape_kernels::lbvh::aabb_centre;
 use drape_kernels::spheres::sphere_aabb;
-use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE};
+use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE, Triangle};
 use glam::{Vec3, Vec4};
 use std::sync::Arc;
 
@@ -29,6 +31,40 @@ pub fn collider_params(spheres: &[Vec4], thickness: f32, friction: f32) -> Resul
             problem: "spheres must be finite with radius >= 0".into(),
         });
     }
+    let boxes: Vec<Aabb> = spheres.iter().map(|s| sphere_aabb(*s)).collect();
+    params_over_boxes(&boxes, thickness, friction)
+}
+
+/// Collider parameters for a triangle mesh with a contact `thickness`.
+pub fn mesh_collider_params(
+    vertices: &[Vec3],
+    triangles: &[[u32; 3]],
+    thickness: f32,
+    friction: f32,
+) -> Result<ColliderParams> {
+    let bad = |problem: String| Err(Error::InvalidParameter { name: "collider", problem });
+    if triangles.is_empty() || triangles.len() as u64 > MAX_LEAVES as u64 {
+        return bad(format!("needs 1..={MAX_LEAVES} triangles, got {}", triangles.len()));
+    }
+    if let Some(v) = vertices.iter().position(|v| !v.is_finite()) {
+        return bad(format!("vertex {v} is not finite"));
+    }
+    if let Some(t) = triangles.iter().position(|t| t.iter().any(|&i| i as usize >= vertices.len())) {
+        return bad(format!("triangle {t} indexes past the {} vertices", vertices.len()));
+    }
+    let boxes: Vec<Aabb> = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            Aabb { min: a.min(b).min(c).extend(0.0), max: a.max(b).max(c).extend(0.0) }
+        })
+        .collect();
+    params_over_boxes(&boxes, thickness, friction)
+}
+
+/// Checks the contact parameters; the scene box the Morton codes normalise into is over the
+/// centres of the leaf boxes the build encodes.
+fn params_over_boxes(boxes: &[Aabb], thickness: f32, friction: f32) -> Result<ColliderParams> {
     if !(friction.is_finite() && friction >= 0.0) {
         return Err(Error::InvalidParameter {
             name: "friction",
@@ -41,13 +77,12 @@ pub fn collider_params(spheres: &[Vec4], thickness: f32, friction: f32) -> Resul
             problem: format!("must be finite and >= 0, got {thickness}"),
         });
     }
-    // The scene box the Morton codes normalise into: over the centres the build encodes.
-    let (lo, hi) = spheres
+    let (lo, hi) = boxes
         .iter()
-        .map(|s| aabb_centre(&sphere_aabb(*s)))
+        .map(aabb_centre)
         .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| (lo.min(c), hi.max(c)));
     Ok(ColliderParams {
-        leaf_count: spheres.len() as u32,
+        leaf_count: boxes.len() as u32,
         thickness,
         friction,
         _pad: 0,
@@ -62,8 +97,10 @@ pub struct Lbvh {
     /// Morton codes in sorted order, and the input index of each sorted leaf.
     pub codes: Vec<u32>,
     pub order: Vec<u32>,
-    /// The leaves: spheres in sorted order, and their boxes (what the tree is built from).
+    /// The leaves in sorted order: spheres of a sphere collider, triangles of a mesh collider
+    /// (the other is empty), and their boxes (what the tree is built from).
     pub spheres: Vec<Vec4>,
+    pub triangles: Vec<Triangle>,
     pub leaf_bounds: Vec<Aabb>,
     /// N - 1 internal nodes (root = 0).
     pub nodes: Vec<BvhNode>,
@@ -73,13 +110,18 @@ pub struct Lbvh {
 }
 
 /// Reads a built tree back from either executor.
-fn read_tree(executor: &impl ReadBuffers, spheres: &SphereBvh) -> Result<Lbvh> {
-    let b = &spheres.tree;
+fn read_tree(executor: &impl ReadBuffers, leaves: &ColliderLeaves) -> Result<Lbvh> {
+    let b = leaves.kind().tree();
     let n = b.leaves as usize;
+    let (spheres, triangles) = match leaves {
+        ColliderLeaves::Spheres(s) => (executor.read(s.sorted, n)?, Vec::new()),
+        ColliderLeaves::Triangles(t) => (Vec::new(), executor.read(t.sorted, n)?),
+    };
     Ok(Lbvh {
         codes: executor.read(b.codes, n)?,
         order: executor.read(b.order, n)?,
-        spheres: executor.read(spheres.sorted, n)?,
+        spheres,
+        triangles,
         leaf_bounds: executor.read(b.sorted_bounds, n)?,
         nodes: executor.read(b.nodes, n - 1)?,
         parents: if n > 1 { executor.read(b.parents, 2 * n - 1)? } else { vec![NO_NODE] },
@@ -88,14 +130,14 @@ fn read_tree(executor: &impl ReadBuffers, spheres: &SphereBvh) -> Result<Lbvh> {
 }
 
 /// Reads a built tree back from the GPU.
-pub fn download(engine: &Engine, b: &SphereBvh) -> Result<Lbvh> {
-    read_tree(engine, b)
+pub fn download(engine: &Engine, leaves: &ColliderLeaves) -> Result<Lbvh> {
+    read_tree(engine, leaves)
 }
 
 /// A standalone GPU LBVH (tests, benchmarks): builds on creation.
 pub struct GpuLbvh {
     engine: Engine,
-    buffers: SphereBvh,
+    buffers: ColliderLeaves,
     pub params: ColliderParams,
     /// GPU time per stage of the build.
     pub timings: FrameTimings,
@@ -105,11 +147,12 @@ impl GpuLbvh {
     pub fn build(ctx: &Arc<Context>, spheres: &[Vec4], thickness: f32) -> Result<Self> {
         let params = collider_params(spheres, thickness, 0.0)?;
         let mut resources = Resources::new();
-        let buffers = SphereBvh::declare(&mut resources, "lbvh", params.leaf_count);
+        let b = SphereBvh::declare(&mut resources, "lbvh", params.leaf_count);
         let mut engine = Engine::new(ctx)?;
         engine.allocate(&resources)?;
-        engine.upload(buffers.tree.collider, std::slice::from_ref(&params))?;
-        engine.upload(buffers.spheres, spheres)?;
+        engine.upload(b.tree.collider, std::slice::from_ref(&params))?;
+        engine.upload(b.spheres, spheres)?;
+        let buffers = ColliderLeaves::Spheres(b);
         let mut this = GpuLbvh { engine, buffers, params, timings: FrameTimings::default() };
         this.rebuild(true)?;
         Ok(this)
@@ -140,7 +183,19 @@ pub fn build_cpu(spheres: &[Vec4], params: &ColliderParams) -> Result<Lbvh> {
     cpu.upload(b.tree.collider, std::slice::from_ref(params))?;
     cpu.upload(b.spheres, spheres)?;
     cpu.run(&b.build_steps())?;
-    read_tree(&cpu, &b)
+    read_tree(&cpu, &ColliderLeaves::Spheres(b))
+}
+
+/// CPU twin of the build over a triangle mesh.
+pub fn build_mesh_cpu(vertices: &[Vec3], triangles: &[[u32; 3]], params: &ColliderParams) -> Result<Lbvh> {
+    let mut resources = Resources::new();
+    let b = TriangleBvh::declare(&mut resources, "lbvh", vertices.len() as u32, params.leaf_count);
+    let mut cpu = CpuExecutor::new(&resources);
+    cpu.upload(b.tree.collider, std::slice::from_ref(params))?;
+    cpu.upload(b.vertices, &vertices.iter().map(|v| v.extend(0.0)).collect::<Vec<_>>())?;
+    cpu.upload(b.indices, triangles.as_flattened())?;
+    cpu.run(&b.build_steps())?;
+    read_tree(&cpu, &ColliderLeaves::Triangles(b))
 }
 
 fn contains(outer: &Aabb, inner: &Aabb) -> bool {
@@ -148,12 +203,26 @@ fn contains(outer: &Aabb, inner: &Aabb) -> bool {
 }
 
 impl Lbvh {
-    /// Checks the invariants: codes sorted, `order` a permutation matching the leaves, every
-    /// node and leaf reached exactly once from the root, parent links consistent, and every
-    /// box containing its children (leaf boxes = sphere boxes).
+    /// Checks the invariants for the sphere leaf kind built from `input`: those of
+    /// `validate_boxes`, and each sorted sphere is its input sphere.
     pub fn validate(&self, input: &[Vec4]) -> std::result::Result<(), String> {
+        let boxes: Vec<Aabb> = input.iter().map(|s| sphere_aabb(*s)).collect();
+        self.validate_boxes(&boxes)?;
+        if self.spheres.len() != input.len() {
+            return Err(format!("expected {} spheres", input.len()));
+        }
+        match self.order.iter().enumerate().find(|&(sorted, &o)| self.spheres[sorted] != input[o as usize]) {
+            Some((sorted, o)) => Err(format!("leaf {sorted} is not sphere {o}")),
+            None => Ok(()),
+        }
+    }
+
+    /// Checks the invariants of a tree built from leaf boxes `input`: codes sorted, `order` a
+    /// permutation, each sorted leaf box its input box, every node and leaf reached exactly
+    /// once from the root, parent links consistent, every box containing its children.
+    pub fn validate_boxes(&self, input: &[Aabb]) -> std::result::Result<(), String> {
         let n = input.len();
-        if self.codes.len() != n || self.order.len() != n || self.spheres.len() != n || self.leaf_bounds.len() != n {
+        if self.codes.len() != n || self.order.len() != n || self.leaf_bounds.len() != n {
             return Err(format!("expected {n} leaves"));
         }
         if let Some(i) = (1..n).find(|&i| self.codes[i - 1] > self.codes[i]) {
@@ -165,11 +234,8 @@ impl Lbvh {
             if o >= n || std::mem::replace(&mut seen[o], true) {
                 return Err(format!("order is not a permutation (index {original})"));
             }
-            if self.spheres[sorted] != input[o] {
-                return Err(format!("leaf {sorted} is not sphere {original}"));
-            }
-            if self.leaf_bounds[sorted] != sphere_aabb(input[o]) {
-                return Err(format!("leaf {sorted}'s box is not sphere {original}'s"));
+            if self.leaf_bounds[sorted] != input[o] {
+                return Err(format!("leaf {sorted}'s box is not leaf {original}'s"));
             }
         }
         if n == 1 {

@@ -174,7 +174,7 @@ fn run(args: &Args) -> drape::Result<()> {
                 args.mesh,
                 s.mesh.vertices.len(),
                 s.mesh.triangles.len(),
-                c.spheres.len(),
+                c.spheres().len(),
                 start.elapsed().as_secs_f64() * 1e3,
                 n = args.voxels
             );
@@ -229,7 +229,7 @@ fn run(args: &Args) -> drape::Result<()> {
         let start = Instant::now();
         let bvh = TriangleBvh::new(&s.mesh);
         let p = sim.params(cloth)?;
-        let a = accuracy(&bvh, &c.spheres, c.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
+        let a = accuracy(&bvh, c.spheres(), c.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
         print_accuracy(&a, args.frames, start.elapsed().as_secs_f64());
     } else {
         let lowest = x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);

@@ -5,9 +5,10 @@
 
 use crate::cloth::Cloth;
 use crate::error::{Error, Result};
+use crate::mesh::Mesh;
 use crate::settings::SimSettings;
-use drape_types::RigidPose;
-use glam::Vec4;
+use drape_types::{ColliderParams, RigidPose};
+use glam::{Vec3, Vec4};
 
 /// A cloth of a model (returned by `ModelBuilder::add_cloth`).
 #[derive(Copy, Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -40,12 +41,24 @@ impl ColliderId {
     }
 }
 
-/// A collider: spheres (xyz centre, w radius, e.g. from `collider::voxel_spheres`) in the
-/// collider's own frame, its initial pose in the world, and the contact thickness (m).
+/// What a collider is made of, in its own frame: its contact leaves.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum ColliderShape {
+    /// Spheres (xyz centre, w radius), e.g. the paper's voxel spheres from
+    /// `collider::voxel_spheres`: contact with the spheres grown by the thickness.
+    Spheres(Vec<Vec4>),
+    /// A triangle mesh: contact with its true surface grown by the thickness on both sides
+    /// (open meshes, thin parts and degenerate triangles included).
+    Triangles { vertices: Vec<Vec3>, triangles: Vec<[u32; 3]> },
+}
+
+/// A collider: its shape in its own frame, its initial pose in the world, and the contact
+/// thickness (m) and friction.
 #[derive(Clone, Debug, PartialEq)]
 #[non_exhaustive]
 pub struct Collider {
-    pub spheres: Vec<Vec4>,
+    pub shape: ColliderShape,
     pub thickness: f32,
     /// Coulomb friction coefficient (0 = the paper's frictionless response).
     pub friction: f32,
@@ -57,8 +70,48 @@ pub struct Collider {
 }
 
 impl Collider {
+    /// A collider of spheres (xyz centre, w radius).
     pub fn new(spheres: Vec<Vec4>, thickness: f32) -> Self {
-        Collider { spheres, thickness, friction: 0.0, use_bvh: true, pose: RigidPose::IDENTITY }
+        Self::of(ColliderShape::Spheres(spheres), thickness)
+    }
+
+    /// A collider of `mesh`'s triangles (its true surface).
+    pub fn mesh(mesh: &Mesh, thickness: f32) -> Self {
+        Self::of(
+            ColliderShape::Triangles { vertices: mesh.vertices.clone(), triangles: mesh.triangles.clone() },
+            thickness,
+        )
+    }
+
+    /// A collider of any shape.
+    pub fn of(shape: ColliderShape, thickness: f32) -> Self {
+        Collider { shape, thickness, friction: 0.0, use_bvh: true, pose: RigidPose::IDENTITY }
+    }
+
+    /// The spheres of a sphere collider (empty for other shapes).
+    pub fn spheres(&self) -> &[Vec4] {
+        match &self.shape {
+            ColliderShape::Spheres(s) => s,
+            _ => &[],
+        }
+    }
+
+    /// Leaves of its LBVH (spheres or triangles).
+    pub fn leaf_count(&self) -> usize {
+        match &self.shape {
+            ColliderShape::Spheres(s) => s.len(),
+            ColliderShape::Triangles { triangles, .. } => triangles.len(),
+        }
+    }
+
+    /// The LBVH and contact parameters, checked.
+    pub(crate) fn params(&self) -> Result<ColliderParams> {
+        match &self.shape {
+            ColliderShape::Spheres(s) => crate::lbvh::collider_params(s, self.thickness, self.friction),
+            ColliderShape::Triangles { vertices, triangles } => {
+                crate::lbvh::mesh_collider_params(vertices, triangles, self.thickness, self.friction)
+            }
+        }
     }
 
     /// The same collider starting at `rotation`, `translation`.
@@ -73,7 +126,7 @@ impl Collider {
         self
     }
 
-    /// The same collider tested sphere by sphere instead of through its LBVH (the baseline).
+    /// The same collider tested leaf by leaf instead of through its LBVH (the baseline).
     pub fn brute_force(mut self) -> Self {
         self.use_bvh = false;
         self
@@ -129,7 +182,7 @@ impl ModelBuilder {
             self.settings.resolve(cloth)?;
         }
         for c in &self.colliders {
-            crate::lbvh::collider_params(&c.spheres, c.thickness, c.friction)?;
+            c.params()?;
         }
         Ok(Model { cloths: self.cloths.clone(), colliders: self.colliders.clone(), settings: self.settings })
     }

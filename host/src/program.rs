@@ -5,10 +5,11 @@
 use crate::controls::Controls;
 use crate::error::Result;
 use crate::graph::{BufferId, Resources, Step};
-use crate::lbvh::collider_params;
-use crate::model::Model;
+use crate::model::{ColliderShape, Model};
 use crate::programs::cloth::{ClothBuffers, FramePlan, frame_steps};
-use crate::programs::contact::{ColliderBuffers, ContactBuffers, ContactMode};
+use crate::programs::contact::{ColliderBuffers, ColliderLeaves, ContactBuffers, ContactMode};
+use crate::programs::spheres::SphereBvh;
+use crate::programs::triangles::TriangleBvh;
 use drape_types::ColliderPose;
 
 pub(crate) struct SolverProgram {
@@ -20,6 +21,14 @@ pub(crate) struct SolverProgram {
     /// Buffer contents to upload before anything runs.
     pub initial: Vec<(BufferId, Vec<u8>)>,
     pub frame: Vec<Step>,
+}
+
+/// What deforming a collider of `shape` writes: (what it is, how many).
+fn deformable_count(shape: &ColliderShape) -> (&'static str, u32) {
+    match shape {
+        ColliderShape::Spheres(s) => ("spheres", s.len() as u32),
+        ColliderShape::Triangles { vertices, .. } => ("vertices", vertices.len() as u32),
+    }
 }
 
 /// Debug-name prefix of item `index` of a kind (the first keeps the plain name).
@@ -60,14 +69,28 @@ impl SolverProgram {
         let mut colliders = Vec::new();
         let mut collider_start = Vec::new();
         for (i, c) in model.colliders().iter().enumerate() {
-            let params = collider_params(&c.spheres, c.thickness, c.friction)?;
-            let b = ColliderBuffers::declare(&mut resources, &numbered("collider", i), params.leaf_count);
-            initial.push((b.lbvh.tree.collider.id(), bytemuck::bytes_of(&params).to_vec()));
-            initial.push((b.lbvh.spheres.id(), bytes(&c.spheres)));
+            let params = c.params()?;
+            let name = numbered("collider", i);
+            let leaves = match &c.shape {
+                ColliderShape::Spheres(spheres) => {
+                    let b = SphereBvh::declare(&mut resources, &name, params.leaf_count);
+                    initial.push((b.spheres.id(), bytes(spheres)));
+                    ColliderLeaves::Spheres(b)
+                }
+                ColliderShape::Triangles { vertices, triangles } => {
+                    let b = TriangleBvh::declare(&mut resources, &name, vertices.len() as u32, params.leaf_count);
+                    let corners: Vec<glam::Vec4> = vertices.iter().map(|v| v.extend(0.0)).collect();
+                    initial.push((b.vertices.id(), bytes(&corners)));
+                    initial.push((b.indices.id(), bytemuck::cast_slice::<_, u8>(triangles).to_vec()));
+                    ColliderLeaves::Triangles(b)
+                }
+            };
+            let b = ColliderBuffers::declare(&mut resources, &name, leaves);
+            initial.push((b.tree().collider.id(), bytemuck::bytes_of(&params).to_vec()));
             let pose = ColliderPose { previous: c.pose, current: c.pose };
             initial.push((b.pose.id(), bytemuck::bytes_of(&pose).to_vec()));
             colliders.push(b);
-            collider_start.push((params, c.pose));
+            collider_start.push((params, c.pose, deformable_count(&c.shape)));
         }
         let contacts = cloths
             .iter()
@@ -107,12 +130,12 @@ impl SolverProgram {
 
     /// Every collider's LBVH build, in one list.
     pub fn build_steps(&self) -> Vec<Step> {
-        self.colliders.iter().flat_map(|c| c.lbvh.build_steps()).collect()
+        self.colliders.iter().flat_map(|c| c.leaves.build_steps()).collect()
     }
 
     /// Every collider's refit (what a frame that deforms colliders may add).
     pub fn refit_steps(&self) -> Vec<Step> {
-        self.colliders.iter().flat_map(|c| c.lbvh.refit_steps()).collect()
+        self.colliders.iter().flat_map(|c| c.leaves.refit_steps()).collect()
     }
 
     /// Each cloth's status buffers in the order a frame's status is laid out: its health, then

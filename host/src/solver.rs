@@ -249,7 +249,7 @@ impl Solver {
     /// `collider`'s LBVH as built (and refit) on the GPU, in the collider's own frame.
     pub fn collider_bvh(&self, collider: ColliderId) -> Result<lbvh::Lbvh> {
         match self.program.colliders.get(collider.index()) {
-            Some(c) => lbvh::download(&self.engine, &c.lbvh),
+            Some(c) => lbvh::download(&self.engine, &c.leaves),
             None => {
                 Err(Error::InvalidParameter { name: "collider", problem: format!("no collider {}", collider.index()) })
             }

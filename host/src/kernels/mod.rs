@@ -9,11 +9,12 @@ pub mod lbvh;
 pub mod normals;
 pub mod sort;
 pub mod spheres;
+pub mod triangles;
 
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 17] = [
+pub const ALL: [&Kernel; 21] = [
     &integrate::INTEGRATE_STAGE,
     &normals::VERTEX_NORMALS,
     &normals::CHECK_HEALTH,
@@ -29,6 +30,10 @@ pub const ALL: [&Kernel; 17] = [
     &spheres::GATHER_SPHERES,
     &spheres::DETECT_SPHERES,
     &spheres::DETECT_SPHERES_BRUTE_FORCE,
+    &triangles::TRIANGLE_BOUNDS,
+    &triangles::GATHER_TRIANGLES,
+    &triangles::DETECT_TRIANGLES,
+    &triangles::DETECT_TRIANGLES_BRUTE_FORCE,
     &contact::CULL_CONTACT,
     &contact::RESPOND_CONTACTS,
 ];

@@ -6,6 +6,7 @@
 use super::cloth::ClothBuffers;
 use super::lbvh::LbvhBuffers;
 use super::spheres::SphereBvh;
+use super::triangles::TriangleBvh;
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
 use crate::kernels::contact::{CULL_CONTACT, RESPOND_CONTACTS};
 use drape_types::{ColliderPose, CollisionStatus, Contact, ContactPush, DispatchArgs};
@@ -42,17 +43,64 @@ pub trait ContactLeaves {
     fn detect_brute_force_kernel(&self) -> &'static Kernel;
 }
 
+/// A collider's leaves, of one of the leaf kinds.
+pub enum ColliderLeaves {
+    Spheres(SphereBvh),
+    Triangles(TriangleBvh),
+}
+
+impl ColliderLeaves {
+    pub fn kind(&self) -> &dyn ContactLeaves {
+        match self {
+            ColliderLeaves::Spheres(s) => s,
+            ColliderLeaves::Triangles(t) => t,
+        }
+    }
+
+    pub fn leaves(&self) -> u32 {
+        self.kind().tree().leaves
+    }
+
+    pub fn build_steps(&self) -> Vec<Step> {
+        match self {
+            ColliderLeaves::Spheres(s) => s.build_steps(),
+            ColliderLeaves::Triangles(t) => t.build_steps(),
+        }
+    }
+
+    pub fn refit_steps(&self) -> Vec<Step> {
+        match self {
+            ColliderLeaves::Spheres(s) => s.refit_steps(),
+            ColliderLeaves::Triangles(t) => t.refit_steps(),
+        }
+    }
+
+    /// What the host writes to deform the collider (then refits): the spheres, or the mesh's
+    /// vertices.
+    pub fn deformable(&self) -> Handle<glam::Vec4> {
+        match self {
+            ColliderLeaves::Spheres(s) => s.spheres,
+            ColliderLeaves::Triangles(t) => t.vertices,
+        }
+    }
+}
+
 /// One collider's buffers: its LBVH (built in the collider's own frame) and its pose at the
 /// frame's start and end. Every cloth's contact with it reads them.
 pub struct ColliderBuffers {
-    pub lbvh: SphereBvh,
+    pub leaves: ColliderLeaves,
     pub pose: Handle<ColliderPose>,
 }
 
 impl ColliderBuffers {
-    /// Buffers of a collider with `leaves` leaves; `name` prefixes their debug names.
-    pub fn declare(resources: &mut Resources, name: &str, leaves: u32) -> Self {
-        ColliderBuffers { lbvh: SphereBvh::declare(resources, name, leaves), pose: resources.device(format!("{name}: pose"), 1) }
+    /// Buffers of a collider with `leaves` (declared by its leaf kind); `name` prefixes their
+    /// debug names.
+    pub fn declare(resources: &mut Resources, name: &str, leaves: ColliderLeaves) -> Self {
+        ColliderBuffers { leaves, pose: resources.device(format!("{name}: pose"), 1) }
+    }
+
+    pub fn tree(&self) -> &LbvhBuffers {
+        self.leaves.kind().tree()
     }
 }
 
@@ -84,7 +132,7 @@ impl ContactBuffers {
         (substep, substeps): (u32, u32),
         out: &mut Vec<Step>,
     ) {
-        let (leaves, pose): (&dyn ContactLeaves, _) = (&collider.lbvh, collider.pose);
+        let (leaves, pose) = (collider.leaves.kind(), collider.pose);
         let tree = leaves.tree();
         let span = ContactPush {
             from: substep as f32 / substeps as f32,

@@ -8,3 +8,4 @@ pub mod lbvh;
 pub mod scan;
 pub mod sort;
 pub mod spheres;
+pub mod triangles;

@@ -19,6 +19,7 @@ pub mod pose;
 pub mod render;
 pub mod sort;
 pub mod spheres;
+pub mod triangles;
 
 /// Threads per workgroup of every 1-D kernel here (the host divides by it).
 pub const WORKGROUP_SIZE: u32 = 256;

@@ -211,6 +211,17 @@ pub struct CollisionStatus {
     pub _pad: u32,
 }
 
+/// A collider triangle's corners (xyz; w unused), in the collider's own frame: a leaf of the
+/// triangle leaf kind, gathered into the tree's order.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct Triangle {
+    pub a: Vec4,
+    pub b: Vec4,
+    pub c: Vec4,
+}
+
 /// "No leaf" in a `Contact`.
 pub const NO_LEAF: u32 = u32::MAX;
 
@@ -265,3 +276,4 @@ const _: () = assert!(core::mem::size_of::<SurfacePush>() == 128);
 const _: () = assert!(core::mem::size_of::<CollisionStatus>() == 16);
 const _: () = assert!(core::mem::size_of::<DispatchArgs>() == 16);
 const _: () = assert!(core::mem::size_of::<Contact>() == 48);
+const _: () = assert!(core::mem::size_of::<Triangle>() == 48);

@@ -1,0 +1,62 @@
+//! The triangle leaf kind's kernels (`drape_kernels::triangles`): leaf boxes for the LBVH build,
+//! the triangles' corners gathered into the tree's order, and contact detection over them.
+
+use super::contact::{
+    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, contact_spec, detect_brute_force_cpu, detect_cpu,
+};
+use super::lbvh::THREADS;
+use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use drape_kernels::contact::CONTACT_THREADS;
+use drape_kernels::triangles::{Triangles, triangle_aabb, triangle_at};
+use drape_types::{Aabb, ColliderParams, Triangle};
+use glam::Vec4;
+
+const fn read(name: &'static str) -> BindingSpec {
+    BindingSpec::read(name)
+}
+
+pub static TRIANGLE_BOUNDS: Kernel = Kernel {
+    spec: KernelSpec::new(
+        "triangles::triangle_bounds",
+        &[read("collider"), read("vertices"), read("indices"), BindingSpec::write("bounds")],
+        THREADS,
+    ),
+    cpu: bounds_cpu,
+};
+pub static GATHER_TRIANGLES: Kernel = Kernel {
+    spec: KernelSpec::new(
+        "triangles::gather_triangles",
+        &[read("collider"), read("vertices"), read("indices"), read("order"), BindingSpec::write("sorted")],
+        THREADS,
+    ),
+    cpu: gather_cpu,
+};
+pub static DETECT_TRIANGLES: Kernel =
+    Kernel { spec: contact_spec("triangles::detect", DETECT_BINDINGS, CONTACT_THREADS), cpu: detect_cpu::<Triangles> };
+pub static DETECT_TRIANGLES_BRUTE_FORCE: Kernel = Kernel {
+    spec: contact_spec("triangles::detect_brute_force", DETECT_BRUTE_FORCE_BINDINGS, CONTACT_THREADS),
+    cpu: detect_brute_force_cpu::<Triangles>,
+};
+
+fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [collider, vertices, indices, bounds] = d.bindings()?;
+    let c: ColliderParams = collider.first()?;
+    let (vertices, indices, bounds) = (vertices.slice::<Vec4>(), indices.slice::<u32>(), bounds.slice_mut::<Aabb>());
+    for i in 0..threads.min(c.leaf_count) {
+        bounds[i as usize] = triangle_aabb(&triangle_at(i, vertices, indices));
+    }
+    Ok(())
+}
+
+fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [collider, vertices, indices, order, sorted] = d.bindings()?;
+    let c: ColliderParams = collider.first()?;
+    let (vertices, indices, order) = (vertices.slice::<Vec4>(), indices.slice::<u32>(), order.slice::<u32>());
+    let sorted = sorted.slice_mut::<Triangle>();
+    for i in 0..threads.min(c.leaf_count) {
+        sorted[i as usize] = triangle_at(order[i as usize], vertices, indices);
+    }
+    Ok(())
+}

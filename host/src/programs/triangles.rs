@@ -1,0 +1,85 @@
+//! An LBVH over a triangle mesh (the collider's true surface): the triangle leaf kind's passes
+//! around the generic build, a box per triangle before it, the corners gathered into the
+//! tree's order after it; contact detects through it with the triangle kind's detect kernels.
+//! A deforming collider rewrites `vertices` (same triangles) and refits.
+
+use super::contact::ContactLeaves;
+use super::lbvh::LbvhBuffers;
+use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
+use crate::kernels::triangles::{DETECT_TRIANGLES, DETECT_TRIANGLES_BRUTE_FORCE, GATHER_TRIANGLES, TRIANGLE_BOUNDS};
+use drape_types::Triangle;
+use glam::Vec4;
+
+/// A triangle collider's buffers: its mesh (what the host writes), the triangles in the tree's
+/// order, and its LBVH.
+pub struct TriangleBvh {
+    /// Vertex positions (xyz, w unused).
+    pub vertices: Handle<Vec4>,
+    /// 3 vertex indices per triangle.
+    pub indices: Handle<u32>,
+    /// Triangles in the tree's leaf order: what the traversal reads.
+    pub sorted: Handle<Triangle>,
+    pub tree: LbvhBuffers,
+}
+
+impl TriangleBvh {
+    pub fn declare(resources: &mut Resources, name: &str, vertices: u32, triangles: u32) -> Self {
+        TriangleBvh {
+            vertices: resources.device(format!("{name}: vertices"), vertices),
+            indices: resources.device(format!("{name}: triangle indices"), 3 * triangles),
+            sorted: resources.device(format!("{name}: sorted triangles"), triangles),
+            tree: LbvhBuffers::declare(resources, name, triangles),
+        }
+    }
+
+    /// Builds the tree from `vertices` and `indices`.
+    pub fn build_steps(&self) -> Vec<Step> {
+        let mut steps = vec![self.bounds_step()];
+        steps.extend(self.tree.build_steps());
+        steps.push(self.gather_step());
+        steps
+    }
+
+    /// Refits the tree after `vertices` moved (same triangles).
+    pub fn refit_steps(&self) -> Vec<Step> {
+        let mut steps = vec![self.bounds_step()];
+        steps.extend(self.tree.refit_steps());
+        steps.push(self.gather_step());
+        steps
+    }
+
+    fn bounds_step(&self) -> Step {
+        let t = &self.tree;
+        Step::run(
+            "triangle boxes",
+            &TRIANGLE_BOUNDS,
+            vec![t.collider.id(), self.vertices.id(), self.indices.id(), t.bounds.id()],
+            Dispatch::Threads(t.leaves),
+        )
+    }
+
+    fn gather_step(&self) -> Step {
+        let t = &self.tree;
+        Step::run(
+            "gather triangles",
+            &GATHER_TRIANGLES,
+            vec![t.collider.id(), self.vertices.id(), self.indices.id(), t.order.id(), self.sorted.id()],
+            Dispatch::Threads(t.leaves),
+        )
+    }
+}
+
+impl ContactLeaves for TriangleBvh {
+    fn tree(&self) -> &LbvhBuffers {
+        &self.tree
+    }
+    fn sorted_leaves(&self) -> BufferId {
+        self.sorted.id()
+    }
+    fn detect_kernel(&self) -> &'static Kernel {
+        &DETECT_TRIANGLES
+    }
+    fn detect_brute_force_kernel(&self) -> &'static Kernel {
+        &DETECT_TRIANGLES_BRUTE_FORCE
+    }
+}

@@ -1,0 +1,243 @@
+//! The triangle leaf kind: closest points against an f64 reference, the LBVH over triangles
+//! finding exactly what a loop over all triangles finds, a cloth resting at the thickness on an
+//! open mesh from either side, and a deforming mesh collider refit on the GPU, GPU == CPU.
+
+mod common;
+
+use common::{Rng, assert_validation_clean, context};
+use drape::lbvh::{build_mesh_cpu, mesh_collider_params};
+use drape::{ClothBuilder, ClothId, Collider, ColliderId, CpuSolver, Mesh, Model, SimSettings, Solver};
+use drape_kernels::contact::{brute_force, traverse};
+use drape_kernels::triangles::{Triangles, closest_on_triangle};
+use drape_types::{Aabb, Triangle};
+use glam::{DVec3, Mat4, Vec3, Vec4};
+
+const CLOTH: ClothId = ClothId::new(0);
+const BODY: ColliderId = ColliderId::new(0);
+
+fn triangle(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
+    Triangle { a: a.extend(0.0), b: b.extend(0.0), c: c.extend(0.0) }
+}
+
+/// f64 reference: the closest point of segment a..b to p.
+fn segment64(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    if len2 == 0.0 {
+        return a;
+    }
+    a + ab * ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+}
+
+/// f64 reference distance from p to triangle abc: the plane projection when it falls inside
+/// (barycentric coordinates by areas), else the nearest edge.
+fn distance64(p: DVec3, t: &Triangle) -> f64 {
+    let [a, b, c] = [t.a, t.b, t.c].map(|v| v.truncate().as_dvec3());
+    let n = (b - a).cross(c - a);
+    let edges = [segment64(p, a, b), segment64(p, b, c), segment64(p, c, a)];
+    let mut best = edges.iter().map(|q| (p - *q).length()).fold(f64::INFINITY, f64::min);
+    if n.length_squared() > 0.0 {
+        let q = p - n * ((p - a).dot(n) / n.length_squared());
+        let inside = [(a, b), (b, c), (c, a)].iter().all(|(u, v)| (*v - *u).cross(q - *u).dot(n) >= 0.0);
+        if inside {
+            best = best.min((p - q).length());
+        }
+    }
+    best
+}
+
+/// Closest points on random, thin, degenerate (collinear, coincident) triangles agree with the
+/// f64 reference to f32 rounding, and lie on the triangle.
+#[test]
+fn closest_points_match_an_f64_reference() {
+    let mut rng = Rng::new(11);
+    let mut v = |s: f32| Vec3::new(rng.range(-s, s), rng.range(-s, s), rng.range(-s, s));
+    let mut worst = 0.0f64;
+    for i in 0..20_000 {
+        let (a, b, c) = (v(1.0), v(1.0), v(1.0));
+        let t = match i % 5 {
+            0 => triangle(a, b, c),
+            1 => triangle(a, b, a + (b - a) * 0.37), // collinear: zero area
+            2 => triangle(a, a, a),                  // a point
+            3 => triangle(a, b, a + (b - a) * 0.5 + v(1e-4)), // a sliver
+            _ => triangle(a, b, b),                  // two corners coincide
+        };
+        let p = v(2.0);
+        let q = closest_on_triangle(p, &t);
+        let reference = distance64(p.as_dvec3(), &t);
+        let got = (p - q).as_dvec3().length();
+        let on_triangle = distance64(q.as_dvec3(), &t);
+        worst = worst.max((got - reference).abs()).max(on_triangle);
+        assert!(
+            (got - reference).abs() <= 1e-5 && on_triangle <= 1e-5,
+            "case {i}: {t:?}, p {p}: {got} vs {reference}, off by {on_triangle}"
+        );
+    }
+    assert!(worst > 0.0, "the comparison must see f32 rounding");
+    // A long sliver (smallest angle 0.46 degrees) with the closest point inside it, 5 mm
+    // above: its edges alone would answer 5.4 mm.
+    let sliver = triangle(Vec3::ZERO, Vec3::X, Vec3::new(0.5, 0.0, 0.004));
+    let p = Vec3::new(0.5, 0.005, 0.002);
+    let d = (p - closest_on_triangle(p, &sliver)).length();
+    assert!((d - 0.005).abs() < 1e-6, "sliver: {d}");
+}
+
+/// A soup of `n` small random triangles (some degenerate) in the unit cube.
+fn soup(rng: &mut Rng, n: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut vertices = Vec::new();
+    let mut triangles = Vec::new();
+    for i in 0..n {
+        let centre = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+        let mut corner = || centre + Vec3::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), rng.range(-0.1, 0.1));
+        let (a, b) = (corner(), corner());
+        let c = if i % 17 == 0 { a } else { corner() };
+        let base = vertices.len() as u32;
+        vertices.extend([a, b, c]);
+        triangles.push([base, base + 1, base + 2]);
+    }
+    (vertices, triangles)
+}
+
+/// The traversal over the triangle LBVH finds exactly the contact (hit parameter and triangle) a
+/// loop over all triangles finds, for random motions (kernel functions, run on the CPU).
+#[test]
+fn triangle_bvh_finds_the_brute_force_contacts() {
+    let mut rng = Rng::new(5);
+    let mut contacts = 0;
+    for n in [1usize, 2, 7, 500, 3000] {
+        let (vertices, triangles) = soup(&mut rng, n);
+        let params = mesh_collider_params(&vertices, &triangles, 0.02, 0.0).unwrap();
+        let tree = build_mesh_cpu(&vertices, &triangles, &params).unwrap();
+        let boxes: Vec<Aabb> = triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| vertices[i as usize]);
+                Aabb { min: a.min(b).min(c).extend(0.0), max: a.max(b).max(c).extend(0.0) }
+            })
+            .collect();
+        tree.validate_boxes(&boxes).unwrap();
+        for _ in 0..2000 {
+            let p1 = Vec3::new(rng.range(-1.1, 1.1), rng.range(-1.1, 1.1), rng.range(-1.1, 1.1));
+            let p0 = p1 + Vec3::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), rng.range(-0.1, 0.1));
+            let (bvh, overflow) = traverse::<Triangles>(&params, &tree.nodes, &tree.aabbs, &tree.triangles, p0, p1);
+            let brute = brute_force::<Triangles>(&params, &tree.triangles, p0, p1);
+            assert!(!overflow);
+            assert_eq!((bvh.t, bvh.leaf), (brute.t, brute.leaf), "n {n}, p0 {p0}, p1 {p1}");
+            contacts += (brute.t <= 1.0) as u32;
+        }
+    }
+    assert!(contacts > 300, "only {contacts} contacts: the test must exercise hits");
+}
+
+/// A 2-triangle square of side `side` in the xz plane at height 0 (an open mesh).
+fn square(side: f32) -> Mesh {
+    let h = side / 2.0;
+    Mesh {
+        vertices: vec![Vec3::new(-h, 0.0, -h), Vec3::new(h, 0.0, -h), Vec3::new(h, 0.0, h), Vec3::new(-h, 0.0, h)],
+        triangles: vec![[0, 2, 1], [0, 3, 2]],
+    }
+}
+
+const THICKNESS: f32 = 0.01;
+
+/// A cloth falling onto an open square from above rests at the thickness above it; the same
+/// cloth falling upwards (gravity reversed) onto it from below rests at the thickness below it:
+/// the surface is two-sided and the particle stays on the side it came from. GPU == CPU twin.
+#[test]
+fn cloth_rests_at_the_thickness_on_either_side_of_an_open_mesh() {
+    let ctx = context();
+    for side in [1.0f32, -1.0] {
+        let cloth = ClothBuilder::new(20, 20)
+            .size(0.8)
+            .gravity(Vec3::new(0.0, -9.81 * side, 0.0))
+            .transform(Mat4::from_translation(Vec3::new(0.0, 0.1 * side, 0.0)))
+            .build()
+            .unwrap();
+        let collider = Collider::mesh(&square(2.0), THICKNESS).with_friction(0.5);
+        let model = Model::single(&cloth, &[collider], SimSettings::default().with_timestamps(false)).unwrap();
+        let mut gpu = Solver::new(&ctx, &model).unwrap();
+        let mut cpu = CpuSolver::new(&model).unwrap();
+        for frame in 0..60 {
+            gpu.step().unwrap();
+            cpu.step().unwrap();
+            let diff = common::max_distance(&gpu.positions(CLOTH).unwrap(), &cpu.positions(CLOTH).unwrap());
+            assert!(diff <= 1e-5, "side {side}, frame {frame}: GPU and CPU differ by {diff}");
+        }
+        let heights: Vec<f32> = gpu.positions(CLOTH).unwrap().iter().map(|p| p.y * side).collect();
+        let (lo, hi) = heights.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &h| (lo.min(h), hi.max(h)));
+        assert!(
+            lo >= 0.5 * THICKNESS && hi <= 1.5 * THICKNESS,
+            "side {side}: resting heights {lo}..{hi} m, expected within [0.5, 1.5] x {THICKNESS}"
+        );
+    }
+    assert_validation_clean(&ctx);
+}
+
+/// A deforming mesh collider (its vertices rewritten every frame, the same triangles) is refit
+/// on the GPU inside the frame: its LBVH equals a fresh build's invariants for the new vertices,
+/// it lifts the cloth resting on it with no particle ending below it, and the GPU run equals the
+/// CPU twin.
+#[test]
+fn a_deforming_mesh_collider_is_refit_on_the_gpu() {
+    let ctx = context();
+    let mesh = square(2.0);
+    let cloth = ClothBuilder::new(16, 16)
+        .size(0.8)
+        .transform(Mat4::from_translation(Vec3::new(0.0, 0.05, 0.0)))
+        .build()
+        .unwrap();
+    let model =
+        Model::single(&cloth, &[Collider::mesh(&mesh, THICKNESS)], SimSettings::default().with_timestamps(false))
+            .unwrap();
+    let mut gpu = Solver::new(&ctx, &model).unwrap();
+    let mut cpu = CpuSolver::new(&model).unwrap();
+    let mut vertices = mesh.vertices.clone();
+    for frame in 0..90 {
+        // From frame 30 the square bulges up in the middle edge-wise and rises: a tent.
+        if frame >= 30 {
+            let lift = 0.004 * (frame - 29) as f32;
+            for (v, rest) in vertices.iter_mut().zip(&mesh.vertices) {
+                v.y = rest.y + lift * if rest.x < 0.0 { 1.0 } else { 0.5 };
+            }
+            gpu.set_collider_vertices(BODY, &vertices).unwrap();
+            cpu.set_collider_vertices(BODY, &vertices).unwrap();
+        }
+        gpu.step().unwrap();
+        cpu.step().unwrap();
+        let diff = common::max_distance(&gpu.positions(CLOTH).unwrap(), &cpu.positions(CLOTH).unwrap());
+        assert!(diff <= 1e-5, "frame {frame}: GPU and CPU differ by {diff}");
+    }
+    let tree = gpu.collider_bvh(BODY).unwrap();
+    let boxes: Vec<Aabb> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            Aabb { min: a.min(b).min(c).extend(0.0), max: a.max(b).max(c).extend(0.0) }
+        })
+        .collect();
+    tree.validate_boxes(&boxes).unwrap();
+    // The surface under each particle: the plane through the deformed square's triangles.
+    let below =
+        gpu.positions(CLOTH).unwrap().iter().filter(|p| height_above(&vertices, &mesh.triangles, **p) < 0.0).count();
+    assert_eq!(below, 0, "particles below the deformed collider");
+    assert!(gpu.positions(CLOTH).unwrap().iter().all(|p| p.y > 0.1), "the rising collider must lift the cloth");
+    assert!(gpu.set_collider_vertices(BODY, &vertices[..3]).is_err(), "a vertex count that does not fit");
+    assert!(gpu.set_collider_spheres(BODY, &[Vec4::ONE]).is_err(), "spheres for a mesh collider");
+    assert_validation_clean(&ctx);
+}
+
+/// Signed height of `p` above the triangle of the mesh below it (vertical projection).
+fn height_above(vertices: &[Vec3], triangles: &[[u32; 3]], p: Vec4) -> f32 {
+    for t in triangles {
+        let [a, b, c] = t.map(|i| vertices[i as usize]);
+        let n = (b - a).cross(c - a);
+        let n = if n.y < 0.0 { -n } else { n };
+        // Barycentric test in the xz plane.
+        let signs = [(a, b), (b, c), (c, a)].map(|(u, v)| (v.x - u.x) * (p.z - u.z) - (v.z - u.z) * (p.x - u.x));
+        if signs.iter().all(|s| *s >= 0.0) || signs.iter().all(|s| *s <= 0.0) {
+            return (p.truncate() - a).dot(n.normalize());
+        }
+    }
+    f32::INFINITY
+}
