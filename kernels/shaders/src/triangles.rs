@@ -178,7 +178,7 @@ impl LeafKind for Triangles {
     }
 
     #[inline]
-    fn surface(t: Triangle, p0: Vec3, p1: Vec3, _t: f32, thickness: f32) -> (Vec3, Vec3) {
+    fn surface(t: Triangle, p0: Vec3, p1: Vec3, _hit: f32, thickness: f32) -> (Vec3, Vec3) {
         let n = face_normal(&t);
         let (s, side, inside) = plane_crossing(&t, n, p0, p1);
         if inside {
