@@ -21,6 +21,14 @@ enum SceneArg {
     Swing,
 }
 
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum ContactArg {
+    /// The paper's proxy: one sphere per non-empty voxel (`--voxels`).
+    Spheres,
+    /// The mesh's own triangles.
+    Triangles,
+}
+
 #[derive(Copy, Clone, Debug, ValueEnum)]
 enum IntegratorArg {
     Rk4,
@@ -36,7 +44,10 @@ struct Args {
     /// Collider mesh: icosphere, torus, bunny, dragon (from ../shared/models) or an OBJ path.
     #[arg(long, default_value = "icosphere")]
     mesh: String,
-    /// Collider voxels per axis (one sphere per non-empty voxel).
+    /// What the cloth collides with: the paper's voxel spheres or the mesh's triangles.
+    #[arg(long, value_enum, default_value = "spheres")]
+    contact: ContactArg,
+    /// Collider voxels per axis (one sphere per non-empty voxel; `--contact spheres`).
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=256))]
     voxels: u32,
     /// Contact thickness (m).
@@ -45,7 +56,7 @@ struct Args {
     /// Coulomb friction coefficient of the contact (0 = the paper's frictionless response).
     #[arg(long, default_value_t = drape::scenes::DEFAULT_FRICTION)]
     friction: f32,
-    /// Test every sphere instead of traversing the LBVH (baseline).
+    /// Test every leaf (sphere or triangle) instead of traversing the LBVH (baseline).
     #[arg(long)]
     brute_force: bool,
     /// Particles per side (rows = cols).
@@ -167,16 +178,21 @@ fn run(args: &Args) -> drape::Result<()> {
             s.thickness = args.thickness;
             s.friction = args.friction;
             let start = Instant::now();
-            let mut c = s.collider(args.voxels)?;
+            let mut c = match args.contact {
+                ContactArg::Spheres => s.collider(args.voxels)?,
+                ContactArg::Triangles => s.triangle_collider(),
+            };
             c.use_bvh = !args.brute_force;
+            let leaves = match args.contact {
+                ContactArg::Spheres => format!("{n}^3 voxels -> {} spheres", c.spheres().len(), n = args.voxels),
+                ContactArg::Triangles => format!("{} triangle leaves", c.leaf_count()),
+            };
             println!(
-                "collider: {} ({} vertices, {} triangles), {n}^3 voxels -> {} spheres in {:.1} ms (CPU)",
+                "collider: {} ({} vertices, {} triangles), {leaves} in {:.1} ms (CPU)",
                 args.mesh,
                 s.mesh.vertices.len(),
                 s.mesh.triangles.len(),
-                c.spheres().len(),
                 start.elapsed().as_secs_f64() * 1e3,
-                n = args.voxels
             );
             Some(c)
         }

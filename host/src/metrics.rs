@@ -150,7 +150,7 @@ pub struct Accuracy {
     pub within_thickness_fraction: f64,
     /// Particles resting on the collider: outside the mesh and within `thickness` (+1e-4 m) of
     /// the collider's sphere surface (distance to the nearest sphere surface = |p - c| - r, min
-    /// over spheres).
+    /// over spheres), or of the true surface for a triangle collider (no spheres).
     pub resting: usize,
     /// Over resting particles: distance to the true surface (how far the sphere proxy holds the
     /// cloth off the mesh); 0 if none.
@@ -163,7 +163,8 @@ pub struct Accuracy {
 }
 
 /// Measures `positions` (xyz + w; particle index = row * cols + col) of a `rows x cols` cloth
-/// against the mesh in `bvh` and the collider `spheres` (xyz = centre, w = radius).
+/// against the mesh in `bvh` and the collider `spheres` (xyz = centre, w = radius; empty when
+/// the collider is the mesh's own triangles).
 ///
 /// Row springs join `i` and `i + cols` (rest `rest_row`), column springs `i` and `i + 1` (rest
 /// `rest_col`); springs that reach past `positions` are skipped, and so is a family whose rest
@@ -206,7 +207,12 @@ pub fn accuracy(
             penetrations.push(distance);
         } else {
             penetrations.push(0.0);
-            if collider.any_within(p, thickness + RESTING_SLACK) {
+            let resting = if spheres.is_empty() {
+                distance <= thickness + RESTING_SLACK
+            } else {
+                collider.any_within(p, thickness + RESTING_SLACK)
+            };
+            if resting {
                 result.resting += 1;
                 gap_sum += distance as f64;
                 result.gap_max = result.gap_max.max(distance);

@@ -53,6 +53,11 @@ impl DrapeScene {
         DrapeScene { mesh, cloth, thickness: DEFAULT_THICKNESS, friction: DEFAULT_FRICTION }
     }
 
+    /// The collider of the mesh's own triangles.
+    pub fn triangle_collider(&self) -> crate::Collider {
+        crate::Collider::mesh(&self.mesh, self.thickness).with_friction(self.friction)
+    }
+
     /// The collider: one sphere per non-empty voxel of an `n x n x n` grid over the mesh.
     pub fn collider(&self, n: u32) -> crate::Result<crate::Collider> {
         let mut collider = crate::Collider::new(crate::collider::voxel_spheres(&self.mesh, n)?, self.thickness);

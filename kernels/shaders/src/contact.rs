@@ -36,22 +36,23 @@ pub trait LeafKind {
     /// Whether the subtree under box `b` can hold a contact of the motion `p0 -> p1`.
     fn may_touch(b: &Aabb, p0: Vec3, p1: Vec3, thickness: f32) -> bool;
     /// The contact of `p0 -> p1` with `leaf` grown by `thickness`: hit parameter in [0, 1]
-    /// (0 = `p0` already within it; > 1 = no contact) and how deep `p1` ends inside.
+    /// (0 = `p0` already within it; > 1 = no contact) and the kind's tie-break key: among
+    /// leaves hit at the same parameter the smallest key wins.
     fn hit(leaf: Self::Leaf, p0: Vec3, p1: Vec3, thickness: f32) -> (f32, f32);
     /// Where a particle with the hit `t` goes and the outward unit normal there.
     fn surface(leaf: Self::Leaf, p0: Vec3, p1: Vec3, t: f32, thickness: f32) -> (Vec3, Vec3);
 }
 
-/// The best leaf found so far: hit parameter, depth, leaf index (tree order).
+/// The best leaf found so far: hit parameter, tie-break key, leaf index (tree order).
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Candidate {
     pub t: f32,
-    pub depth: f32,
+    pub key: f32,
     pub leaf: u32,
 }
 
 /// No contact.
-pub const NO_CANDIDATE: Candidate = Candidate { t: 2.0, depth: 0.0, leaf: NO_LEAF };
+pub const NO_CANDIDATE: Candidate = Candidate { t: 2.0, key: 0.0, leaf: NO_LEAF };
 
 /// Whether `p` is inside `b` grown by `margin`.
 #[inline]
@@ -59,18 +60,17 @@ pub fn point_in_aabb(p: Vec3, b: &Aabb, margin: f32) -> bool {
     p.cmpge(b.min.xyz() - Vec3::splat(margin)).all() && p.cmple(b.max.xyz() + Vec3::splat(margin)).all()
 }
 
-/// Keeps the better of `best` and leaf `leaf` hit at `t` with `depth`: the earlier hit; among
-/// equal hits (typically t = 0, p0 already inside several overlapping leaves) the shallowest,
-/// whose push-out moves the particle least (pushing out of a deep sphere can push it through a
-/// thin part of the mesh); then the lower index. A total order, so any visiting order gives the
-/// same answer: the BVH and the brute-force loop agree exactly.
+/// Keeps the better of `best` and leaf `leaf` hit at `t` with tie-break `key`: the earlier
+/// hit; among equal hits (typically p0 already within several leaves) the smaller key (the
+/// leaf kind's choice, see `LeafKind::hit`); then the lower index. A total order, so any
+/// visiting order gives the same answer: the BVH and the brute-force loop agree exactly.
 #[inline]
-pub fn consider(best: Candidate, t: f32, depth: f32, leaf: u32) -> Candidate {
+pub fn consider(best: Candidate, t: f32, key: f32, leaf: u32) -> Candidate {
     if t > 1.0 {
         return best;
     }
-    let better = t < best.t || (t == best.t && (depth < best.depth || (depth == best.depth && leaf < best.leaf)));
-    if better { Candidate { t, depth, leaf } } else { best }
+    let better = t < best.t || (t == best.t && (key < best.key || (key == best.key && leaf < best.leaf)));
+    if better { Candidate { t, key, leaf } } else { best }
 }
 
 /// Earliest contact of p0 -> p1 with the LBVH's leaves. Returns it and whether the stack
@@ -85,8 +85,8 @@ pub fn traverse<K: LeafKind>(
 ) -> (Candidate, bool) {
     let thickness = collider.thickness;
     if collider.leaf_count == 1 {
-        let (t, depth) = K::hit(leaves[0], p0, p1, thickness);
-        return (consider(NO_CANDIDATE, t, depth, 0), false);
+        let (t, key) = K::hit(leaves[0], p0, p1, thickness);
+        return (consider(NO_CANDIDATE, t, key, 0), false);
     }
     let mut best = NO_CANDIDATE;
     let mut stack = [0u32; STACK_SIZE];
@@ -100,8 +100,8 @@ pub fn traverse<K: LeafKind>(
             let child = if side == 0 { node.left } else { node.right };
             if child & LEAF_BIT != 0 {
                 let leaf = child & !LEAF_BIT;
-                let (t, depth) = K::hit(leaves[leaf as usize], p0, p1, thickness);
-                best = consider(best, t, depth, leaf);
+                let (t, key) = K::hit(leaves[leaf as usize], p0, p1, thickness);
+                best = consider(best, t, key, leaf);
             } else if K::may_touch(&aabbs[child as usize], p0, p1, thickness) {
                 if top < STACK_SIZE {
                     stack[top] = child;
@@ -121,8 +121,8 @@ pub fn brute_force<K: LeafKind>(collider: &ColliderParams, leaves: &[K::Leaf], p
     let mut best = NO_CANDIDATE;
     let mut i = 0;
     while i < collider.leaf_count {
-        let (t, depth) = K::hit(leaves[i as usize], p0, p1, collider.thickness);
-        best = consider(best, t, depth, i);
+        let (t, key) = K::hit(leaves[i as usize], p0, p1, collider.thickness);
+        best = consider(best, t, key, i);
         i += 1;
     }
     best
@@ -135,7 +135,7 @@ pub fn contact_of<K: LeafKind>(best: Candidate, leaves: &[K::Leaf], p0: Vec3, p1
         return Contact::NONE;
     }
     let (position, normal) = K::surface(leaves[best.leaf as usize], p0, p1, best.t, thickness);
-    Contact { position: position.extend(best.t), normal: normal.extend(best.depth), leaf: best.leaf, _pad: [0; 3] }
+    Contact { position: position.extend(best.t), normal: normal.extend(best.key), leaf: best.leaf, _pad: [0; 3] }
 }
 
 /// Particle `index`'s substep motion in the collider's frame (start, end).

@@ -56,6 +56,9 @@ impl LeafKind for Spheres {
         point_in_aabb(p1, b, thickness)
     }
 
+    /// Key: how deep the motion ends inside. Among equal hits (typically p0 already inside
+    /// several overlapping spheres) the shallowest wins, whose radial push-out moves the
+    /// particle least (pushing out of a deep sphere can push it through a thin part of the mesh).
     #[inline]
     fn hit(sphere: Vec4, p0: Vec3, p1: Vec3, thickness: f32) -> (f32, f32) {
         let t = hit_parameter(p0, p1, sphere, thickness);

@@ -159,24 +159,31 @@ impl LeafKind for Triangles {
         (p0.min(p1) - m).cmple(b.max.xyz()).all() && (p0.max(p1) + m).cmpge(b.min.xyz()).all()
     }
 
+    /// A crossing of the face counts from where the motion came within the thickness of it
+    /// (t < 1, key 0); a motion ending within the thickness without crossing the face counts at
+    /// t = 1, so a crossing always wins over proximity (a particle that entered a closed mesh
+    /// through one face goes back out through it, whatever other faces it ended near). Key of
+    /// proximity: the distance, so the nearest surface wins.
     #[inline]
     fn hit(t: Triangle, p0: Vec3, p1: Vec3, thickness: f32) -> (f32, f32) {
         let n = face_normal(&t);
         let (s, _, inside) = plane_crossing(&t, n, p0, p1);
         if inside {
-            // Crossed the face: the contact is where the motion came within the thickness of it.
             let (h0, h1) = ((p0 - t.a.xyz()).dot(n), (p1 - t.a.xyz()).dot(n));
             let early = (s - thickness * (1.0 / (h0 - h1).abs().max(1e-30))).max(0.0);
-            return (early, thickness + h1.abs());
+            return (early.min(1.0), 0.0);
         }
         let d1 = (p1 - closest_on_triangle(p1, &t)).length();
         if d1 >= thickness {
             return (2.0, 0.0);
         }
-        let d0 = (p0 - closest_on_triangle(p0, &t)).length();
-        (if d0 < thickness { 0.0 } else { 1.0 }, thickness - d1)
+        (1.0, d1)
     }
 
+    /// A crossing: back to the thickness on the side the motion came from, along the normal.
+    /// Proximity (the motion stayed on its side of this triangle): to the thickness on the
+    /// particle's side, along the normal over the face's interior and away from the closest
+    /// point near an edge or a corner.
     #[inline]
     fn surface(t: Triangle, p0: Vec3, p1: Vec3, _hit: f32, thickness: f32) -> (Vec3, Vec3) {
         let n = face_normal(&t);
@@ -189,12 +196,10 @@ impl LeafKind for Triangles {
         let away = p1 - q;
         let h1 = away.dot(n);
         let off_face = away - n * h1;
-        // On the face's interior (the closest point is not on an edge): leave along the normal
-        // on the side the motion came from; near an edge or a corner: away from it.
         let normal = if n != Vec3::ZERO && off_face.length_squared() <= 1e-12 * away.length_squared().max(1e-30) {
-            let h0 = (p0 - t.a.xyz()).dot(n);
-            let side = if h0 > 0.0 || (h0 == 0.0 && h1 >= 0.0) { 1.0 } else { -1.0 };
-            n * side
+            // Over the interior (exactly on the face: the side p0 is on).
+            let h = if h1 != 0.0 { h1 } else { (p0 - t.a.xyz()).dot(n) };
+            if h >= 0.0 { n } else { -n }
         } else {
             let len = away.length();
             if len > 1e-12 {

@@ -234,7 +234,8 @@ pub struct Contact {
     /// xyz: where the particle goes (on the thickness-grown surface); w: the hit parameter along
     /// the particle's substep motion (0 = it started within the thickness; > 1 = no contact).
     pub position: Vec4,
-    /// xyz: the surface's outward unit normal there; w: how deep the motion ended inside (m).
+    /// xyz: the surface's outward unit normal there; w: the leaf kind's tie-break key of the
+    /// contact (spheres: how deep the motion ended inside; triangles: distance to the surface).
     pub normal: Vec4,
     /// The leaf touched (tree order), `NO_LEAF` for none.
     pub leaf: u32,
