@@ -115,6 +115,29 @@ fn cli_rejects_invalid_values() {
     }
 }
 
+/// `--contact triangles` collides with the mesh's own triangles: the cloth rests at the
+/// thickness on the true surface, with nothing inside; `--contact spheres` (the paper's proxy)
+/// holds it off the surface by centimetres.
+#[test]
+fn cli_contact_triangles_rests_on_the_true_surface() {
+    let gap = |contact: &str| {
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+            .args(["--contact", contact, "--grid", "32", "--frames", "90", "--no-timestamps"])
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&output.stdout).to_string();
+        assert!(output.status.success(), "--contact {contact}: {}", String::from_utf8_lossy(&output.stderr));
+        assert!(stdout.contains("particles inside the mesh   0.000 %"), "--contact {contact}:\n{stdout}");
+        let line = stdout.lines().find(|l| l.contains("gap to true surface mean")).expect("a resting line");
+        let mean = line.split("mean ").nth(1).and_then(|r| r.split(" mm").next()).unwrap();
+        mean.trim().parse::<f32>().unwrap() * 1e-3
+    };
+    let thickness = drape::scenes::DEFAULT_THICKNESS;
+    let triangles = gap("triangles");
+    assert!((0.5 * thickness..=1.5 * thickness).contains(&triangles), "triangles: gap {triangles} m");
+    assert!(gap("spheres") > 10.0 * thickness, "the sphere proxy must float the cloth");
+}
+
 /// Barriers come from declared accesses: independent steps share none, a read after a write, a
 /// write after a read and a write after a write each get one.
 #[test]
