@@ -563,6 +563,12 @@ fn accuracy_counts_what_was_constructed() {
     // No collider: nothing rests on it.
     let bare = measure(&[]);
     assert_eq!((bare.resting, bare.gap_mean, bare.gap_max), (0, 0.0, 0.0));
+    // The mesh's own triangles as the collider: the 80 particles within the thickness of the
+    // true surface rest on it, 5 mm off; everything else is as before.
+    let on_surface = drape::metrics::accuracy_on_triangles(&bvh, thickness, (rows, cols, 0.05, 0.05), &positions);
+    assert_eq!(on_surface.resting, 80);
+    assert!(close(on_surface.gap_mean, 0.005) && close(on_surface.gap_max, 0.005), "{on_surface:?}");
+    assert_eq!((on_surface.inside_fraction, on_surface.max_stretch), (a.inside_fraction, a.max_stretch));
 }
 
 #[test]

@@ -3,7 +3,7 @@
 
 use clap::{Parser, ValueEnum};
 use drape::mesh::Mesh;
-use drape::metrics::{Accuracy, TriangleBvh, accuracy};
+use drape::metrics::{Accuracy, TriangleBvh, accuracy, accuracy_on_triangles};
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, shared_model};
 use drape::timing::TimingReport;
 use drape::{ClothId, Context, Integrator, Model, SimSettings, Solver, Validation};
@@ -245,7 +245,10 @@ fn run(args: &Args) -> drape::Result<()> {
         let start = Instant::now();
         let bvh = TriangleBvh::new(&s.mesh);
         let p = sim.params(cloth)?;
-        let a = accuracy(&bvh, c.spheres(), c.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x);
+        let a = match args.contact {
+            ContactArg::Spheres => accuracy(&bvh, c.spheres(), c.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x),
+            ContactArg::Triangles => accuracy_on_triangles(&bvh, c.thickness, (p.rows, p.cols, p.rest.x, p.rest.y), &x),
+        };
         print_accuracy(&a, args.frames, start.elapsed().as_secs_f64());
     } else {
         let lowest = x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);

@@ -150,7 +150,7 @@ pub struct Accuracy {
     pub within_thickness_fraction: f64,
     /// Particles resting on the collider: outside the mesh and within `thickness` (+1e-4 m) of
     /// the collider's sphere surface (distance to the nearest sphere surface = |p - c| - r, min
-    /// over spheres), or of the true surface for a triangle collider (no spheres).
+    /// over spheres), or of the true surface for a triangle collider (`accuracy_on_triangles`).
     pub resting: usize,
     /// Over resting particles: distance to the true surface (how far the sphere proxy holds the
     /// cloth off the mesh); 0 if none.
@@ -163,8 +163,7 @@ pub struct Accuracy {
 }
 
 /// Measures `positions` (xyz + w; particle index = row * cols + col) of a `rows x cols` cloth
-/// against the mesh in `bvh` and the collider `spheres` (xyz = centre, w = radius; empty when
-/// the collider is the mesh's own triangles).
+/// against the mesh in `bvh` and the collider `spheres` (xyz = centre, w = radius).
 ///
 /// Row springs join `i` and `i + cols` (rest `rest_row`), column springs `i` and `i + 1` (rest
 /// `rest_col`); springs that reach past `positions` are skipped, and so is a family whose rest
@@ -181,12 +180,34 @@ pub fn accuracy(
     rest_row: f32,
     positions: &[Vec4],
 ) -> Accuracy {
+    measure(bvh, Some(SphereSet::new(spheres)), thickness, (rows, cols, rest_col, rest_row), positions)
+}
+
+/// `accuracy` for a collider made of the mesh's own triangles: resting particles are those
+/// outside the mesh within `thickness` (+1e-4 m) of its surface.
+pub fn accuracy_on_triangles(
+    bvh: &TriangleBvh,
+    thickness: f32,
+    (rows, cols, rest_col, rest_row): (u32, u32, f32, f32),
+    positions: &[Vec4],
+) -> Accuracy {
+    measure(bvh, None, thickness, (rows, cols, rest_col, rest_row), positions)
+}
+
+/// The accuracy measures; resting is judged against `collider`'s spheres, or against the true
+/// surface when there are none (a triangle collider).
+fn measure(
+    bvh: &TriangleBvh,
+    collider: Option<SphereSet>,
+    thickness: f32,
+    (rows, cols, rest_col, rest_row): (u32, u32, f32, f32),
+    positions: &[Vec4],
+) -> Accuracy {
     let particles = positions.len();
     let mut result = Accuracy { particles, all_finite: true, ..Accuracy::default() };
     if particles == 0 {
         return result;
     }
-    let collider = SphereSet::new(spheres);
     let mut penetrations = Vec::with_capacity(particles);
     let (mut inside, mut within) = (0usize, 0usize);
     let mut gap_sum = 0.0f64;
@@ -207,10 +228,9 @@ pub fn accuracy(
             penetrations.push(distance);
         } else {
             penetrations.push(0.0);
-            let resting = if spheres.is_empty() {
-                distance <= thickness + RESTING_SLACK
-            } else {
-                collider.any_within(p, thickness + RESTING_SLACK)
+            let resting = match &collider {
+                Some(spheres) => spheres.any_within(p, thickness + RESTING_SLACK),
+                None => distance <= thickness + RESTING_SLACK,
             };
             if resting {
                 result.resting += 1;
