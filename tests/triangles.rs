@@ -5,11 +5,11 @@
 mod common;
 
 use common::{Rng, assert_validation_clean, context};
-use drape::lbvh::{build_mesh_cpu, mesh_collider_params};
+use drape::lbvh::{build_mesh_cpu, mesh_collider_params, triangle_boxes};
 use drape::{ClothBuilder, ClothId, Collider, ColliderId, CpuSolver, Mesh, Model, SimSettings, Solver};
 use drape_kernels::contact::{brute_force, traverse};
 use drape_kernels::triangles::{Triangles, closest_on_triangle};
-use drape_types::{Aabb, Triangle};
+use drape_types::Triangle;
 use glam::{DVec3, Mat4, Vec3, Vec4};
 
 const CLOTH: ClothId = ClothId::new(0);
@@ -108,13 +108,7 @@ fn triangle_bvh_finds_the_brute_force_contacts() {
         let (vertices, triangles) = soup(&mut rng, n);
         let params = mesh_collider_params(&vertices, &triangles, 0.02, 0.0).unwrap();
         let tree = build_mesh_cpu(&vertices, &triangles, &params).unwrap();
-        let boxes: Vec<Aabb> = triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| vertices[i as usize]);
-                Aabb { min: a.min(b).min(c).extend(0.0), max: a.max(b).max(c).extend(0.0) }
-            })
-            .collect();
+        let boxes = triangle_boxes(&vertices, &triangles);
         tree.validate_boxes(&boxes).unwrap();
         for _ in 0..2000 {
             let p1 = Vec3::new(rng.range(-1.1, 1.1), rng.range(-1.1, 1.1), rng.range(-1.1, 1.1));
@@ -208,14 +202,7 @@ fn a_deforming_mesh_collider_is_refit_on_the_gpu() {
         assert!(diff <= 1e-5, "frame {frame}: GPU and CPU differ by {diff}");
     }
     let tree = gpu.collider_bvh(BODY).unwrap();
-    let boxes: Vec<Aabb> = mesh
-        .triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| vertices[i as usize]);
-            Aabb { min: a.min(b).min(c).extend(0.0), max: a.max(b).max(c).extend(0.0) }
-        })
-        .collect();
+    let boxes = triangle_boxes(&vertices, &mesh.triangles);
     tree.validate_boxes(&boxes).unwrap();
     // The surface under each particle: the plane through the deformed square's triangles.
     let below =

@@ -5,12 +5,12 @@ use crate::controls::Controls;
 use crate::cpu::CpuExecutor;
 use crate::error::Result;
 use crate::graph::Handle;
-use crate::model::{ClothId, ColliderId, Model};
+use crate::model::{ClothId, Model};
 use crate::program::SolverProgram;
 use crate::programs::cloth::ClothBuffers;
 use crate::settings::check_health;
 use crate::solver::{check_collision, teleported};
-use crate::state::{ClothState, State};
+use crate::state::State;
 use drape_types::{CollisionStatus, Health};
 use glam::Vec4;
 
@@ -80,25 +80,13 @@ impl CpuSolver {
 
     /// What changes (see `Solver::state`).
     pub fn state(&self) -> Result<State> {
-        let cloths = (0..self.program.cloths.len())
-            .map(|i| {
-                Ok(ClothState { positions: self.positions(ClothId(i))?, velocities: self.velocities(ClothId(i))? })
-            })
-            .collect::<Result<_>>()?;
-        Ok(State { cloths, collider_poses: self.controls.collider_poses() })
+        State::read(&self.program, &self.controls, |buffer, n| self.executor.read(buffer, n))
     }
 
     /// Restores a state (see `Solver::set_state`).
     pub fn set_state(&mut self, state: &State) -> Result<()> {
-        state.check(&self.program)?;
-        for (cloth, b) in state.cloths.iter().zip(&self.program.cloths) {
-            self.executor.upload(b.x, &cloth.positions)?;
-            self.executor.upload(b.v, &cloth.velocities)?;
-        }
-        for (i, pose) in state.collider_poses.iter().enumerate() {
-            self.controls.teleport_collider(ColliderId(i), *pose)?;
-        }
-        Ok(())
+        let executor = &mut self.executor;
+        state.restore(&self.program, &mut self.controls, |buffer, data| executor.upload(buffer, data))
     }
 
     fn vec4s(&self, cloth: ClothId, pick: fn(&ClothBuffers) -> Handle<Vec4>) -> Result<Vec<Vec4>> {

@@ -52,14 +52,18 @@ pub fn mesh_collider_params(
     if let Some(t) = triangles.iter().position(|t| t.iter().any(|&i| i as usize >= vertices.len())) {
         return bad(format!("triangle {t} indexes past the {} vertices", vertices.len()));
     }
-    let boxes: Vec<Aabb> = triangles
+    params_over_boxes(&triangle_boxes(vertices, triangles), thickness, friction)
+}
+
+/// The box of each triangle (indices checked by the caller).
+pub fn triangle_boxes(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Aabb> {
+    triangles
         .iter()
         .map(|t| {
             let [a, b, c] = t.map(|i| vertices[i as usize]);
             Aabb { min: a.min(b).min(c).extend(0.0), max: a.max(b).max(c).extend(0.0) }
         })
-        .collect();
-    params_over_boxes(&boxes, thickness, friction)
+        .collect()
 }
 
 /// Checks the contact parameters; the scene box the Morton codes normalise into is over the

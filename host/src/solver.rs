@@ -11,7 +11,7 @@ use crate::lbvh;
 use crate::model::{ClothId, ColliderId, Model};
 use crate::program::SolverProgram;
 use crate::settings::check_health;
-use crate::state::{ClothState, State};
+use crate::state::State;
 use drape_types::{CollisionStatus, Health};
 use glam::Vec4;
 use std::sync::Arc;
@@ -224,27 +224,14 @@ impl Solver {
     }
     /// What changes, read back: every cloth's positions and velocities, every collider's pose.
     pub fn state(&self) -> Result<State> {
-        let cloths = (0..self.program.cloths.len())
-            .map(|i| {
-                Ok(ClothState { positions: self.positions(ClothId(i))?, velocities: self.velocities(ClothId(i))? })
-            })
-            .collect::<Result<_>>()?;
-        Ok(State { cloths, collider_poses: self.controls.collider_poses() })
+        State::read(&self.program, &self.controls, |buffer, n| self.engine.download(buffer, n))
     }
     /// Restores a state (e.g. one `state` returned): every cloth's positions (with their pin
     /// weights) and velocities are uploaded at once; the colliders are put at their poses
     /// without sweeping there.
     pub fn set_state(&mut self, state: &State) -> Result<()> {
-        state.check(&self.program)?;
-        for (i, cloth) in state.cloths.iter().enumerate() {
-            let b = &self.program.cloths[i];
-            self.engine.upload(b.x, &cloth.positions)?;
-            self.engine.upload(b.v, &cloth.velocities)?;
-        }
-        for (i, pose) in state.collider_poses.iter().enumerate() {
-            self.controls.teleport_collider(ColliderId(i), *pose)?;
-        }
-        Ok(())
+        let engine = &mut self.engine;
+        state.restore(&self.program, &mut self.controls, |buffer, data| engine.upload(buffer, data))
     }
     /// `collider`'s LBVH as built (and refit) on the GPU, in the collider's own frame.
     pub fn collider_bvh(&self, collider: ColliderId) -> Result<lbvh::Lbvh> {

@@ -3,7 +3,10 @@
 //! `State` is read with `Solver::state` and restored with `Solver::set_state` (checkpoints,
 //! rewinds, a scene reset, the same start on the GPU and the CPU twin).
 
+use crate::controls::Controls;
 use crate::error::{Error, Result};
+use crate::graph::Handle;
+use crate::model::ColliderId;
 use crate::program::SolverProgram;
 use drape_types::RigidPose;
 use glam::Vec4;
@@ -28,6 +31,43 @@ pub struct State {
 }
 
 impl State {
+    /// The state of `program` under `controls`, with `read(buffer, count)` reading a buffer of
+    /// the executor that runs it.
+    pub(crate) fn read(
+        program: &SolverProgram,
+        controls: &Controls,
+        mut read: impl FnMut(Handle<Vec4>, usize) -> Result<Vec<Vec4>>,
+    ) -> Result<State> {
+        let cloths = program
+            .cloths
+            .iter()
+            .map(|b| {
+                let n = b.particles as usize;
+                Ok(ClothState { positions: read(b.x, n)?, velocities: read(b.v, n)? })
+            })
+            .collect::<Result<_>>()?;
+        Ok(State { cloths, collider_poses: controls.collider_poses() })
+    }
+
+    /// Restores this state into `program`'s buffers with `upload` (at once) and puts the
+    /// colliders at their poses without sweeping there (from the next frame on).
+    pub(crate) fn restore(
+        &self,
+        program: &SolverProgram,
+        controls: &mut Controls,
+        mut upload: impl FnMut(Handle<Vec4>, &[Vec4]) -> Result<()>,
+    ) -> Result<()> {
+        self.check(program)?;
+        for (cloth, b) in self.cloths.iter().zip(&program.cloths) {
+            upload(b.x, &cloth.positions)?;
+            upload(b.v, &cloth.velocities)?;
+        }
+        for (i, pose) in self.collider_poses.iter().enumerate() {
+            controls.teleport_collider(ColliderId(i), *pose)?;
+        }
+        Ok(())
+    }
+
     /// Whether the state fits `program` (same cloths, particle counts and colliders) and holds
     /// finite values.
     pub(crate) fn check(&self, program: &SolverProgram) -> Result<()> {

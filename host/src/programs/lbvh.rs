@@ -75,6 +75,23 @@ impl LbvhBuffers {
         steps
     }
 
+    /// A leaf kind's build: its pass writing `bounds`, the build, its pass gathering its own
+    /// leaves into the tree's order.
+    pub fn build_around(&self, boxes: Step, gather: Step) -> Vec<Step> {
+        let mut steps = vec![boxes];
+        steps.extend(self.build_steps());
+        steps.push(gather);
+        steps
+    }
+
+    /// A leaf kind's refit after its leaves moved: the same passes around `refit_steps`.
+    pub fn refit_around(&self, boxes: Step, gather: Step) -> Vec<Step> {
+        let mut steps = vec![boxes];
+        steps.extend(self.refit_steps());
+        steps.push(gather);
+        steps
+    }
+
     fn gather_step(&self) -> Step {
         Step::run(
             "gather leaf boxes",

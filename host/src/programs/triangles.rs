@@ -34,18 +34,12 @@ impl TriangleBvh {
 
     /// Builds the tree from `vertices` and `indices`.
     pub fn build_steps(&self) -> Vec<Step> {
-        let mut steps = vec![self.bounds_step()];
-        steps.extend(self.tree.build_steps());
-        steps.push(self.gather_step());
-        steps
+        self.tree.build_around(self.bounds_step(), self.gather_step())
     }
 
     /// Refits the tree after `vertices` moved (same triangles).
     pub fn refit_steps(&self) -> Vec<Step> {
-        let mut steps = vec![self.bounds_step()];
-        steps.extend(self.tree.refit_steps());
-        steps.push(self.gather_step());
-        steps
+        self.tree.refit_around(self.bounds_step(), self.gather_step())
     }
 
     fn bounds_step(&self) -> Step {
