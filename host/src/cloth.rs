@@ -29,6 +29,8 @@ pub struct ClothBuilder {
     pub external_force: Vec3,
     /// Pinned particles as (row, col).
     pub pins: Vec<(u32, u32)>,
+    /// Initial velocity of every free particle (m/s), e.g. a throw.
+    pub velocity: Vec3,
     /// Local-to-world placement (the paper's `trsMatrix`).
     pub transform: Mat4,
 }
@@ -49,6 +51,7 @@ impl ClothBuilder {
             gravity: Vec3::new(0.0, -9.81, 0.0),
             external_force: Vec3::ZERO,
             pins: Vec::new(),
+            velocity: Vec3::ZERO,
             transform: Mat4::IDENTITY,
         }
     }
@@ -71,6 +74,11 @@ impl ClothBuilder {
     }
     pub fn velocity_damping(mut self, c: f32) -> Self {
         self.velocity_damping = c;
+        self
+    }
+    /// Initial velocity of every free particle (m/s).
+    pub fn velocity(mut self, v: Vec3) -> Self {
+        self.velocity = v;
         self
     }
     pub fn gravity(mut self, g: Vec3) -> Self {
@@ -123,8 +131,8 @@ impl ClothBuilder {
                 return bad(name, format!("must be finite and >= 0, got {value}"));
             }
         }
-        if !self.gravity.is_finite() || !self.external_force.is_finite() {
-            return bad("gravity/external_force", "must be finite".into());
+        if !self.gravity.is_finite() || !self.external_force.is_finite() || !self.velocity.is_finite() {
+            return bad("gravity/external_force/velocity", "must be finite".into());
         }
         if !self.transform.is_finite() || self.transform.determinant().abs() < 1e-12 {
             return bad("transform", "must be finite and invertible".into());
@@ -174,7 +182,8 @@ impl ClothBuilder {
                 (row_step - col_step).length(),
             ),
         };
-        let velocities = vec![Vec4::ZERO; count as usize];
+        // Pinned particles (w = 0) stay at rest.
+        let velocities = positions.iter().map(|p| (self.velocity * p.w).extend(0.0)).collect();
         Ok(Cloth { params, positions, velocities })
     }
 }

@@ -80,6 +80,9 @@ struct Args {
     /// Wind: constant force on the whole cloth (N), x,y,z (swing scene).
     #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [0.3, 0.0, 0.5])]
     wind: Vec<f32>,
+    /// The cloth's initial velocity (m/s) as X,Y,Z, e.g. `--velocity=0,-10,0` (a throw).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0,0,0")]
+    velocity: Vec3,
     /// Skip vertex normals.
     #[arg(long)]
     no_normals: bool,
@@ -144,6 +147,18 @@ fn load_mesh(name: &str) -> drape::Result<Mesh> {
     }
 }
 
+/// "X,Y,Z" (three finite numbers, negatives allowed) as a vector.
+fn parse_vec3(text: &str) -> Result<Vec3, String> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f32>().map_err(|e| format!("`{v}`: {e}")))
+        .collect::<Result<_, _>>()?;
+    match values[..] {
+        [x, y, z] if values.iter().all(|v| v.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("expected three finite numbers X,Y,Z, got `{text}`")),
+    }
+}
+
 fn run(args: &Args) -> drape::Result<()> {
     let validation = if args.validate { Validation::Required } else { Validation::from_env() };
     let ctx = Context::new(validation)?;
@@ -162,6 +177,7 @@ fn run(args: &Args) -> drape::Result<()> {
         }
     };
     let cloth = builder
+        .velocity(args.velocity)
         .stiffness(args.stiffness[0], args.stiffness[1], args.stiffness[2])
         .spring_damping(args.spring_damping)
         .build()?;
