@@ -170,6 +170,50 @@ pub fn detect_at<K: LeafKind>(
     overflow
 }
 
+/// The body of every leaf kind's LBVH detect entry point: particle `index` (threads past the
+/// cloth do nothing), its overflow counted in `status`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn detect_particle<K: LeafKind>(
+    index: u32,
+    push: &ContactPush,
+    params: &SimParams,
+    collider: &ColliderParams,
+    pose: &ColliderPose,
+    (nodes, aabbs, leaves): (&[BvhNode], &[Aabb], &[K::Leaf]),
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    contacts: &mut [Contact],
+    status: &mut CollisionStatus,
+) {
+    if index >= params.particle_count {
+        return;
+    }
+    let motion = substep_motion(params, pose, push);
+    if detect_at::<K>(index, collider, &motion, nodes, aabbs, leaves, x, x_prev, contacts) {
+        crate::atomics::add(&mut status.overflows, 1);
+    }
+}
+
+/// The body of every leaf kind's brute-force detect entry point.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn detect_brute_force_particle<K: LeafKind>(
+    index: u32,
+    push: &ContactPush,
+    params: &SimParams,
+    collider: &ColliderParams,
+    pose: &ColliderPose,
+    leaves: &[K::Leaf],
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    contacts: &mut [Contact],
+) {
+    if index >= params.particle_count {
+        return;
+    }
+    let motion = substep_motion(params, pose, push);
+    detect_brute_force_at::<K>(index, collider, &motion, leaves, x, x_prev, contacts);
+}
+
 /// Detect for one particle by testing every leaf.
 #[allow(clippy::too_many_arguments)]
 pub fn detect_brute_force_at<K: LeafKind>(

@@ -2,8 +2,7 @@
 //! the LBVH build, the spheres gathered into the tree's leaf order, and the contact detect pass
 //! over them (the generic traversal of `contact` with the sphere's hit test).
 
-use crate::atomics;
-use crate::contact::{LeafKind, detect_at, detect_brute_force_at, point_in_aabb, substep_motion};
+use crate::contact::{LeafKind, detect_brute_force_particle, detect_particle, point_in_aabb};
 use crate::lbvh::gather_at;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, SimParams};
@@ -132,13 +131,17 @@ pub fn detect(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] contacts: &mut [Contact],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] status: &mut CollisionStatus,
 ) {
-    if id.x >= params.particle_count {
-        return;
-    }
-    let motion = substep_motion(params, pose, push);
-    if detect_at::<Spheres>(id.x, collider, &motion, nodes, aabbs, leaves, x, x_prev, contacts) {
-        atomics::add(&mut status.overflows, 1);
-    }
+    detect_particle::<Spheres>(
+        id.x,
+        push,
+        params,
+        collider,
+        pose,
+        (nodes, aabbs, leaves),
+        (x, x_prev),
+        contacts,
+        status,
+    );
 }
 
 /// Detect by testing every sphere (the baseline).
@@ -155,9 +158,5 @@ pub fn detect_brute_force(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] contacts: &mut [Contact],
 ) {
-    if id.x >= params.particle_count {
-        return;
-    }
-    let motion = substep_motion(params, pose, push);
-    detect_brute_force_at::<Spheres>(id.x, collider, &motion, leaves, x, x_prev, contacts);
+    detect_brute_force_particle::<Spheres>(id.x, push, params, collider, pose, leaves, (x, x_prev), contacts);
 }

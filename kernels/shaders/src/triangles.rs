@@ -9,8 +9,7 @@
 //! the thickness of an edge without crossing or ending near it is not caught (continuous
 //! collision against the grown surface comes with "Accurate contact").
 
-use crate::atomics;
-use crate::contact::{LeafKind, detect_at, detect_brute_force_at, substep_motion};
+use crate::contact::{LeafKind, detect_brute_force_particle, detect_particle};
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, SimParams, Triangle,
@@ -262,13 +261,17 @@ pub fn detect(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] contacts: &mut [Contact],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] status: &mut CollisionStatus,
 ) {
-    if id.x >= params.particle_count {
-        return;
-    }
-    let motion = substep_motion(params, pose, push);
-    if detect_at::<Triangles>(id.x, collider, &motion, nodes, aabbs, leaves, x, x_prev, contacts) {
-        atomics::add(&mut status.overflows, 1);
-    }
+    detect_particle::<Triangles>(
+        id.x,
+        push,
+        params,
+        collider,
+        pose,
+        (nodes, aabbs, leaves),
+        (x, x_prev),
+        contacts,
+        status,
+    );
 }
 
 /// Detect by testing every triangle (the baseline).
@@ -285,9 +288,5 @@ pub fn detect_brute_force(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] contacts: &mut [Contact],
 ) {
-    if id.x >= params.particle_count {
-        return;
-    }
-    let motion = substep_motion(params, pose, push);
-    detect_brute_force_at::<Triangles>(id.x, collider, &motion, leaves, x, x_prev, contacts);
+    detect_brute_force_particle::<Triangles>(id.x, push, params, collider, pose, leaves, (x, x_prev), contacts);
 }
