@@ -359,53 +359,9 @@ fn ray_hits_triangle(origin: Vec3, dir: Vec3, a: Vec3, b: Vec3, c: Vec3) -> bool
     e2.dot(q) * inv > 0.0
 }
 
-/// Closest point to `p` on triangle `abc` (Ericson, Real-Time Collision Detection §5.1.5), by
-/// Voronoi region. A degenerate triangle (a division by zero) falls back to its three edges.
+/// Closest point to `p` on triangle `abc`: the triangle leaf kind's own function (tested
+/// against an f64 reference on random, thin and degenerate triangles in `tests/triangles.rs`).
 fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    let q = closest_by_region(p, a, b, c);
-    if q.is_finite() {
-        return q;
-    }
-    [closest_on_segment(p, a, b), closest_on_segment(p, b, c), closest_on_segment(p, c, a)]
-        .into_iter()
-        .min_by(|x, y| x.distance_squared(p).total_cmp(&y.distance_squared(p)))
-        .unwrap_or(a)
-}
-
-fn closest_by_region(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return b;
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return a + ab * (d1 / (d1 - d3));
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return c;
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return a + ac * (d2 / (d2 - d6));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
-        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    }
-    let denom = 1.0 / (va + vb + vc);
-    a + ab * (vb * denom) + ac * (vc * denom)
-}
-
-fn closest_on_segment(p: Vec3, a: Vec3, b: Vec3) -> Vec3 {
-    let ab = b - a;
-    let len2 = ab.length_squared();
-    if len2 > 0.0 { a + ab * ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { a }
+    let corners = drape_types::Triangle { a: a.extend(0.0), b: b.extend(0.0), c: c.extend(0.0) };
+    drape_kernels::triangles::closest_on_triangle(p, &corners)
 }
