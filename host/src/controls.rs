@@ -288,8 +288,8 @@ impl Controls {
             }
             c.end_of_last_frame = c.target;
             if let Some(data) = c.deformed.take() {
-                steps.push(Step::write(buffers.leaves.deformable(), 0, &data));
-                steps.extend(buffers.leaves.refit_steps());
+                steps.push(Step::write(buffers.leaves.kind().deformable(), 0, &data));
+                steps.extend(buffers.leaves.kind().refit_steps());
             }
         }
         steps

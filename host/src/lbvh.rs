@@ -5,7 +5,7 @@ use crate::cpu::CpuExecutor;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Engine, FrameTimings, RecordedFrame};
 use crate::graph::{ReadBuffers, Resources};
-use crate::programs::contact::ColliderLeaves;
+use crate::programs::contact::{ColliderLeaves, ContactLeaves};
 use crate::programs::spheres::SphereBvh;
 use crate::programs::triangles::TriangleBvh;
 use drape_kernels::lbvh::aabb_centre;
@@ -171,7 +171,7 @@ impl GpuLbvh {
 
     /// The build recorded once, to submit any number of times.
     pub fn build_frame(&mut self, timed: bool) -> Result<RecordedFrame> {
-        self.engine.record(&self.buffers.build_steps(), timed)
+        self.engine.record(&self.buffers.kind().build_steps(), timed)
     }
 
     pub fn download(&self) -> Result<Lbvh> {

@@ -130,12 +130,12 @@ impl SolverProgram {
 
     /// Every collider's LBVH build, in one list.
     pub fn build_steps(&self) -> Vec<Step> {
-        self.colliders.iter().flat_map(|c| c.leaves.build_steps()).collect()
+        self.colliders.iter().flat_map(|c| c.leaves.kind().build_steps()).collect()
     }
 
     /// Every collider's refit (what a frame that deforms colliders may add).
     pub fn refit_steps(&self) -> Vec<Step> {
-        self.colliders.iter().flat_map(|c| c.leaves.refit_steps()).collect()
+        self.colliders.iter().flat_map(|c| c.leaves.kind().refit_steps()).collect()
     }
 
     /// Each cloth's status buffers in the order a frame's status is laid out: its health, then

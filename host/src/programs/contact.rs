@@ -41,6 +41,12 @@ pub trait ContactLeaves {
     fn detect_kernel(&self) -> &'static Kernel;
     /// Detect by testing every leaf (`kernels::contact::DETECT_BRUTE_FORCE_BINDINGS`).
     fn detect_brute_force_kernel(&self) -> &'static Kernel;
+    /// Builds the tree from the leaves' input.
+    fn build_steps(&self) -> Vec<Step>;
+    /// Refits the tree after the input moved (same leaves).
+    fn refit_steps(&self) -> Vec<Step>;
+    /// What the host writes to deform the collider before a refit (spheres, mesh vertices).
+    fn deformable(&self) -> Handle<glam::Vec4>;
 }
 
 /// A collider's leaves, of one of the leaf kinds.
@@ -61,28 +67,6 @@ impl ColliderLeaves {
         self.kind().tree().leaves
     }
 
-    pub fn build_steps(&self) -> Vec<Step> {
-        match self {
-            ColliderLeaves::Spheres(s) => s.build_steps(),
-            ColliderLeaves::Triangles(t) => t.build_steps(),
-        }
-    }
-
-    pub fn refit_steps(&self) -> Vec<Step> {
-        match self {
-            ColliderLeaves::Spheres(s) => s.refit_steps(),
-            ColliderLeaves::Triangles(t) => t.refit_steps(),
-        }
-    }
-
-    /// What the host writes to deform the collider (then refits): the spheres, or the mesh's
-    /// vertices.
-    pub fn deformable(&self) -> Handle<glam::Vec4> {
-        match self {
-            ColliderLeaves::Spheres(s) => s.spheres,
-            ColliderLeaves::Triangles(t) => t.vertices,
-        }
-    }
 }
 
 /// One collider's buffers: its LBVH (built in the collider's own frame) and its pose at the

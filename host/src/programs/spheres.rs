@@ -30,16 +30,6 @@ impl SphereBvh {
         self.tree.leaves
     }
 
-    /// Builds the tree from `spheres`.
-    pub fn build_steps(&self) -> Vec<Step> {
-        self.tree.build_around(self.bounds_step(), self.gather_step())
-    }
-
-    /// Refits the tree after `spheres` changed (same count).
-    pub fn refit_steps(&self) -> Vec<Step> {
-        self.tree.refit_around(self.bounds_step(), self.gather_step())
-    }
-
     fn bounds_step(&self) -> Step {
         let t = &self.tree;
         Step::run(
@@ -70,6 +60,15 @@ impl ContactLeaves for SphereBvh {
     }
     fn detect_kernel(&self) -> &'static Kernel {
         &DETECT_SPHERES
+    }
+    fn build_steps(&self) -> Vec<Step> {
+        self.tree.build_around(self.bounds_step(), self.gather_step())
+    }
+    fn refit_steps(&self) -> Vec<Step> {
+        self.tree.refit_around(self.bounds_step(), self.gather_step())
+    }
+    fn deformable(&self) -> Handle<Vec4> {
+        self.spheres
     }
     fn detect_brute_force_kernel(&self) -> &'static Kernel {
         &DETECT_SPHERES_BRUTE_FORCE

@@ -32,16 +32,6 @@ impl TriangleBvh {
         }
     }
 
-    /// Builds the tree from `vertices` and `indices`.
-    pub fn build_steps(&self) -> Vec<Step> {
-        self.tree.build_around(self.bounds_step(), self.gather_step())
-    }
-
-    /// Refits the tree after `vertices` moved (same triangles).
-    pub fn refit_steps(&self) -> Vec<Step> {
-        self.tree.refit_around(self.bounds_step(), self.gather_step())
-    }
-
     fn bounds_step(&self) -> Step {
         let t = &self.tree;
         Step::run(
@@ -72,6 +62,15 @@ impl ContactLeaves for TriangleBvh {
     }
     fn detect_kernel(&self) -> &'static Kernel {
         &DETECT_TRIANGLES
+    }
+    fn build_steps(&self) -> Vec<Step> {
+        self.tree.build_around(self.bounds_step(), self.gather_step())
+    }
+    fn refit_steps(&self) -> Vec<Step> {
+        self.tree.refit_around(self.bounds_step(), self.gather_step())
+    }
+    fn deformable(&self) -> Handle<Vec4> {
+        self.vertices
     }
     fn detect_brute_force_kernel(&self) -> &'static Kernel {
         &DETECT_TRIANGLES_BRUTE_FORCE
