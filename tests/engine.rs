@@ -140,27 +140,54 @@ fn cli_velocity_throws_the_cloth() {
     assert!(dropped - thrown > 0.1, "thrown {thrown} m, dropped {dropped} m");
 }
 
-/// `--contact triangles` collides with the mesh's own triangles: the cloth rests at the
-/// thickness on the true surface, with nothing inside; `--contact spheres` (the paper's proxy)
-/// holds it off the surface by centimetres.
+/// Triangles are the default contact: without `--contact` the cloth rests at the thickness on
+/// the true surface, with nothing inside; `--contact spheres` (the paper's proxy) holds it off
+/// the surface by centimetres.
 #[test]
-fn cli_contact_triangles_rests_on_the_true_surface() {
-    let gap = |contact: &str| {
+fn cli_contact_triangles_is_the_default_and_rests_on_the_true_surface() {
+    let gap = |contact: &[&str]| {
         let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
-            .args(["--contact", contact, "--grid", "32", "--frames", "90", "--no-timestamps"])
+            .args(["--grid", "32", "--frames", "90", "--no-timestamps"])
+            .args(contact)
             .output()
             .unwrap();
         let stdout = String::from_utf8_lossy(&output.stdout).to_string();
-        assert!(output.status.success(), "--contact {contact}: {}", String::from_utf8_lossy(&output.stderr));
-        assert!(stdout.contains("particles inside the mesh   0.000 %"), "--contact {contact}:\n{stdout}");
+        assert!(output.status.success(), "{contact:?}: {}", String::from_utf8_lossy(&output.stderr));
+        assert!(stdout.contains("particles inside the mesh   0.000 %"), "{contact:?}:\n{stdout}");
+        let leaves = if contact.is_empty() { "triangle leaves" } else { "spheres in" };
+        assert!(stdout.contains(leaves), "{contact:?} must collide with {leaves}:\n{stdout}");
         let line = stdout.lines().find(|l| l.contains("gap to true surface mean")).expect("a resting line");
         let mean = line.split("mean ").nth(1).and_then(|r| r.split(" mm").next()).unwrap();
         mean.trim().parse::<f32>().unwrap() * 1e-3
     };
     let thickness = drape::scenes::DEFAULT_THICKNESS;
-    let triangles = gap("triangles");
+    let triangles = gap(&[]);
     assert!((0.5 * thickness..=1.5 * thickness).contains(&triangles), "triangles: gap {triangles} m");
-    assert!(gap("spheres") > 10.0 * thickness, "the sphere proxy must float the cloth");
+    assert!(gap(&["--contact", "spheres"]) > 10.0 * thickness, "the sphere proxy must float the cloth");
+}
+
+/// `--holes close` (the default) fills the bunny's five base holes, so its inside is defined and
+/// reported; `--holes keep` collides with the open scan, whose inside the report calls undefined.
+#[test]
+fn cli_holes_close_the_bunny_or_keep_it_open() {
+    let bunny = drape::scenes::shared_model("stanford-bunny.obj");
+    assert!(bunny.exists(), "{} not found: this test needs ../shared/models", bunny.display());
+    let run = |holes: &[&str]| {
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+            .args(["--mesh", "bunny", "--grid", "8", "--frames", "2", "--no-timestamps"])
+            .args(holes)
+            .output()
+            .unwrap();
+        assert!(output.status.success(), "{holes:?}: {}", String::from_utf8_lossy(&output.stderr));
+        String::from_utf8_lossy(&output.stdout).to_string()
+    };
+    for closed in [run(&[]), run(&["--holes", "close"])] {
+        assert!(closed.contains("mesh: bunny (closed 5 small holes): closed"), "{closed}");
+        assert!(closed.contains("particles inside the mesh   0.000 %"), "{closed}");
+    }
+    let open = run(&["--holes", "keep"]);
+    assert!(open.contains("mesh: bunny (holes kept): open, 223 boundary edges"), "{open}");
+    assert!(open.contains("particles inside the mesh   n/a (open mesh: no inside)"), "{open}");
 }
 
 /// Barriers come from declared accesses: independent steps share none, a read after a write, a

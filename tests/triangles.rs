@@ -274,3 +274,133 @@ fn a_cloth_thrown_at_10_m_per_s_does_not_pass_a_1_cm_plate() {
     }
     assert_validation_clean(&ctx);
 }
+
+/// f64 reference for continuous contact: the first parameter in [0, 1] at which
+/// `p0 + (p1 - p0) s` comes within `r` of `t`, or None; and the least distance along the motion.
+/// The distance of a point moving on a line to a convex set is convex in `s`: golden-section
+/// search finds its minimum, bisection before it the first crossing of `r`.
+fn first_contact64(t: &Triangle, p0: DVec3, p1: DVec3, r: f64) -> (Option<f64>, f64) {
+    let f = |s: f64| distance64(p0 + (p1 - p0) * s, t);
+    let (mut lo, mut hi) = (0.0f64, 1.0f64);
+    let phi = (5f64.sqrt() - 1.0) / 2.0;
+    for _ in 0..120 {
+        let (m1, m2) = (hi - phi * (hi - lo), lo + phi * (hi - lo));
+        if f(m1) <= f(m2) { hi = m2 } else { lo = m1 }
+    }
+    let s_min = 0.5 * (lo + hi);
+    let least = f(s_min).min(f(0.0)).min(f(1.0));
+    if f(0.0) <= r {
+        return (Some(0.0), least);
+    }
+    if least > r {
+        return (None, least);
+    }
+    let end = if f(s_min) <= r { s_min } else { 1.0 };
+    let (mut outside, mut within) = (0.0f64, end);
+    for _ in 0..100 {
+        let mid = 0.5 * (outside + within);
+        if f(mid) <= r { within = mid } else { outside = mid }
+    }
+    (Some(within), least)
+}
+
+/// Continuous contact of a particle's motion with a triangle grown by the thickness, against the
+/// f64 reference, on random and adversarial motions: aimed at the face, edge-on in the plane,
+/// at a corner, parallel to the face or to an edge at about the thickness (grazing), and through
+/// zero-area triangles. No false negative: every motion that comes within the thickness is a
+/// hit, never later than the reference; a hit is at most the stated slack early (the contact
+/// point is within `(1 + CCD_SLACK)` x thickness).
+#[test]
+fn continuous_contact_matches_an_f64_reference() {
+    use drape_kernels::contact::LeafKind;
+    use drape_kernels::triangles::CCD_SLACK;
+    let mut rng = Rng::new(23);
+    let mut v = |s: f32| Vec3::new(rng.range(-s, s), rng.range(-s, s), rng.range(-s, s));
+    let (mut hits, mut misses, mut cases_seen) = (0, 0, [0u32; 8]);
+    let eps = 2e-5f64;
+    for i in 0..40_000 {
+        let kind = i % 8;
+        let (a, b, c) = (v(1.0), v(1.0), v(1.0));
+        let r = 0.002 + 0.1 * (v(1.0).x.abs());
+        let mut t = triangle(a, b, c);
+        let n = (b - a).cross(c - a).normalize_or_zero();
+        let bary = |u: f32, w: f32| a + (b - a) * u + (c - a) * w;
+        let (p0, p1) = match kind {
+            // Random.
+            0 => (v(1.5), v(1.5)),
+            // Aimed through a point of the face from a random direction.
+            1 => {
+                let target = bary(0.3, 0.3);
+                let from = target + v(1.0);
+                (from, target + (target - from) * 0.5)
+            }
+            // Edge-on: in the plane, towards a point of edge ab from outside.
+            2 => {
+                let on_edge = a + (b - a) * 0.4;
+                let out = (on_edge - c).normalize_or_zero();
+                (on_edge + out * (r + 0.3), on_edge - out * 0.1)
+            }
+            // At a corner, from outside.
+            3 => {
+                let away = (a - (b + c) * 0.5).normalize_or_zero();
+                let from = a + (away + v(0.3)) * 0.5;
+                (from, a - (from - a) * 0.2)
+            }
+            // Parallel to the face at about the thickness (grazing the slab).
+            4 => {
+                let h = r * (0.9 + 0.2 * (v(1.0).x.abs()));
+                let side = (b - a).normalize_or_zero();
+                let mid = bary(0.3, 0.3) + n * h;
+                (mid - side * 1.5, mid + side * 1.5)
+            }
+            // Parallel to edge bc at about the thickness from it (grazing its cylinder).
+            5 => {
+                let axis = (c - b).normalize_or_zero();
+                let off = axis.cross(n).normalize_or_zero() * r * (0.9 + 0.2 * v(1.0).x.abs());
+                let off = if off.dot(b - a) < 0.0 { -off } else { off };
+                (b + off - axis * 0.5, c + off + axis * 0.5)
+            }
+            // Zero-area triangles (collinear, a point), motion through them.
+            6 => {
+                t = if i % 16 < 8 { triangle(a, b, a + (b - a) * 0.37) } else { triangle(a, a, a) };
+                let target = a + (b - a) * 0.2;
+                let from = target + v(0.5);
+                (from, target - (from - target) * 0.5)
+            }
+            // Grazing a corner's ball: passing the corner at about the thickness.
+            _ => {
+                let dir = v(1.0).normalize_or_zero();
+                let perp = dir.cross(v(1.0)).normalize_or_zero() * r * (0.9 + 0.2 * v(1.0).x.abs());
+                (a + perp - dir, a + perp + dir)
+            }
+        };
+        if !(p0.is_finite() && p1.is_finite()) {
+            continue;
+        }
+        let (s, _) = Triangles::hit(t, p0, p1, r);
+        let (p0d, p1d, rd) = (p0.as_dvec3(), p1.as_dvec3(), r as f64);
+        let (reference, least) = first_contact64(&t, p0d, p1d, rd);
+        let (early_ref, _) = first_contact64(&t, p0d, p1d, rd - eps);
+        let context = || {
+            format!(
+                "case {i} (kind {kind}): {t:?}, {p0} -> {p1}, r {r}: kernel {s}, reference {reference:?}, least {least}"
+            )
+        };
+        if least <= rd - eps {
+            assert!(s <= 1.0, "false negative: {}", context());
+        }
+        if s <= 1.0 {
+            hits += 1;
+            cases_seen[kind] += 1;
+            let at = distance64(p0d + (p1d - p0d) * s as f64, &t);
+            assert!(at <= rd * (1.0 + CCD_SLACK as f64) + eps, "contact point {at} beyond the slack: {}", context());
+            if let Some(early) = early_ref {
+                assert!((s as f64) <= early + 1e-6, "later than the reference: {}", context());
+            }
+        } else {
+            misses += 1;
+        }
+    }
+    assert!(hits > 10_000 && misses > 5_000, "{hits} hits, {misses} misses: the cases must exercise both");
+    assert!(cases_seen.iter().all(|&n| n > 300), "every kind of case must hit: {cases_seen:?}");
+}

@@ -59,6 +59,7 @@ mod solver;
 pub mod stability;
 mod state;
 pub mod timing;
+pub mod topology;
 
 pub use cloth::{Cloth, ClothBuilder};
 pub use cpu_solver::CpuSolver;

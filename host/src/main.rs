@@ -29,6 +29,15 @@ enum ContactArg {
     Triangles,
 }
 
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum HolesArg {
+    /// Fill holes up to half the mesh's bounds diagonal in perimeter (a scan's, like the
+    /// bunny's base) so the collider is the solid the mesh depicts; larger openings stay open.
+    Close,
+    /// Collide with the triangles exactly as given (the cloth can pass through holes).
+    Keep,
+}
+
 #[derive(Copy, Clone, Debug, ValueEnum)]
 enum IntegratorArg {
     Rk4,
@@ -44,9 +53,12 @@ struct Args {
     /// Collider mesh: icosphere, torus, bunny, dragon (from ../shared/models) or an OBJ path.
     #[arg(long, default_value = "icosphere")]
     mesh: String,
-    /// What the cloth collides with: the paper's voxel spheres or the mesh's triangles.
-    #[arg(long, value_enum, default_value = "spheres")]
+    /// What the cloth collides with: the mesh's triangles or the paper's voxel spheres.
+    #[arg(long, value_enum, default_value = "triangles")]
     contact: ContactArg,
+    /// The collider mesh's small holes: closed (default) or kept as given.
+    #[arg(long, value_enum, default_value = "close")]
+    holes: HolesArg,
     /// Collider voxels per axis (one sphere per non-empty voxel; `--contact spheres`).
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=256))]
     voxels: u32,
@@ -169,8 +181,29 @@ fn run(args: &Args) -> drape::Result<()> {
     let builder = match args.scene {
         SceneArg::Swing => drape::scenes::swinging_cloth(args.grid).external_force(Vec3::from_slice(&args.wind)),
         SceneArg::Drape => {
-            let mesh = load_mesh(&args.mesh)?;
-            let s = DrapeScene::standard(&mesh, args.grid);
+            let mut s = DrapeScene::standard(&load_mesh(&args.mesh)?, args.grid);
+            let topology = match args.holes {
+                HolesArg::Close => {
+                    let (closed, report) = s.mesh.close_small_holes();
+                    s.mesh = closed;
+                    let open = if report.left_open > 0 {
+                        format!(", {} larger ones left open", report.left_open)
+                    } else {
+                        String::new()
+                    };
+                    match report.closed {
+                        0 if open.is_empty() => "no holes".to_string(),
+                        n => format!("closed {n} small holes{open}"),
+                    }
+                }
+                HolesArg::Keep => "holes kept".to_string(),
+            };
+            let boundary = drape::topology::boundary_edge_count(&s.mesh);
+            println!(
+                "mesh: {} ({topology}): {}",
+                args.mesh,
+                if boundary == 0 { "closed".to_string() } else { format!("open, {boundary} boundary edges") }
+            );
             let builder = s.cloth.clone();
             scene = Some(s);
             builder
@@ -302,12 +335,16 @@ fn print_accuracy(a: &Accuracy, frames: u32, seconds: f64) {
         frames as f32 / 60.0,
         seconds
     );
-    println!(
-        "  particles inside the mesh   {:.3} %  (max penetration {:.2} mm, p99 {:.2} mm)",
-        100.0 * a.inside_fraction,
-        a.max_penetration * 1e3,
-        a.p99_penetration * 1e3
-    );
+    if a.inside_defined {
+        println!(
+            "  particles inside the mesh   {:.3} %  (max penetration {:.2} mm, p99 {:.2} mm)",
+            100.0 * a.inside_fraction,
+            a.max_penetration * 1e3,
+            a.p99_penetration * 1e3
+        );
+    } else {
+        println!("  particles inside the mesh   n/a (open mesh: no inside)");
+    }
     println!("  within thickness of surface {:.3} %", 100.0 * a.within_thickness_fraction);
     println!(
         "  resting on the collider     {} particles, gap to true surface mean {:.2} mm, max {:.2} mm",

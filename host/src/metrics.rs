@@ -26,6 +26,9 @@ pub struct TriangleBvh {
     bvh: Bvh,
     /// Triangles in leaf order: a leaf holds `triangles[first..first + count]`.
     triangles: Vec<[Vec3; 3]>,
+    /// Edges used by one triangle only (0: the mesh is closed and "inside" is defined).
+    boundary_edges: usize,
+    closed: bool,
 }
 
 impl TriangleBvh {
@@ -40,7 +43,23 @@ impl TriangleBvh {
         let boxes: Vec<(Vec3, Vec3)> = valid.iter().map(|&[a, b, c]| (a.min(b).min(c), a.max(b).max(c))).collect();
         let bvh = bvh::build(&boxes);
         let triangles = bvh.order.iter().map(|&i| valid[i as usize]).collect();
-        TriangleBvh { bvh, triangles }
+        TriangleBvh {
+            bvh,
+            triangles,
+            boundary_edges: crate::topology::boundary_edge_count(mesh),
+            closed: crate::topology::is_closed(mesh),
+        }
+    }
+
+    /// Whether the mesh encloses an inside (every edge shared by an even number of triangles):
+    /// only then do the inside measures mean something.
+    pub fn is_closed(&self) -> bool {
+        self.closed
+    }
+
+    /// Edges of the mesh used by one triangle only (its holes' or open border's length).
+    pub fn boundary_edges(&self) -> usize {
+        self.boundary_edges
     }
 
     /// Number of triangles in the tree.
@@ -140,6 +159,10 @@ pub struct Accuracy {
     /// Every particle position is finite. Non-finite particles count as outside, not within the
     /// thickness and not resting, so the other numbers describe the finite ones.
     pub all_finite: bool,
+    /// Whether the mesh is closed, so that "inside" is defined. An open mesh (a plane, a bowl,
+    /// a scan with holes) has no inside: the inside measures are then 0 and every particle
+    /// counts as outside.
+    pub inside_defined: bool,
     /// Share of particles inside the mesh.
     pub inside_fraction: f64,
     /// Max distance to the surface over inside particles (0 if none).
@@ -204,7 +227,7 @@ fn measure(
     positions: &[Vec4],
 ) -> Accuracy {
     let particles = positions.len();
-    let mut result = Accuracy { particles, all_finite: true, ..Accuracy::default() };
+    let mut result = Accuracy { particles, all_finite: true, inside_defined: bvh.is_closed(), ..Accuracy::default() };
     if particles == 0 {
         return result;
     }
@@ -218,7 +241,7 @@ fn measure(
             continue;
         }
         let (distance, _) = bvh.closest_point(p);
-        let is_inside = bvh.is_inside(p);
+        let is_inside = result.inside_defined && bvh.is_inside(p);
         if distance <= thickness {
             within += 1;
         }

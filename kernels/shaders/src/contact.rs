@@ -41,6 +41,17 @@ pub trait LeafKind {
     fn hit(leaf: Self::Leaf, p0: Vec3, p1: Vec3, thickness: f32) -> (f32, f32);
     /// Where a particle with the hit `t` goes and the outward unit normal there.
     fn surface(leaf: Self::Leaf, p0: Vec3, p1: Vec3, t: f32, thickness: f32) -> (Vec3, Vec3);
+    /// Whether the straight path from `p0` to where `surface` sends the particle must be checked
+    /// against every leaf (`blocks`); when it is blocked the particle stops at its first
+    /// contact, `p0 + (p1 - p0) t`, instead.
+    fn checks_path() -> bool {
+        false
+    }
+    /// Whether the path `a -> b` passes through `leaf`'s surface (only asked when
+    /// `checks_path`).
+    fn blocks(_leaf: Self::Leaf, _a: Vec3, _b: Vec3, _thickness: f32) -> bool {
+        false
+    }
 }
 
 /// The best leaf found so far: hit parameter, tie-break key, leaf index (tree order).
@@ -128,13 +139,77 @@ pub fn brute_force<K: LeafKind>(collider: &ColliderParams, leaves: &[K::Leaf], p
     best
 }
 
-/// The contact record of `best` (found for the collider-frame motion `p0 -> p1`).
+/// Whether the path `a -> b` passes through any leaf's surface, through the LBVH. A stack
+/// overflow counts as blocked (the caller then takes the safe choice).
+pub fn path_blocked<K: LeafKind>(
+    collider: &ColliderParams,
+    nodes: &[BvhNode],
+    aabbs: &[Aabb],
+    leaves: &[K::Leaf],
+    a: Vec3,
+    b: Vec3,
+) -> bool {
+    let thickness = collider.thickness;
+    if collider.leaf_count == 1 {
+        return K::blocks(leaves[0], a, b, thickness);
+    }
+    let mut stack = [0u32; STACK_SIZE];
+    let mut top = 1; // stack[0] = root
+    while top > 0 {
+        top -= 1;
+        let node = nodes[stack[top] as usize];
+        let mut side = 0;
+        while side < 2 {
+            let child = if side == 0 { node.left } else { node.right };
+            if child & LEAF_BIT != 0 {
+                if K::blocks(leaves[(child & !LEAF_BIT) as usize], a, b, thickness) {
+                    return true;
+                }
+            } else if K::may_touch(&aabbs[child as usize], a, b, thickness) {
+                if top == STACK_SIZE {
+                    return true;
+                }
+                stack[top] = child;
+                top += 1;
+            }
+            side += 1;
+        }
+    }
+    false
+}
+
+/// The same question by testing every leaf.
+pub fn path_blocked_brute_force<K: LeafKind>(collider: &ColliderParams, leaves: &[K::Leaf], a: Vec3, b: Vec3) -> bool {
+    let mut i = 0;
+    while i < collider.leaf_count {
+        if K::blocks(leaves[i as usize], a, b, collider.thickness) {
+            return true;
+        }
+        i += 1;
+    }
+    false
+}
+
+/// Where `best` (found for the collider-frame motion `p0 -> p1`) sends the particle, before
+/// any path check: its target, outward normal, and the first contact point (the safe stop).
 #[inline]
-pub fn contact_of<K: LeafKind>(best: Candidate, leaves: &[K::Leaf], p0: Vec3, p1: Vec3, thickness: f32) -> Contact {
+fn surface_of<K: LeafKind>(
+    best: Candidate,
+    leaves: &[K::Leaf],
+    p0: Vec3,
+    p1: Vec3,
+    thickness: f32,
+) -> (Vec3, Vec3, Vec3) {
+    let (position, normal) = K::surface(leaves[best.leaf as usize], p0, p1, best.t, thickness);
+    (position, normal, p0 + (p1 - p0) * best.t)
+}
+
+/// The contact record of `best` at `position` (`Contact::NONE` for no contact).
+#[inline]
+pub fn contact_at(best: Candidate, position: Vec3, normal: Vec3) -> Contact {
     if best.t > 1.0 {
         return Contact::NONE;
     }
-    let (position, normal) = K::surface(leaves[best.leaf as usize], p0, p1, best.t, thickness);
     Contact { position: position.extend(best.t), normal: normal.extend(best.key), leaf: best.leaf, _pad: [0; 3] }
 }
 
@@ -166,7 +241,15 @@ pub fn detect_at<K: LeafKind>(
     }
     let (p0, p1) = local_motion(index, motion, x, x_prev);
     let (best, overflow) = traverse::<K>(collider, nodes, aabbs, leaves, p0, p1);
-    contacts[i] = contact_of::<K>(best, leaves, p0, p1, collider.thickness);
+    if best.t > 1.0 {
+        contacts[i] = Contact::NONE;
+        return overflow;
+    }
+    let (mut position, normal, first) = surface_of::<K>(best, leaves, p0, p1, collider.thickness);
+    if K::checks_path() && path_blocked::<K>(collider, nodes, aabbs, leaves, p0, position) {
+        position = first;
+    }
+    contacts[i] = contact_at(best, position, normal);
     overflow
 }
 
@@ -232,7 +315,15 @@ pub fn detect_brute_force_at<K: LeafKind>(
     }
     let (p0, p1) = local_motion(index, motion, x, x_prev);
     let best = brute_force::<K>(collider, leaves, p0, p1);
-    contacts[i] = contact_of::<K>(best, leaves, p0, p1, collider.thickness);
+    if best.t > 1.0 {
+        contacts[i] = Contact::NONE;
+        return;
+    }
+    let (mut position, normal, first) = surface_of::<K>(best, leaves, p0, p1, collider.thickness);
+    if K::checks_path() && path_blocked_brute_force::<K>(collider, leaves, p0, position) {
+        position = first;
+    }
+    contacts[i] = contact_at(best, position, normal);
 }
 
 /// Contact response in the collider's frame: the particle moves to `position` and the normal

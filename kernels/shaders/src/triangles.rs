@@ -2,18 +2,16 @@
 //! the triangles gathered into the tree's leaf order (corner positions, so a deforming collider
 //! only rewrites its vertices and refits), and contact detection against them.
 //!
-//! Contact is with the surface grown by the thickness on both sides (open meshes, thin parts
-//! and back-to-back faces work alike): a particle whose substep motion crosses a triangle, or
-//! ends within the thickness of it, goes to the thickness on the side it came from. The motion
-//! is tested at its end and for a crossing of the triangle's plane; a motion that passes within
-//! the thickness of an edge without crossing or ending near it is not caught (continuous
-//! collision against the grown surface comes with "Accurate contact").
+//! Contact is continuous: the particle's substep motion against each triangle grown by the
+//! thickness on both sides (see `Triangles`).
 
 use crate::contact::{LeafKind, detect_brute_force_particle, detect_particle};
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, SimParams, Triangle,
 };
+#[cfg(target_arch = "spirv")]
+use spirv_std::num_traits::Float;
 use spirv_std::spirv;
 
 /// Bounds of a triangle.
@@ -125,91 +123,206 @@ pub fn face_normal(t: &Triangle) -> Vec3 {
     if len > 1e-30 { n * (1.0 / len) } else { Vec3::ZERO }
 }
 
-/// Where `p0 -> p1` crosses the plane of `t` (unit normal `n`): the parameter along the motion,
-/// the side `p0` is on (+1 / -1 along `n`), and whether the crossing is inside the triangle
-/// (false too when the motion does not cross the plane).
+/// Relative growth of the thickness in the continuous test: rounding never turns a motion that
+/// touches the grown surface into a miss; a contact is found at most this share of the
+/// thickness early (the stated gap of the conservative test: 0.1%).
+pub const CCD_SLACK: f32 = 1e-3;
+
+/// Whether `x` (on or near the plane of `t`, unit normal `n`) is inside `t` grown by `margin`
+/// within its plane: on the inner side of every edge line, or less than `margin` beyond it.
 #[inline]
-pub fn plane_crossing(t: &Triangle, n: Vec3, p0: Vec3, p1: Vec3) -> (f32, f32, bool) {
-    let a = t.a.xyz();
-    let (h0, h1) = ((p0 - a).dot(n), (p1 - a).dot(n));
-    if n == Vec3::ZERO || !((h0 > 0.0 && h1 < 0.0) || (h0 < 0.0 && h1 > 0.0)) {
-        return (2.0, 0.0, false);
-    }
-    let s = (h0 * (1.0 / (h0 - h1))).clamp(0.0, 1.0);
-    let x = p0 + (p1 - p0) * s;
-    // Inside: the plane point's closest triangle point is itself (up to rounding).
-    let q = closest_on_triangle(x, t);
-    let scale = (t.b.xyz() - t.a.xyz()).length() + (t.c.xyz() - t.a.xyz()).length();
-    let inside = (x - q).length_squared() <= (1e-5 * scale) * (1e-5 * scale);
-    (s, if h0 > 0.0 { 1.0 } else { -1.0 }, inside)
+pub fn inside_in_plane(x: Vec3, t: &Triangle, n: Vec3, margin: f32) -> bool {
+    let (a, b, c) = (t.a.xyz(), t.b.xyz(), t.c.xyz());
+    let edge = |from: Vec3, to: Vec3| {
+        let e = to - from;
+        // = |e| x the signed distance of x from the edge line (positive inside).
+        e.cross(x - from).dot(n) >= -margin * e.length()
+    };
+    edge(a, b) && edge(b, c) && edge(c, a)
 }
 
-/// Triangles as contact leaves.
+/// The first parameter in [0, 1] at which `p0 + d s` comes within `radius` of the point `c`,
+/// or 2.0 for none.
+#[inline]
+fn ball_entry(p0: Vec3, d: Vec3, c: Vec3, radius: f32) -> f32 {
+    entry_of(p0 - c, d, radius)
+}
+
+/// The first parameter in [0, 1] at which `m + d s` comes within `radius` of the origin, or
+/// 2.0: the smaller root of `|d|^2 s^2 + 2 (m.d) s + |m|^2 - r^2`. Written so that nothing
+/// cancels when the motion passes far from the origin compared with the radius (a grazing
+/// contact): the discriminant as `|d|^2 r^2 - |m x d|^2` (Lagrange's identity) instead of
+/// `(m.d)^2 - |d|^2 (|m|^2 - r^2)`, and the root as `(|m|^2 - r^2) / (-m.d + sqrt(disc))`.
+#[inline]
+fn entry_of(m: Vec3, d: Vec3, radius: f32) -> f32 {
+    let far = m.length_squared() - radius * radius;
+    if far <= 0.0 {
+        return 0.0;
+    }
+    let (b, a) = (m.dot(d), d.length_squared());
+    if b >= 0.0 || a <= 0.0 {
+        return 2.0; // moving away or not moving
+    }
+    let disc = a * (radius * radius) - m.cross(d).length_squared();
+    if disc < 0.0 {
+        return 2.0;
+    }
+    let s = far * (1.0 / (-b + disc.sqrt()));
+    if s <= 1.0 { s } else { 2.0 }
+}
+
+/// The first parameter in [0, 1] at which `p0 + d s` comes within `radius` of the segment
+/// `e0`..`e1` through its side (the infinite cylinder, entered where the segment is), or 2.0.
+/// The end caps are the corner balls, tested once per corner by the caller.
+#[inline]
+fn cylinder_entry(p0: Vec3, d: Vec3, e0: Vec3, e1: Vec3, radius: f32) -> f32 {
+    let axis = e1 - e0;
+    let len2 = axis.length_squared();
+    if len2 <= 0.0 {
+        return 2.0;
+    }
+    let u = axis * (1.0 / len2.sqrt());
+    let m = p0 - e0;
+    let s = entry_of(m - u * m.dot(u), d - u * d.dot(u), radius);
+    if s > 1.0 {
+        return 2.0;
+    }
+    let along = (m + d * s).dot(u);
+    if along >= 0.0 && along * along <= len2 { s } else { 2.0 }
+}
+
+/// Earliest contact of the motion `p0 -> p1` with triangle `t` grown by `radius` on both sides
+/// (the Minkowski sum of the triangle and a ball: a slab over the face, a cylinder around each
+/// edge, a ball at each corner), `p0` given farther than `radius` from `t`. The first entry
+/// into a union is the first entry into any of its parts; a side wall of the slab lies inside
+/// the edge cylinders, so only the slab's two faces are tested. Returns the parameter in
+/// [0, 1], or 2.0 for none.
+pub fn grown_triangle_entry(t: &Triangle, n: Vec3, p0: Vec3, p1: Vec3, radius: f32) -> f32 {
+    let (a, b, c) = (t.a.xyz(), t.b.xyz(), t.c.xyz());
+    let d = p1 - p0;
+    let mut first = ball_entry(p0, d, a, radius).min(ball_entry(p0, d, b, radius)).min(ball_entry(p0, d, c, radius));
+    first = first.min(cylinder_entry(p0, d, a, b, radius));
+    first = first.min(cylinder_entry(p0, d, b, c, radius));
+    first = first.min(cylinder_entry(p0, d, c, a, radius));
+    if n != Vec3::ZERO {
+        let (h0, h1) = ((p0 - a).dot(n), (p1 - a).dot(n));
+        let side = if h0 >= 0.0 { 1.0 } else { -1.0 };
+        let (above0, above1) = (h0 * side, h1 * side);
+        if above0 > radius && above1 < radius {
+            let s = (above0 - radius) * (1.0 / (above0 - above1));
+            if s < first && inside_in_plane(p0 + d * s, t, n, 0.0) {
+                first = s;
+            }
+        }
+    }
+    first
+}
+
+/// Where `a -> b` crosses the triangle itself: whether it goes from one side of its plane to
+/// the other (or onto it) at a point inside the triangle grown by `margin`. A degenerate
+/// triangle has no sides to cross.
+#[inline]
+pub fn crosses(t: &Triangle, n: Vec3, a: Vec3, b: Vec3, margin: f32) -> bool {
+    let o = t.a.xyz();
+    let (ha, hb) = ((a - o).dot(n), (b - o).dot(n));
+    if n == Vec3::ZERO || !((ha > 0.0 && hb <= 0.0) || (ha < 0.0 && hb >= 0.0)) {
+        return false;
+    }
+    let s = (ha * (1.0 / (ha - hb))).clamp(0.0, 1.0);
+    inside_in_plane(a + (b - a) * s, t, n, margin)
+}
+
+/// Triangles as contact leaves: continuous collision of the particle's substep motion (in the
+/// collider's frame) with each triangle grown by the thickness on both sides, so open meshes,
+/// thin parts and back-to-back faces work alike.
+///
+/// The response keeps a particle on the side it came from: it goes to the point of its motion's
+/// end lifted to the thickness along the contact normal (sliding keeps its tangential motion),
+/// and when the straight path there would cross any triangle (a crease, a thin part) it stops
+/// at the first contact instead, which its motion reached without crossing anything. Contact
+/// is found before any crossing (the grown surface is met first), so no path ever crosses a
+/// static collider's surface.
 pub struct Triangles;
+
+impl Triangles {
+    /// The thickness as the continuous test uses it (grown by `CCD_SLACK`).
+    #[inline]
+    fn grown(thickness: f32) -> f32 {
+        thickness * (1.0 + CCD_SLACK)
+    }
+}
 
 impl LeafKind for Triangles {
     type Leaf = Triangle;
 
-    /// Both ends of the motion matter (a crossing), so a subtree matters when its grown box
-    /// meets the motion's box.
+    /// The whole motion matters, so a subtree matters when its box grown by the (conservative)
+    /// thickness meets the motion's box.
     #[inline]
     fn may_touch(b: &Aabb, p0: Vec3, p1: Vec3, thickness: f32) -> bool {
-        let m = Vec3::splat(thickness);
+        let m = Vec3::splat(Self::grown(thickness) + 1e-6);
         (p0.min(p1) - m).cmple(b.max.xyz()).all() && (p0.max(p1) + m).cmpge(b.min.xyz()).all()
     }
 
-    /// A crossing of the face counts from where the motion came within the thickness of it
-    /// (t < 1, key 0); a motion ending within the thickness without crossing the face counts at
-    /// t = 1, so a crossing always wins over proximity (a particle that entered a closed mesh
-    /// through one face goes back out through it, whatever other faces it ended near). Key of
-    /// proximity: the distance, so the nearest surface wins.
+    /// Hit parameter: 0 when the motion starts within the thickness (key: the distance, so the
+    /// nearest surface wins), else the first entry into the grown triangle. As a safety net
+    /// against rounding, a motion that crosses the triangle itself is a hit at the crossing.
     #[inline]
     fn hit(t: Triangle, p0: Vec3, p1: Vec3, thickness: f32) -> (f32, f32) {
+        let radius = Self::grown(thickness);
+        let d0 = (p0 - closest_on_triangle(p0, &t)).length();
+        if d0 <= radius {
+            return (0.0, d0);
+        }
         let n = face_normal(&t);
-        let (s, _, inside) = plane_crossing(&t, n, p0, p1);
-        if inside {
-            let (h0, h1) = ((p0 - t.a.xyz()).dot(n), (p1 - t.a.xyz()).dot(n));
-            let early = (s - thickness * (1.0 / (h0 - h1).abs().max(1e-30))).max(0.0);
-            return (early.min(1.0), 0.0);
+        let entry = grown_triangle_entry(&t, n, p0, p1, radius);
+        if entry <= 1.0 {
+            return (entry, 0.0);
         }
-        let d1 = (p1 - closest_on_triangle(p1, &t)).length();
-        if d1 >= thickness {
-            return (2.0, 0.0);
+        if crosses(&t, n, p0, p1, radius * CCD_SLACK) {
+            let o = t.a.xyz();
+            let (h0, h1) = ((p0 - o).dot(n), (p1 - o).dot(n));
+            return ((h0 * (1.0 / (h0 - h1))).clamp(0.0, 1.0), 0.0);
         }
-        (1.0, d1)
+        (2.0, 0.0)
     }
 
-    /// A crossing: back to the thickness on the side the motion came from, along the normal.
-    /// Proximity (the motion stayed on its side of this triangle): to the thickness on the
-    /// particle's side, along the normal over the face's interior and away from the closest
-    /// point near an edge or a corner.
+    /// The contact point `c` (the motion at the hit) and the closest point `q` of the triangle
+    /// to it give the normal: along the face normal over the face's interior, away from the
+    /// edge or corner otherwise; a particle exactly on the triangle takes the face's side
+    /// opposite to its motion. The particle goes to its motion's end lifted along that normal
+    /// to the thickness above `q`'s tangent plane.
     #[inline]
-    fn surface(t: Triangle, p0: Vec3, p1: Vec3, _hit: f32, thickness: f32) -> (Vec3, Vec3) {
+    fn surface(t: Triangle, p0: Vec3, p1: Vec3, hit: f32, thickness: f32) -> (Vec3, Vec3) {
         let n = face_normal(&t);
-        let (s, side, inside) = plane_crossing(&t, n, p0, p1);
-        if inside {
-            let normal = n * side;
-            return (p0 + (p1 - p0) * s + normal * thickness, normal);
-        }
-        let q = closest_on_triangle(p1, &t);
-        let away = p1 - q;
-        let h1 = away.dot(n);
-        let off_face = away - n * h1;
+        let c = p0 + (p1 - p0) * hit;
+        let q = closest_on_triangle(c, &t);
+        let away = c - q;
+        let h = away.dot(n);
+        let off_face = away - n * h;
+        let len = away.length();
         let normal = if n != Vec3::ZERO && off_face.length_squared() <= 1e-12 * away.length_squared().max(1e-30) {
-            // Over the interior (exactly on the face: the side p0 is on).
-            let h = if h1 != 0.0 { h1 } else { (p0 - t.a.xyz()).dot(n) };
-            if h >= 0.0 { n } else { -n }
+            // Over the interior; exactly on the face: the side the motion comes from.
+            let side = if h != 0.0 { h } else { -(p1 - p0).dot(n) };
+            if side >= 0.0 { n } else { -n }
+        } else if len > 1e-12 {
+            away * (1.0 / len)
         } else {
-            let len = away.length();
-            if len > 1e-12 {
-                away * (1.0 / len)
-            } else if n != Vec3::ZERO {
-                n
-            } else {
-                Vec3::Y
-            }
+            let back = p0 - p1;
+            let back_len = back.length();
+            if back_len > 1e-12 { back * (1.0 / back_len) } else { Vec3::Y }
         };
-        (q + normal * thickness, normal)
+        let lift = (thickness - (p1 - q).dot(normal)).max(0.0);
+        (p1 + normal * lift, normal)
+    }
+
+    #[inline]
+    fn checks_path() -> bool {
+        true
+    }
+
+    #[inline]
+    fn blocks(t: Triangle, a: Vec3, b: Vec3, thickness: f32) -> bool {
+        crosses(&t, face_normal(&t), a, b, thickness * CCD_SLACK)
     }
 }
 
