@@ -404,3 +404,53 @@ fn continuous_contact_matches_an_f64_reference() {
     assert!(hits > 10_000 && misses > 5_000, "{hits} hits, {misses} misses: the cases must exercise both");
     assert!(cases_seen.iter().all(|&n| n > 300), "every kind of case must hit: {cases_seen:?}");
 }
+
+/// The whole detect for a particle (first contact, response target, and the path check that
+/// stops it at its first contact when the straight way to the target is blocked, skipped when
+/// the path is shorter than the clearance) through the LBVH equals the brute-force detect
+/// exactly, on a torus with motions from resting-sized to long, and some paths are blocked.
+#[test]
+fn triangle_detect_through_the_bvh_equals_brute_force() {
+    use drape_kernels::contact::{detect_at, detect_brute_force_at};
+    use drape_kernels::pose::SubstepMotion;
+    use drape_types::{ColliderPose, Contact};
+    let mesh = Mesh::torus(0.35, 0.12, 32, 16);
+    let thickness = 0.01;
+    let params = mesh_collider_params(&mesh.vertices, &mesh.triangles, thickness, 0.0).unwrap();
+    let tree = build_mesh_cpu(&mesh.vertices, &mesh.triangles, &params).unwrap();
+    let motion = SubstepMotion::of(&ColliderPose::default(), 0.0, 1.0, 1.0 / 60.0);
+    let mut rng = Rng::new(77);
+    let (mut hits, mut stopped) = (0, 0);
+    for i in 0..20_000 {
+        // Near the tube's surface, moving by 0.1 mm .. 20 cm.
+        let angle = rng.range(0.0, std::f32::consts::TAU);
+        let ring = Vec3::new(angle.cos(), 0.0, angle.sin()) * 0.35;
+        let dir = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).normalize_or(Vec3::Y);
+        let p0 = ring + dir * rng.range(0.12, 0.16);
+        let step = [1e-4, 1e-3, 1e-2, 0.2][i % 4];
+        let p1 = p0 + Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)) * step;
+        let (x, x_prev) = ([p1.extend(1.0)], [p0.extend(1.0)]);
+        let (mut bvh, mut brute) = ([Contact::NONE], [Contact::NONE]);
+        let overflow = detect_at::<Triangles>(
+            0,
+            &params,
+            &motion,
+            &tree.nodes,
+            &tree.aabbs,
+            &tree.triangles,
+            &x,
+            &x_prev,
+            &mut bvh,
+        );
+        detect_brute_force_at::<Triangles>(0, &params, &motion, &tree.triangles, &x, &x_prev, &mut brute);
+        assert!(!overflow);
+        assert_eq!(bvh[0], brute[0], "case {i}: {p0} -> {p1}");
+        if bvh[0].is_some() {
+            hits += 1;
+            let first = p0 + (p1 - p0) * bvh[0].position.w;
+            stopped += (bvh[0].position.truncate() == first && bvh[0].position.w > 0.0) as u32;
+        }
+    }
+    assert!(hits > 2_000, "only {hits} contacts");
+    assert!(stopped > 0, "no path was blocked: the check must be exercised");
+}

@@ -52,6 +52,12 @@ pub trait LeafKind {
     fn blocks(_leaf: Self::Leaf, _a: Vec3, _b: Vec3, _thickness: f32) -> bool {
         false
     }
+    /// A lower bound on the distance from `p` to `leaf`'s surface (only asked when
+    /// `checks_path`): a path from `p` shorter than every leaf's bound crosses nothing, so its
+    /// check can be skipped.
+    fn clearance(_leaf: Self::Leaf, _p: Vec3) -> f32 {
+        0.0
+    }
 }
 
 /// The best leaf found so far: hit parameter, tie-break key, leaf index (tree order).
@@ -94,10 +100,30 @@ pub fn traverse<K: LeafKind>(
     p0: Vec3,
     p1: Vec3,
 ) -> (Candidate, bool) {
+    let (best, overflow, _) = traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1);
+    (best, overflow)
+}
+
+/// `traverse`, also returning (for kinds that check paths) a lower bound on the distance from
+/// `p0` to every leaf: the least `clearance` over the leaves visited, and the thickness for the
+/// subtrees not visited (their boxes are farther than the thickness from the whole motion, in
+/// some axis). 0 for kinds that do not check paths.
+pub fn traverse_with_clearance<K: LeafKind>(
+    collider: &ColliderParams,
+    nodes: &[BvhNode],
+    aabbs: &[Aabb],
+    leaves: &[K::Leaf],
+    p0: Vec3,
+    p1: Vec3,
+) -> (Candidate, bool, f32) {
     let thickness = collider.thickness;
+    let mut clearance = if K::checks_path() { thickness } else { 0.0 };
     if collider.leaf_count == 1 {
         let (t, key) = K::hit(leaves[0], p0, p1, thickness);
-        return (consider(NO_CANDIDATE, t, key, 0), false);
+        if K::checks_path() {
+            clearance = clearance.min(K::clearance(leaves[0], p0));
+        }
+        return (consider(NO_CANDIDATE, t, key, 0), false, clearance);
     }
     let mut best = NO_CANDIDATE;
     let mut stack = [0u32; STACK_SIZE];
@@ -113,6 +139,9 @@ pub fn traverse<K: LeafKind>(
                 let leaf = child & !LEAF_BIT;
                 let (t, key) = K::hit(leaves[leaf as usize], p0, p1, thickness);
                 best = consider(best, t, key, leaf);
+                if K::checks_path() {
+                    clearance = clearance.min(K::clearance(leaves[leaf as usize], p0));
+                }
             } else if K::may_touch(&aabbs[child as usize], p0, p1, thickness) {
                 if top < STACK_SIZE {
                     stack[top] = child;
@@ -124,7 +153,7 @@ pub fn traverse<K: LeafKind>(
             side += 1;
         }
     }
-    (best, overflow)
+    (best, overflow, clearance)
 }
 
 /// The same contact by testing every leaf (reference and benchmark baseline).
@@ -240,13 +269,17 @@ pub fn detect_at<K: LeafKind>(
         return false;
     }
     let (p0, p1) = local_motion(index, motion, x, x_prev);
-    let (best, overflow) = traverse::<K>(collider, nodes, aabbs, leaves, p0, p1);
+    let (best, overflow, clearance) = traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1);
     if best.t > 1.0 {
         contacts[i] = Contact::NONE;
         return overflow;
     }
     let (mut position, normal, first) = surface_of::<K>(best, leaves, p0, p1, collider.thickness);
-    if K::checks_path() && path_blocked::<K>(collider, nodes, aabbs, leaves, p0, position) {
+    // A path shorter than half the clearance cannot reach any surface (the half covers the
+    // crossing test's own margin and rounding): the answer is known without the walk, the
+    // same one the walk (or the brute-force loop) would give.
+    let short = (position - p0).length() < 0.5 * clearance;
+    if K::checks_path() && !short && path_blocked::<K>(collider, nodes, aabbs, leaves, p0, position) {
         position = first;
     }
     contacts[i] = contact_at(best, position, normal);

@@ -266,21 +266,38 @@ impl LeafKind for Triangles {
     /// Hit parameter: 0 when the motion starts within the thickness (key: the distance, so the
     /// nearest surface wins), else the first entry into the grown triangle. As a safety net
     /// against rounding, a motion that crosses the triangle itself is a hit at the crossing.
+    ///
+    /// Cheap rejections first (most leaves a traversal reaches are near the motion's box, not
+    /// the motion): a motion that stays on one side of the slab around the triangle's plane
+    /// grown by the radius, or outside the triangle's grown box, cannot touch it; and `p0` can
+    /// only be within the radius when it is within the slab.
     #[inline]
     fn hit(t: Triangle, p0: Vec3, p1: Vec3, thickness: f32) -> (f32, f32) {
         let radius = Self::grown(thickness);
-        let d0 = (p0 - closest_on_triangle(p0, &t)).length();
-        if d0 <= radius {
-            return (0.0, d0);
-        }
         let n = face_normal(&t);
+        let o = t.a.xyz();
+        let (h0, h1) = ((p0 - o).dot(n), (p1 - o).dot(n));
+        // The triangle's extent along n: 0 for a proper triangle, but a nearly degenerate one's
+        // normal is rounding noise, and its corners need not lie in that "plane".
+        let (hb, hc) = ((t.b.xyz() - o).dot(n), (t.c.xyz() - o).dot(n));
+        let (low, high) = (hb.min(hc).min(0.0) - radius, hb.max(hc).max(0.0) + radius);
+        if (h0 > high && h1 > high) || (h0 < low && h1 < low) {
+            return (2.0, 0.0);
+        }
+        if !Self::may_touch(&triangle_aabb(&t), p0, p1, thickness) {
+            return (2.0, 0.0);
+        }
+        if h0 >= low && h0 <= high {
+            let d0 = (p0 - closest_on_triangle(p0, &t)).length();
+            if d0 <= radius {
+                return (0.0, d0);
+            }
+        }
         let entry = grown_triangle_entry(&t, n, p0, p1, radius);
         if entry <= 1.0 {
             return (entry, 0.0);
         }
         if crosses(&t, n, p0, p1, radius * CCD_SLACK) {
-            let o = t.a.xyz();
-            let (h0, h1) = ((p0 - o).dot(n), (p1 - o).dot(n));
             return ((h0 * (1.0 / (h0 - h1))).clamp(0.0, 1.0), 0.0);
         }
         (2.0, 0.0)
@@ -323,6 +340,20 @@ impl LeafKind for Triangles {
     #[inline]
     fn blocks(t: Triangle, a: Vec3, b: Vec3, thickness: f32) -> bool {
         crosses(&t, face_normal(&t), a, b, thickness * CCD_SLACK)
+    }
+
+    /// The larger of the distance to the triangle's box and the distance beyond its extent
+    /// along its normal: both are at most the true distance.
+    #[inline]
+    fn clearance(t: Triangle, p: Vec3) -> f32 {
+        let b = triangle_aabb(&t);
+        let to_box = (b.min.xyz() - p).max(p - b.max.xyz()).max(Vec3::ZERO).length();
+        let n = face_normal(&t);
+        let o = t.a.xyz();
+        let (hb, hc) = ((t.b.xyz() - o).dot(n), (t.c.xyz() - o).dot(n));
+        let h = (p - o).dot(n);
+        let off_plane = (h - hb.max(hc).max(0.0)).max(hb.min(hc).min(0.0) - h).max(0.0);
+        to_box.max(off_plane)
     }
 }
 
