@@ -20,21 +20,6 @@ fn shared(file: &str) -> Mesh {
     Mesh::load_obj(&path).unwrap()
 }
 
-/// A closed box `size` (x, y, z) centred at the origin, outward-facing triangles.
-fn slab(size: Vec3) -> Mesh {
-    let h = size / 2.0;
-    let corner = |i: u32| {
-        Vec3::new(
-            if i & 1 != 0 { h.x } else { -h.x },
-            if i & 2 != 0 { h.y } else { -h.y },
-            if i & 4 != 0 { h.z } else { -h.z },
-        )
-    };
-    let quads = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
-    let triangles = quads.iter().flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]]).collect();
-    Mesh { vertices: (0..8).map(corner).collect(), triangles }
-}
-
 /// The standard scene (64 x 64 cloth, 2 s, thickness 5 mm) with triangle contact on the
 /// bunny (its base holes closed), the dragon (back-to-back duplicate faces), an icosphere, a
 /// torus and a 1 cm plate: at every 10th frame no particle is inside the mesh, and at 2 s the
@@ -47,7 +32,7 @@ fn the_drape_scene_settles_on_the_true_surface_of_every_mesh() {
         ("dragon", shared("stanford-dragon-res2.obj")),
         ("icosphere", Mesh::icosphere(0.5, 3)),
         ("torus", Mesh::torus(0.35, 0.12, 48, 24)),
-        ("plate", slab(Vec3::new(1.0, 0.01, 0.6))),
+        ("plate", common::slab(Vec3::new(1.0, 0.01, 0.6))),
     ];
     for (name, mesh) in meshes {
         let mut scene = DrapeScene::standard(&mesh, 64);

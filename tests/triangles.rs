@@ -229,23 +229,6 @@ fn height_above(vertices: &[Vec3], triangles: &[[u32; 3]], p: Vec4) -> f32 {
     f32::INFINITY
 }
 
-/// A closed box `size` (x, y, z) centred at the origin, outward-facing triangles.
-fn slab(size: Vec3) -> Mesh {
-    let h = size / 2.0;
-    let vertices = (0..8)
-        .map(|i| {
-            Vec3::new(
-                if i & 1 != 0 { h.x } else { -h.x },
-                if i & 2 != 0 { h.y } else { -h.y },
-                if i & 4 != 0 { h.z } else { -h.z },
-            )
-        })
-        .collect();
-    let quads = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
-    let triangles = quads.iter().flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]]).collect();
-    Mesh { vertices, triangles }
-}
-
 /// A cloth thrown at 10 m/s at a 1 cm plate (each substep moves it further than the plate is
 /// thick) does not pass through it: every particle ends above the plate, GPU == CPU twin.
 #[test]
@@ -257,7 +240,7 @@ fn a_cloth_thrown_at_10_m_per_s_does_not_pass_a_1_cm_plate() {
         .transform(Mat4::from_translation(Vec3::new(0.0, 0.3, 0.0)))
         .build()
         .unwrap();
-    let plate = Collider::mesh(&slab(Vec3::new(1.2, 0.01, 1.2)), 0.002);
+    let plate = Collider::mesh(&common::slab(Vec3::new(1.2, 0.01, 1.2)), 0.002);
     let model = Model::single(&cloth, &[plate], SimSettings::default().with_timestamps(false)).unwrap();
     let mut gpu = Solver::new(&ctx, &model).unwrap();
     let mut cpu = CpuSolver::new(&model).unwrap();

@@ -44,3 +44,18 @@ impl Rng {
         lo + (hi - lo) * (self.next_u32() >> 8) as f32 / (1u32 << 24) as f32
     }
 }
+
+/// A closed box `size` (x, y, z) centred at the origin, outward-facing triangles.
+pub fn slab(size: glam::Vec3) -> drape::Mesh {
+    let h = size / 2.0;
+    let corner = |i: u32| {
+        glam::Vec3::new(
+            if i & 1 != 0 { h.x } else { -h.x },
+            if i & 2 != 0 { h.y } else { -h.y },
+            if i & 4 != 0 { h.z } else { -h.z },
+        )
+    };
+    let quads = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
+    let triangles = quads.iter().flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]]).collect();
+    drape::Mesh { vertices: (0..8).map(corner).collect(), triangles }
+}
