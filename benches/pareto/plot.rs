@@ -53,25 +53,24 @@ pub fn draw(path: &Path, points: &[Point]) -> Result<String, Box<dyn std::error:
         if text {
             builder.caption(format!("{mesh}: {title}"), ("sans-serif", 18)).x_label_area_size(35).y_label_area_size(55);
         }
+        // The two y axes have different types, so the rest of the panel is written once for both.
+        macro_rules! finish_panel {
+            ($y_range:expr) => {{
+                let mut chart = builder.build_cartesian_2d(0.0..x_max, $y_range)?;
+                let mut mesh_style = chart.configure_mesh();
+                mesh_style.x_desc("frame time, median (ms)");
+                if !text {
+                    mesh_style.disable_x_mesh().disable_y_mesh().x_labels(0).y_labels(0);
+                }
+                mesh_style.draw()?;
+                points_and_labels(&mut chart, &mine, value, text)?;
+            }};
+        }
         if log {
             let y_min = mine.iter().map(|p| value(p)).fold(f64::INFINITY, f64::min) / 1.5;
-            let mut chart = builder.build_cartesian_2d(0.0..x_max, (y_min..y_max).log_scale())?;
-            let mut mesh_style = chart.configure_mesh();
-            mesh_style.x_desc("frame time, median (ms)");
-            if !text {
-                mesh_style.disable_x_mesh().disable_y_mesh().x_labels(0).y_labels(0);
-            }
-            mesh_style.draw()?;
-            points_and_labels(&mut chart, &mine, value, text)?;
+            finish_panel!((y_min..y_max).log_scale());
         } else {
-            let mut chart = builder.build_cartesian_2d(0.0..x_max, 0.0..y_max)?;
-            let mut mesh_style = chart.configure_mesh();
-            mesh_style.x_desc("frame time, median (ms)");
-            if !text {
-                mesh_style.disable_x_mesh().disable_y_mesh().x_labels(0).y_labels(0);
-            }
-            mesh_style.draw()?;
-            points_and_labels(&mut chart, &mine, value, text)?;
+            finish_panel!(0.0..y_max);
         }
     }
     root.present()?;
