@@ -124,7 +124,7 @@ fn main() {
         for n in [5, 16, 64] {
             let mut collider = scene.collider(n).expect("collider");
             let timed_bvh = frame_ms(&ctx, &cloth, &collider, 20, 10);
-            collider.use_bvh = false;
+            collider.search = drape::ContactSearch::BruteForce;
             // Brute force costs the same in every frame (it tests every sphere regardless).
             let timed_brute = frame_ms(&ctx, &cloth, &collider, 0, 3);
             println!(

@@ -16,7 +16,7 @@ const CLOTH: ClothId = ClothId::new(0);
 const BODY: ColliderId = ColliderId::new(0);
 
 fn triangle(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
-    Triangle { a: a.extend(0.0), b: b.extend(0.0), c: c.extend(0.0) }
+    drape_kernels::triangles::triangle_leaf(a, b, c)
 }
 
 /// f64 reference: the closest point of segment a..b to p.

@@ -3,6 +3,8 @@
 //! (n = 1, 3, 5, 16, 32, 64; thickness 5 mm) and with the mesh's triangles (thickness 2 and
 //! 5 mm). For each: frame time (median and fastest over the run's 120 frames) against (a) the
 //! share of particles inside the mesh, (b) the max penetration, (c) the resting gap's mean.
+//! Contact searches candidate lists (broad phase once per frame); spheres n = 5 and triangles
+//! 5 mm also run with an LBVH walk every substep ("walk"), the search the lists replaced.
 //!
 //! Every configuration's solver is created first, then frame k of every configuration runs
 //! back to back (round robin), so the machine's load drifts over all of them alike and the
@@ -16,7 +18,7 @@ mod plot;
 
 use drape::metrics::{Accuracy, TriangleBvh, accuracy, accuracy_on_triangles};
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, shared_model};
-use drape::{ClothId, Collider, Context, Mesh, Model, SimSettings, Solver, Validation};
+use drape::{ClothId, Collider, ContactSearch, Context, Mesh, Model, SimSettings, Solver, Validation};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -30,6 +32,8 @@ pub struct Point {
     pub mesh: &'static str,
     /// "spheres" or "triangles".
     pub contact: &'static str,
+    /// "lists" (candidate lists) or "walk" (LBVH walk every substep).
+    pub search: &'static str,
     /// Voxels per axis (spheres), 0 for triangles.
     pub voxels: u32,
     pub thickness: f32,
@@ -41,9 +45,13 @@ pub struct Point {
 
 impl Point {
     pub fn label(&self) -> String {
-        match self.contact {
+        let what = match self.contact {
             "spheres" => format!("spheres n={}", self.voxels),
             _ => format!("triangles {} mm", self.thickness * 1e3),
+        };
+        match self.search {
+            "walk" => format!("{what}, walk"),
+            _ => what,
         }
     }
 }
@@ -51,6 +59,7 @@ impl Point {
 /// A configuration being run.
 struct Run {
     contact: &'static str,
+    search: &'static str,
     voxels: u32,
     collider: Collider,
     solver: Solver,
@@ -104,9 +113,18 @@ fn measure(ctx: &std::sync::Arc<Context>, name: &'static str, scene: &DrapeScene
     let settings = SimSettings::default().with_timestamps(false);
     let mut runs = Vec::new();
     let mut add = |contact: &'static str, voxels: u32, collider: Collider| {
-        let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).expect("model");
-        let solver = Solver::new(ctx, &model).expect("solver");
-        runs.push(Run { contact, voxels, collider, solver, walls: Vec::new() });
+        let searches: &[_] = match (contact, voxels, collider.thickness) {
+            ("spheres", 5, _) | ("triangles", _, 0.005) => {
+                &[("lists", ContactSearch::CandidateLists), ("walk", ContactSearch::TraverseEverySubstep)]
+            }
+            _ => &[("lists", ContactSearch::CandidateLists)],
+        };
+        for &(search, how) in searches {
+            let collider = collider.clone().with_search(how);
+            let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).expect("model");
+            let solver = Solver::new(ctx, &model).expect("solver");
+            runs.push(Run { contact, search, voxels, collider, solver, walls: Vec::new() });
+        }
     };
     for n in SPHERE_GRIDS {
         let start = Instant::now();
@@ -145,6 +163,7 @@ fn measure(ctx: &std::sync::Arc<Context>, name: &'static str, scene: &DrapeScene
             Point {
                 mesh: name,
                 contact: run.contact,
+                search: run.search,
                 voxels: run.voxels,
                 thickness: c.thickness,
                 leaves: c.leaf_count(),
@@ -158,13 +177,13 @@ fn measure(ctx: &std::sync::Arc<Context>, name: &'static str, scene: &DrapeScene
 
 fn print_table(points: &[Point]) {
     println!(
-        "\n{:<7} {:<18} {:>7} {:>10} {:>10} {:>8} {:>10} {:>10} {:>8}",
+        "\n{:<7} {:<24} {:>7} {:>10} {:>10} {:>8} {:>10} {:>10} {:>8}",
         "mesh", "contact", "leaves", "median ms", "fastest ms", "inside%", "maxpen mm", "gap mm", "resting"
     );
     for p in points {
         let a = &p.accuracy;
         println!(
-            "{:<7} {:<18} {:>7} {:>10.2} {:>10.2} {:>8.3} {:>10.2} {:>10.2} {:>8}",
+            "{:<7} {:<24} {:>7} {:>10.2} {:>10.2} {:>8.3} {:>10.2} {:>10.2} {:>8}",
             p.mesh,
             p.label(),
             p.leaves,
@@ -176,38 +195,46 @@ fn print_table(points: &[Point]) {
             a.resting
         );
     }
-    println!("\nframe time, triangles (5 mm) / spheres n = 5, same run:");
+    println!("\nframe time, triangles (5 mm, lists) / spheres n = 5, same run:");
     for mesh in ["bunny", "dragon"] {
-        let find = |contact: &str, voxels: u32, thickness: f32| {
-            points
-                .iter()
-                .find(|p| p.mesh == mesh && p.contact == contact && p.voxels == voxels && p.thickness == thickness)
+        let find = |contact: &str, search: &str, voxels: u32, thickness: f32| {
+            points.iter().find(|p| {
+                p.mesh == mesh
+                    && p.contact == contact
+                    && p.search == search
+                    && p.voxels == voxels
+                    && p.thickness == thickness
+            })
         };
-        if let (Some(t), Some(s)) = (find("triangles", 0, 0.005), find("spheres", 5, SPHERE_THICKNESS)) {
-            println!(
-                "  {mesh:<7} median {:.2} / {:.2} ms = {:.2}x, fastest {:.2} / {:.2} ms = {:.2}x",
-                t.median_ms,
-                s.median_ms,
-                t.median_ms / s.median_ms,
-                t.fastest_ms,
-                s.fastest_ms,
-                t.fastest_ms / s.fastest_ms
-            );
+        let triangles = find("triangles", "lists", 0, 0.005);
+        for sphere_search in ["lists", "walk"] {
+            if let (Some(t), Some(s)) = (triangles, find("spheres", sphere_search, 5, SPHERE_THICKNESS)) {
+                println!(
+                    "  {mesh:<7} vs spheres ({sphere_search:<5}): median {:.2} / {:.2} ms = {:.2}x, fastest {:.2} / {:.2} ms = {:.2}x",
+                    t.median_ms,
+                    s.median_ms,
+                    t.median_ms / s.median_ms,
+                    t.fastest_ms,
+                    s.fastest_ms,
+                    t.fastest_ms / s.fastest_ms
+                );
+            }
         }
     }
 }
 
 fn to_csv(points: &[Point]) -> String {
     let mut out = String::from(
-        "mesh,contact,voxels,thickness_mm,leaves,frame_ms_median,frame_ms_fastest,inside_percent,max_penetration_mm,\
+        "mesh,contact,search,voxels,thickness_mm,leaves,frame_ms_median,frame_ms_fastest,inside_percent,max_penetration_mm,\
          p99_penetration_mm,gap_mean_mm,gap_max_mm,resting,max_stretch\n",
     );
     for p in points {
         let a = &p.accuracy;
         out += &format!(
-            "{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{:.4}\n",
+            "{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{:.4}\n",
             p.mesh,
             p.contact,
+            p.search,
             p.voxels,
             p.thickness * 1e3,
             p.leaves,

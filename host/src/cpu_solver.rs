@@ -65,6 +65,7 @@ impl CpuSolver {
                 total.overflows += s[0].overflows;
                 total.ran += s[0].ran;
                 total.skipped += s[0].skipped;
+                total.fallbacks += s[0].fallbacks;
             }
         }
         total

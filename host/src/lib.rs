@@ -68,7 +68,7 @@ pub use error::{Error, Result};
 pub use gpu::{AllocatorStats, Context, DeviceInfo, ExternalDevice, FrameTimings, PassTiming, Validation};
 pub use lbvh::Lbvh;
 pub use mesh::Mesh;
-pub use model::{ClothId, Collider, ColliderId, ColliderShape, Model, ModelBuilder, rigid_pose};
+pub use model::{ClothId, Collider, ColliderId, ColliderShape, ContactSearch, Model, ModelBuilder, rigid_pose};
 pub use settings::{Integrator, SimSettings};
 pub use solver::{FrameReport, MemoryReport, Solver, VertexBuffers};
 pub use stability::Stability;

@@ -6,7 +6,7 @@ use drape::mesh::Mesh;
 use drape::metrics::{Accuracy, TriangleBvh, accuracy, accuracy_on_triangles};
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, shared_model};
 use drape::timing::TimingReport;
-use drape::{ClothId, Context, Integrator, Model, SimSettings, Solver, Validation};
+use drape::{ClothId, ContactSearch, Context, Integrator, Model, SimSettings, Solver, Validation};
 use glam::Vec3;
 use std::io::Write;
 use std::path::PathBuf;
@@ -27,6 +27,17 @@ enum ContactArg {
     Spheres,
     /// The mesh's own triangles.
     Triangles,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum SearchArg {
+    /// A broad phase once per frame gives each particle a short list of nearby leaves; each
+    /// substep tests only the list (a particle that leaves its query box walks the LBVH).
+    Lists,
+    /// Walk the LBVH every substep.
+    Traverse,
+    /// Test every leaf every substep (the baseline).
+    BruteForce,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -68,8 +79,12 @@ struct Args {
     /// Coulomb friction coefficient of the contact (0 = the paper's frictionless response).
     #[arg(long, default_value_t = drape::scenes::DEFAULT_FRICTION)]
     friction: f32,
-    /// Test every leaf (sphere or triangle) instead of traversing the LBVH (baseline).
-    #[arg(long)]
+    /// How contact finds the leaves each particle touches (same contacts, different cost).
+    #[arg(long, value_enum, default_value = "lists")]
+    search: SearchArg,
+    /// Test every leaf (sphere or triangle) instead of traversing the LBVH (baseline; the same
+    /// as `--search brute-force`).
+    #[arg(long, conflicts_with = "search")]
     brute_force: bool,
     /// Particles per side (rows = cols).
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(2..=4096))]
@@ -231,7 +246,11 @@ fn run(args: &Args) -> drape::Result<()> {
                 ContactArg::Spheres => s.collider(args.voxels)?,
                 ContactArg::Triangles => s.triangle_collider(),
             };
-            c.use_bvh = !args.brute_force;
+            c.search = match (args.brute_force, args.search) {
+                (true, _) | (_, SearchArg::BruteForce) => ContactSearch::BruteForce,
+                (_, SearchArg::Lists) => ContactSearch::CandidateLists,
+                (_, SearchArg::Traverse) => ContactSearch::TraverseEverySubstep,
+            };
             let leaves = match args.contact {
                 ContactArg::Spheres => format!("{n}^3 voxels -> {} spheres", c.spheres().len(), n = args.voxels),
                 ContactArg::Triangles => format!("{} triangle leaves", c.leaf_count()),
@@ -266,13 +285,14 @@ fn run(args: &Args) -> drape::Result<()> {
     }
 
     let mut report = TimingReport::default();
-    let (mut ran, mut skipped) = (0, 0);
+    let (mut ran, mut skipped, mut fallbacks) = (0, 0, 0u64);
     for frame in 1..=args.frames {
         let start = Instant::now();
         let r = sim.step_report()?;
         report.add(&r.timings, start.elapsed());
         ran += r.collision_ran;
         skipped += r.collision_skipped;
+        fallbacks += u64::from(r.collision_fallbacks);
         progress(frame, args.frames);
         let write_this = match args.obj_every {
             Some(n) => frame % n == 0,
@@ -286,8 +306,15 @@ fn run(args: &Args) -> drape::Result<()> {
     eprintln!();
     println!("\nGPU time per kernel (timestamp queries, median over frames):");
     print!("{}", report.table());
-    if collider.is_some() {
+    if let Some(c) = &collider {
         println!("collision traversal: ran in {ran} substeps, culled (cloth cannot touch) in {skipped}");
+        if c.search == ContactSearch::CandidateLists {
+            let particle_substeps = u64::from(ran) * u64::from(args.grid * args.grid);
+            println!(
+                "candidate lists: {fallbacks} of {particle_substeps} particle-substeps fell back to a full walk ({:.2} %)",
+                100.0 * fallbacks as f64 / particle_substeps.max(1) as f64
+            );
+        }
     }
     let x = sim.positions(cloth)?;
     if let (Some(s), Some(c)) = (&scene, &collider) {

@@ -62,8 +62,8 @@ pub struct Collider {
     pub thickness: f32,
     /// Coulomb friction coefficient (0 = the paper's frictionless response).
     pub friction: f32,
-    /// Traverse the LBVH (true) or test every sphere (the brute-force baseline).
-    pub use_bvh: bool,
+    /// How contact finds the leaves a particle touches (same answer, different cost).
+    pub search: ContactSearch,
     /// Where the collider's frame is in the world at the start (identity: spheres are in world
     /// coordinates). Move it per frame with `Solver::set_collider_pose`.
     pub pose: RigidPose,
@@ -85,7 +85,7 @@ impl Collider {
 
     /// A collider of any shape.
     pub fn of(shape: ColliderShape, thickness: f32) -> Self {
-        Collider { shape, thickness, friction: 0.0, use_bvh: true, pose: RigidPose::IDENTITY }
+        Collider { shape, thickness, friction: 0.0, search: ContactSearch::default(), pose: RigidPose::IDENTITY }
     }
 
     /// The spheres of a sphere collider (empty for other shapes).
@@ -127,10 +127,30 @@ impl Collider {
     }
 
     /// The same collider tested leaf by leaf instead of through its LBVH (the baseline).
-    pub fn brute_force(mut self) -> Self {
-        self.use_bvh = false;
+    pub fn brute_force(self) -> Self {
+        self.with_search(ContactSearch::BruteForce)
+    }
+
+    /// The same collider searched with `search`.
+    pub fn with_search(mut self, search: ContactSearch) -> Self {
+        self.search = search;
         self
     }
+}
+
+/// How contact finds the leaves each particle touches. Every choice gives the same contacts
+/// (the tests compare them); they differ in cost.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub enum ContactSearch {
+    /// A broad phase once per frame walks the LBVH with each particle's expected motion over
+    /// the frame and keeps a short list of nearby leaves; each substep tests only the list (a
+    /// particle that leaves its query box walks the LBVH for that substep).
+    #[default]
+    CandidateLists,
+    /// Walk the LBVH every substep.
+    TraverseEverySubstep,
+    /// Test every leaf every substep (the baseline).
+    BruteForce,
 }
 
 /// A `RigidPose` from glam types.

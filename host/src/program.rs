@@ -5,7 +5,7 @@
 use crate::controls::Controls;
 use crate::error::Result;
 use crate::graph::{BufferId, Resources, Step};
-use crate::model::{ColliderShape, Model};
+use crate::model::{ColliderShape, ContactSearch, Model};
 use crate::programs::cloth::{ClothBuffers, FramePlan, frame_steps};
 use crate::programs::contact::{ColliderBuffers, ColliderLeaves, ContactBuffers, ContactMode};
 use crate::programs::spheres::SphereBvh;
@@ -106,7 +106,11 @@ impl SolverProgram {
                             0 => format!("{} contact", numbered("collider", j)),
                             _ => format!("{} / {} contact", numbered("cloth", i), numbered("collider", j)),
                         };
-                        let mode = if c.use_bvh { ContactMode::Bvh } else { ContactMode::BruteForce };
+                        let mode = match c.search {
+                            ContactSearch::CandidateLists => ContactMode::Lists,
+                            ContactSearch::TraverseEverySubstep => ContactMode::Bvh,
+                            ContactSearch::BruteForce => ContactMode::BruteForce,
+                        };
                         ContactBuffers::declare(&mut resources, &name, cloth.particles, mode)
                     })
                     .collect()

@@ -24,6 +24,9 @@ pub struct FrameReport {
     /// colliders together).
     pub collision_ran: u32,
     pub collision_skipped: u32,
+    /// Particle-substeps whose candidate list did not cover their motion, answered by a full
+    /// LBVH walk instead (`ContactSearch::CandidateLists`).
+    pub collision_fallbacks: u32,
 }
 
 /// Frames recorded into callers' command buffers whose status can be pending at once.
@@ -111,6 +114,7 @@ impl Solver {
                 check_collision(&status, self.frames_done)?;
                 report.collision_ran += status.ran;
                 report.collision_skipped += status.skipped;
+                report.collision_fallbacks += status.fallbacks;
             }
         }
         Ok(report)

@@ -4,12 +4,15 @@
 //! each leaf kind's file declares its own detect `Kernel`s with them).
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use drape_kernels::candidates::{broad_phase_at, detect_candidates_at};
 use drape_kernels::contact::{
     CONTACT_THREADS, CULL_THREADS, LeafKind, aabbs_overlap, detect_at, detect_brute_force_at, respond_at, root_aabb,
     substep_motion, swept_bounds,
 };
+use drape_kernels::pose::SubstepMotion;
 use drape_types::{
-    Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, DispatchArgs, SimParams,
+    Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery,
+    DispatchArgs, SimParams,
 };
 use glam::Vec4;
 
@@ -37,6 +40,46 @@ pub const DETECT_BINDINGS: &[BindingSpec] = &[
     read("nodes"),
     read("aabbs"),
     read("leaves"),
+    read("x"),
+    read("x_prev"),
+    write("contacts"),
+    write("status"),
+];
+
+/// The binding table of every leaf kind's broad phase (push constants: `BroadPhasePush`).
+pub const BROAD_PHASE_BINDINGS: &[BindingSpec] = &[
+    read("params"),
+    read("collider"),
+    read("pose"),
+    read("nodes"),
+    read("aabbs"),
+    read("leaf_bounds"),
+    read("x"),
+    read("v"),
+    write("queries"),
+    write("candidates"),
+];
+
+/// The interface of a leaf kind's broad phase.
+pub const fn broad_phase_spec(entry: &'static str) -> KernelSpec {
+    KernelSpec {
+        entry,
+        bindings: BROAD_PHASE_BINDINGS,
+        push_constant_size: size_of::<BroadPhasePush>() as u32,
+        workgroup_size: CONTACT_THREADS,
+    }
+}
+
+/// The binding table of every leaf kind's narrow-phase detect pass (over candidate lists).
+pub const DETECT_CANDIDATES_BINDINGS: &[BindingSpec] = &[
+    read("params"),
+    read("collider"),
+    read("pose"),
+    read("nodes"),
+    read("aabbs"),
+    read("leaves"),
+    read("queries"),
+    read("candidates"),
     read("x"),
     read("x_prev"),
     write("contacts"),
@@ -93,6 +136,48 @@ where
         if detect_at::<K>(i, &c, &motion, nodes, aabbs, leaves, x, x_prev, contacts) {
             status.overflows += 1;
         }
+    }
+    Ok(())
+}
+
+/// CPU adapter of leaf kind `K`'s broad phase (`BROAD_PHASE_BINDINGS`).
+pub fn broad_phase_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let push: BroadPhasePush = d.push_as();
+    let [params, collider, pose, nodes, aabbs, leaf_bounds, x, v, queries, candidates] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let c: ColliderParams = collider.first()?;
+    let frame_time = p.substep * push.substeps as f32;
+    let frame = SubstepMotion::of(&pose.first::<ColliderPose>()?, 0.0, 1.0, frame_time);
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>());
+    let (x, v) = (x.slice::<Vec4>(), v.slice::<Vec4>());
+    let (queries, candidates) = (queries.slice_mut::<ContactQuery>(), candidates.slice_mut::<u32>());
+    for i in 0..threads.min(p.particle_count) {
+        broad_phase_at::<K>(i, &p, &c, &frame, frame_time, tree, (x, v), queries, candidates);
+    }
+    Ok(())
+}
+
+/// CPU adapter of leaf kind `K`'s narrow-phase detect pass (`DETECT_CANDIDATES_BINDINGS`).
+pub fn detect_candidates_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String>
+where
+    K::Leaf: bytemuck::Pod,
+{
+    let threads = d.invocations();
+    let push: ContactPush = d.push_as();
+    let [params, collider, pose, nodes, aabbs, leaves, queries, candidates, x, x_prev, contacts, status] =
+        d.bindings()?;
+    let p: SimParams = params.first()?;
+    let c: ColliderParams = collider.first()?;
+    let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<K::Leaf>());
+    let lists = (queries.slice::<ContactQuery>(), candidates.slice::<u32>());
+    let (x, x_prev, contacts) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), contacts.slice_mut::<Contact>());
+    let status = status.first_mut::<CollisionStatus>()?;
+    for i in 0..threads.min(p.particle_count) {
+        let outcome = detect_candidates_at::<K>(i, &c, &motion, tree, lists, x, x_prev, contacts);
+        status.fallbacks += outcome.fell_back as u32;
+        status.overflows += outcome.overflowed as u32;
     }
     Ok(())
 }

@@ -14,7 +14,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 21] = [
+pub const ALL: [&Kernel; 25] = [
     &integrate::INTEGRATE_STAGE,
     &normals::VERTEX_NORMALS,
     &normals::CHECK_HEALTH,
@@ -30,10 +30,14 @@ pub const ALL: [&Kernel; 21] = [
     &spheres::GATHER_SPHERES,
     &spheres::DETECT_SPHERES,
     &spheres::DETECT_SPHERES_BRUTE_FORCE,
+    &spheres::BROAD_PHASE_SPHERES,
+    &spheres::DETECT_SPHERES_CANDIDATES,
     &triangles::TRIANGLE_BOUNDS,
     &triangles::GATHER_TRIANGLES,
     &triangles::DETECT_TRIANGLES,
     &triangles::DETECT_TRIANGLES_BRUTE_FORCE,
+    &triangles::BROAD_PHASE_TRIANGLES,
+    &triangles::DETECT_TRIANGLES_CANDIDATES,
     &contact::CULL_CONTACT,
     &contact::RESPOND_CONTACTS,
 ];

@@ -2,7 +2,8 @@
 //! the spheres gathered into the tree's order, and contact detection over them.
 
 use super::contact::{
-    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, contact_spec, detect_brute_force_cpu, detect_cpu,
+    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, DETECT_CANDIDATES_BINDINGS, broad_phase_cpu, broad_phase_spec,
+    contact_spec, detect_brute_force_cpu, detect_candidates_cpu, detect_cpu,
 };
 use super::lbvh::{THREADS, gather_cpu};
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
@@ -37,6 +38,12 @@ pub static GATHER_SPHERES: Kernel = Kernel {
 
 pub static DETECT_SPHERES: Kernel =
     Kernel { spec: contact_spec("spheres::detect", DETECT_BINDINGS, CONTACT_THREADS), cpu: detect_cpu::<Spheres> };
+pub static BROAD_PHASE_SPHERES: Kernel =
+    Kernel { spec: broad_phase_spec("spheres::broad_phase"), cpu: broad_phase_cpu::<Spheres> };
+pub static DETECT_SPHERES_CANDIDATES: Kernel = Kernel {
+    spec: contact_spec("spheres::detect_candidates", DETECT_CANDIDATES_BINDINGS, CONTACT_THREADS),
+    cpu: detect_candidates_cpu::<Spheres>,
+};
 pub static DETECT_SPHERES_BRUTE_FORCE: Kernel = Kernel {
     spec: contact_spec("spheres::detect_brute_force", DETECT_BRUTE_FORCE_BINDINGS, CONTACT_THREADS),
     cpu: detect_brute_force_cpu::<Spheres>,

@@ -2,7 +2,8 @@
 //! the triangles' corners gathered into the tree's order, and contact detection over them.
 
 use super::contact::{
-    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, contact_spec, detect_brute_force_cpu, detect_cpu,
+    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, DETECT_CANDIDATES_BINDINGS, broad_phase_cpu, broad_phase_spec,
+    contact_spec, detect_brute_force_cpu, detect_candidates_cpu, detect_cpu,
 };
 use super::lbvh::THREADS;
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
@@ -33,6 +34,12 @@ pub static GATHER_TRIANGLES: Kernel = Kernel {
 };
 pub static DETECT_TRIANGLES: Kernel =
     Kernel { spec: contact_spec("triangles::detect", DETECT_BINDINGS, CONTACT_THREADS), cpu: detect_cpu::<Triangles> };
+pub static BROAD_PHASE_TRIANGLES: Kernel =
+    Kernel { spec: broad_phase_spec("triangles::broad_phase"), cpu: broad_phase_cpu::<Triangles> };
+pub static DETECT_TRIANGLES_CANDIDATES: Kernel = Kernel {
+    spec: contact_spec("triangles::detect_candidates", DETECT_CANDIDATES_BINDINGS, CONTACT_THREADS),
+    cpu: detect_candidates_cpu::<Triangles>,
+};
 pub static DETECT_TRIANGLES_BRUTE_FORCE: Kernel = Kernel {
     spec: contact_spec("triangles::detect_brute_force", DETECT_BRUTE_FORCE_BINDINGS, CONTACT_THREADS),
     cpu: detect_brute_force_cpu::<Triangles>,

@@ -95,8 +95,9 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
     let a = (cloth.xa, cloth.va);
     let b = (cloth.xb, cloth.vb);
     let mut steps = vec![Step::fill(cloth.health, 0)];
-    for (_, contact) in colliders {
+    for (collider, contact) in colliders {
         steps.push(Step::fill(contact.status, 0));
+        contact.frame_start_steps(cloth, collider, plan.substeps, &mut steps);
     }
     for substep in 0..plan.substeps {
         if plan.integrator == integrator::SEMI_IMPLICIT_EULER {

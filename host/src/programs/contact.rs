@@ -9,7 +9,9 @@ use super::spheres::SphereBvh;
 use super::triangles::TriangleBvh;
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
 use crate::kernels::contact::{CULL_CONTACT, RESPOND_CONTACTS};
-use drape_types::{ColliderPose, CollisionStatus, Contact, ContactPush, DispatchArgs};
+use drape_types::{
+    BroadPhasePush, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery, DispatchArgs, MAX_CANDIDATES,
+};
 
 /// Label of the skipped contact passes of a cloth without colliders.
 pub const CONTACT_LABEL: &str = "contact";
@@ -25,11 +27,20 @@ pub const RESPOND_LABEL: &str = "contact: respond";
 /// How a frame collides a cloth with a collider.
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum ContactMode {
-    /// Cull against the root box, then traverse the LBVH (indirect dispatch).
+    /// A broad phase once per frame gives each particle a short candidate list from one LBVH
+    /// walk; every substep culls against the root box, then tests the lists (a particle that
+    /// leaves its query box walks the LBVH instead).
+    Lists,
+    /// Cull against the root box, then traverse the LBVH every substep (indirect dispatch).
     Bvh,
     /// Test every leaf for every particle (baseline for benchmarks and tests).
     BruteForce,
 }
+
+/// Label of the broad phase.
+pub const BROAD_PHASE_LABEL: &str = "contact: broad phase";
+/// Label of the narrow-phase detect pass over candidate lists.
+pub const DETECT_CANDIDATES_LABEL: &str = "contact: detect (lists)";
 
 /// A collider's leaves as contact sees them: the LBVH over them, the leaves in its order, and
 /// the detect kernels of their kind. Each leaf kind implements it in its own file.
@@ -41,6 +52,10 @@ pub trait ContactLeaves {
     fn detect_kernel(&self) -> &'static Kernel;
     /// Detect by testing every leaf (`kernels::contact::DETECT_BRUTE_FORCE_BINDINGS`).
     fn detect_brute_force_kernel(&self) -> &'static Kernel;
+    /// The broad phase over the LBVH (`kernels::contact::BROAD_PHASE_BINDINGS`).
+    fn broad_phase_kernel(&self) -> &'static Kernel;
+    /// Detect over candidate lists (`kernels::contact::DETECT_CANDIDATES_BINDINGS`).
+    fn detect_candidates_kernel(&self) -> &'static Kernel;
     /// Builds the tree from the leaves' input.
     fn build_steps(&self) -> Vec<Step>;
     /// Refits the tree after the input moved (same leaves).
@@ -88,6 +103,13 @@ impl ColliderBuffers {
     }
 }
 
+/// The broad phase's output: each particle's query box and candidate list.
+pub struct CandidateLists {
+    pub queries: Handle<ContactQuery>,
+    /// `MAX_CANDIDATES` leaf indices per particle.
+    pub candidates: Handle<u32>,
+}
+
 /// The contact's own buffers (one cloth against one collider).
 pub struct ContactBuffers {
     pub mode: ContactMode,
@@ -96,16 +118,49 @@ pub struct ContactBuffers {
     pub contacts: Handle<Contact>,
     /// Counters the host reads after every frame.
     pub status: Handle<CollisionStatus>,
+    /// The candidate lists (`ContactMode::Lists` only).
+    pub lists: Option<CandidateLists>,
 }
 
 impl ContactBuffers {
     pub fn declare(resources: &mut Resources, name: &str, particles: u32, mode: ContactMode) -> Self {
+        let lists = (mode == ContactMode::Lists).then(|| CandidateLists {
+            queries: resources.device(format!("{name}: query boxes"), particles),
+            candidates: resources.device(format!("{name}: candidate lists"), particles * MAX_CANDIDATES),
+        });
         ContactBuffers {
             mode,
             args: resources.device(format!("{name}: dispatch args"), 1),
             contacts: resources.device(format!("{name}: contacts"), particles),
             status: resources.readback(format!("{name}: status")),
+            lists,
         }
+    }
+
+    /// What runs once at the start of a frame of `substeps` substeps of `cloth` against
+    /// `collider`, before its substeps: the broad phase in `ContactMode::Lists`.
+    pub fn frame_start_steps(&self, cloth: &ClothBuffers, collider: &ColliderBuffers, substeps: u32, out: &mut Vec<Step>) {
+        let Some(lists) = &self.lists else { return };
+        let (leaves, tree) = (collider.leaves.kind(), collider.tree());
+        let push: [u32; 4] = bytemuck::cast(BroadPhasePush { substeps, _pad: [0; 3] });
+        out.push(Step::run_with(
+            BROAD_PHASE_LABEL,
+            leaves.broad_phase_kernel(),
+            vec![
+                cloth.params.id(),
+                tree.collider.id(),
+                collider.pose.id(),
+                tree.nodes.id(),
+                tree.aabbs.id(),
+                tree.sorted_bounds.id(),
+                cloth.x.id(),
+                cloth.v.id(),
+                lists.queries.id(),
+                lists.candidates.id(),
+            ],
+            push,
+            Dispatch::Threads(cloth.particles),
+        ));
     }
 
     /// The contact passes of substep `substep` of `substeps` of `cloth` against `collider`.
@@ -125,25 +180,33 @@ impl ContactBuffers {
         };
         let push: [u32; 4] = bytemuck::cast(span);
         let (params, collider) = (cloth.params.id(), tree.collider.id());
-        let dispatch = match self.mode {
-            ContactMode::Bvh => {
+        let dispatch = match (self.mode, &self.lists) {
+            (ContactMode::Lists, Some(lists)) => {
+                out.push(self.cull_step(cloth, tree, pose, push));
                 out.push(Step::run_with(
-                    CULL_LABEL,
-                    &CULL_CONTACT,
+                    DETECT_CANDIDATES_LABEL,
+                    leaves.detect_candidates_kernel(),
                     vec![
                         params,
                         collider,
                         pose.id(),
+                        tree.nodes.id(),
                         tree.aabbs.id(),
-                        tree.sorted_bounds.id(),
+                        leaves.sorted_leaves(),
+                        lists.queries.id(),
+                        lists.candidates.id(),
                         cloth.x.id(),
                         cloth.x_prev.id(),
-                        self.args.id(),
+                        self.contacts.id(),
                         self.status.id(),
                     ],
                     push,
-                    Dispatch::Workgroups(1),
+                    Dispatch::Indirect(self.args),
                 ));
+                Dispatch::Indirect(self.args)
+            }
+            (ContactMode::Bvh, _) | (ContactMode::Lists, None) => {
+                out.push(self.cull_step(cloth, tree, pose, push));
                 out.push(Step::run_with(
                     DETECT_LABEL,
                     leaves.detect_kernel(),
@@ -164,7 +227,7 @@ impl ContactBuffers {
                 ));
                 Dispatch::Indirect(self.args)
             }
-            ContactMode::BruteForce => {
+            (ContactMode::BruteForce, _) => {
                 out.push(Step::run_with(
                     DETECT_BRUTE_FORCE_LABEL,
                     leaves.detect_brute_force_kernel(),
@@ -190,5 +253,26 @@ impl ContactBuffers {
             push,
             dispatch,
         ));
+    }
+    /// The culling pass: the cloth's swept bounds against the collider's root box write the
+    /// detect and respond passes' indirect dispatch.
+    fn cull_step(&self, cloth: &ClothBuffers, tree: &LbvhBuffers, pose: Handle<ColliderPose>, push: [u32; 4]) -> Step {
+        Step::run_with(
+            CULL_LABEL,
+            &CULL_CONTACT,
+            vec![
+                cloth.params.id(),
+                tree.collider.id(),
+                pose.id(),
+                tree.aabbs.id(),
+                tree.sorted_bounds.id(),
+                cloth.x.id(),
+                cloth.x_prev.id(),
+                self.args.id(),
+                self.status.id(),
+            ],
+            push,
+            Dispatch::Workgroups(1),
+        )
     }
 }

@@ -5,7 +5,7 @@
 use super::contact::ContactLeaves;
 use super::lbvh::LbvhBuffers;
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
-use crate::kernels::spheres::{DETECT_SPHERES, DETECT_SPHERES_BRUTE_FORCE, GATHER_SPHERES, SPHERE_BOUNDS};
+use crate::kernels::spheres::{BROAD_PHASE_SPHERES, DETECT_SPHERES_CANDIDATES, DETECT_SPHERES, DETECT_SPHERES_BRUTE_FORCE, GATHER_SPHERES, SPHERE_BOUNDS};
 use glam::Vec4;
 
 /// A sphere collider's buffers: its spheres (input and tree order) and its LBVH.
@@ -72,5 +72,11 @@ impl ContactLeaves for SphereBvh {
     }
     fn detect_brute_force_kernel(&self) -> &'static Kernel {
         &DETECT_SPHERES_BRUTE_FORCE
+    }
+    fn broad_phase_kernel(&self) -> &'static Kernel {
+        &BROAD_PHASE_SPHERES
+    }
+    fn detect_candidates_kernel(&self) -> &'static Kernel {
+        &DETECT_SPHERES_CANDIDATES
     }
 }

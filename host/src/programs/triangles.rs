@@ -6,7 +6,7 @@
 use super::contact::ContactLeaves;
 use super::lbvh::LbvhBuffers;
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
-use crate::kernels::triangles::{DETECT_TRIANGLES, DETECT_TRIANGLES_BRUTE_FORCE, GATHER_TRIANGLES, TRIANGLE_BOUNDS};
+use crate::kernels::triangles::{BROAD_PHASE_TRIANGLES, DETECT_TRIANGLES_CANDIDATES, DETECT_TRIANGLES, DETECT_TRIANGLES_BRUTE_FORCE, GATHER_TRIANGLES, TRIANGLE_BOUNDS};
 use drape_types::Triangle;
 use glam::Vec4;
 
@@ -74,5 +74,11 @@ impl ContactLeaves for TriangleBvh {
     }
     fn detect_brute_force_kernel(&self) -> &'static Kernel {
         &DETECT_TRIANGLES_BRUTE_FORCE
+    }
+    fn broad_phase_kernel(&self) -> &'static Kernel {
+        &BROAD_PHASE_TRIANGLES
+    }
+    fn detect_candidates_kernel(&self) -> &'static Kernel {
+        &DETECT_TRIANGLES_CANDIDATES
     }
 }

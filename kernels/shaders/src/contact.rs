@@ -58,6 +58,11 @@ pub trait LeafKind {
     fn clearance(_leaf: Self::Leaf, _p: Vec3) -> f32 {
         0.0
     }
+    /// Whether the subtree under box `b` can hold a contact of some motion that stays inside
+    /// the box `region` (the broad phase's test): true whenever `may_touch(b, p0, p1, ..)` is
+    /// for some `p0`, `p1` in `region`, so a candidate list misses no leaf a motion inside its
+    /// query box can touch.
+    fn may_touch_region(b: &Aabb, region: &Aabb, thickness: f32) -> bool;
 }
 
 /// The best leaf found so far: hit parameter, tie-break key, leaf index (tree order).
@@ -270,20 +275,54 @@ pub fn detect_at<K: LeafKind>(
     }
     let (p0, p1) = local_motion(index, motion, x, x_prev);
     let (best, overflow, clearance) = traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1);
-    if best.t > 1.0 {
-        contacts[i] = Contact::NONE;
-        return overflow;
+    let target = target_of::<K>(best, clearance, leaves, (p0, p1), collider.thickness);
+    let blocked = target.check && path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position);
+    contacts[i] = target.contact(blocked);
+    overflow
+}
+
+/// Where the earliest hit sends a particle, before its path there is checked.
+#[derive(Copy, Clone)]
+pub struct Target {
+    pub best: Candidate,
+    /// Where it goes, and the outward normal there.
+    pub position: Vec3,
+    pub normal: Vec3,
+    /// Its first contact: where it stops when the path to `position` is blocked.
+    pub first: Vec3,
+    /// Whether the path `p0 -> position` must be checked.
+    pub check: bool,
+}
+
+impl Target {
+    /// The contact record, `blocked` saying whether the path to `position` crosses a leaf.
+    #[inline]
+    pub fn contact(&self, blocked: bool) -> Contact {
+        contact_at(self.best, if blocked { self.first } else { self.position }, self.normal)
     }
-    let (mut position, normal, first) = surface_of::<K>(best, leaves, p0, p1, collider.thickness);
+}
+
+/// The target of the earliest hit `best` of the motion `p0 -> p1`, given `clearance` (a lower
+/// bound on the distance from `p0` to every leaf, see `traverse_with_clearance`): its path
+/// needs checking unless the kind never checks paths, or the path is too short to reach any
+/// surface.
+#[inline]
+pub fn target_of<K: LeafKind>(
+    best: Candidate,
+    clearance: f32,
+    leaves: &[K::Leaf],
+    (p0, p1): (Vec3, Vec3),
+    thickness: f32,
+) -> Target {
+    if best.t > 1.0 {
+        return Target { best, position: p1, normal: Vec3::ZERO, first: p1, check: false };
+    }
+    let (position, normal, first) = surface_of::<K>(best, leaves, p0, p1, thickness);
     // A path shorter than half the clearance cannot reach any surface (the half covers the
     // crossing test's own margin and rounding): the answer is known without the walk, the
     // same one the walk (or the brute-force loop) would give.
     let short = (position - p0).length() < 0.5 * clearance;
-    if K::checks_path() && !short && path_blocked::<K>(collider, nodes, aabbs, leaves, p0, position) {
-        position = first;
-    }
-    contacts[i] = contact_at(best, position, normal);
-    overflow
+    Target { best, position, normal, first, check: K::checks_path() && !short }
 }
 
 /// The body of every leaf kind's LBVH detect entry point: particle `index` (threads past the
@@ -348,15 +387,10 @@ pub fn detect_brute_force_at<K: LeafKind>(
     }
     let (p0, p1) = local_motion(index, motion, x, x_prev);
     let best = brute_force::<K>(collider, leaves, p0, p1);
-    if best.t > 1.0 {
-        contacts[i] = Contact::NONE;
-        return;
-    }
-    let (mut position, normal, first) = surface_of::<K>(best, leaves, p0, p1, collider.thickness);
-    if K::checks_path() && path_blocked_brute_force::<K>(collider, leaves, p0, position) {
-        position = first;
-    }
-    contacts[i] = contact_at(best, position, normal);
+    // No clearance bound: every path is checked.
+    let target = target_of::<K>(best, 0.0, leaves, (p0, p1), collider.thickness);
+    let blocked = target.check && path_blocked_brute_force::<K>(collider, leaves, p0, target.position);
+    contacts[i] = target.contact(blocked);
 }
 
 /// Contact response in the collider's frame: the particle moves to `position` and the normal

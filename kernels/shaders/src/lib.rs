@@ -9,6 +9,7 @@
 #![cfg_attr(target_arch = "spirv", no_std)]
 
 pub mod atomics;
+pub mod candidates;
 pub mod cloth;
 pub mod contact;
 pub mod health;

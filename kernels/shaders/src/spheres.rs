@@ -2,10 +2,14 @@
 //! the LBVH build, the spheres gathered into the tree's leaf order, and the contact detect pass
 //! over them (the generic traversal of `contact` with the sphere's hit test).
 
+use crate::candidates::{broad_phase_particle, detect_candidates_particle};
 use crate::contact::{LeafKind, detect_brute_force_particle, detect_particle, point_in_aabb};
 use crate::lbvh::gather_at;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, SimParams};
+use drape_types::{
+    Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery,
+    SimParams,
+};
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
 use spirv_std::spirv;
@@ -53,6 +57,14 @@ impl LeafKind for Spheres {
     #[inline]
     fn may_touch(b: &Aabb, _p0: Vec3, p1: Vec3, thickness: f32) -> bool {
         point_in_aabb(p1, b, thickness)
+    }
+
+    /// The motion's end is in the region, so it can be in `b` grown by the thickness only if
+    /// the region meets that box (the same sums as `point_in_aabb`, on the region's far sides).
+    #[inline]
+    fn may_touch_region(b: &Aabb, region: &Aabb, thickness: f32) -> bool {
+        let m = Vec3::splat(thickness);
+        region.max.xyz().cmpge(b.min.xyz() - m).all() && region.min.xyz().cmple(b.max.xyz() + m).all()
     }
 
     /// Key: how deep the motion ends inside. Among equal hits (typically p0 already inside
@@ -159,4 +171,67 @@ pub fn detect_brute_force(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] contacts: &mut [Contact],
 ) {
     detect_brute_force_particle::<Spheres>(id.x, push, params, collider, pose, leaves, (x, x_prev), contacts);
+}
+
+/// Broad phase over the LBVH (once per frame): each particle's query box and candidate list.
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn broad_phase(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &BroadPhasePush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] queries: &mut [ContactQuery],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] candidates: &mut [u32],
+) {
+    broad_phase_particle::<Spheres>(
+        id.x,
+        push,
+        params,
+        collider,
+        pose,
+        (nodes, aabbs, leaf_bounds),
+        (x, v),
+        queries,
+        candidates,
+    );
+}
+
+/// Narrow phase (every substep): detect over each particle's candidate list.
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn detect_candidates(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &ContactPush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] queries: &[ContactQuery],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] candidates: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] contacts: &mut [Contact],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] status: &mut CollisionStatus,
+) {
+    detect_candidates_particle::<Spheres>(
+        id.x,
+        push,
+        params,
+        collider,
+        pose,
+        (nodes, aabbs, leaves),
+        (queries, candidates),
+        (x, x_prev),
+        contacts,
+        status,
+    );
 }

@@ -5,10 +5,12 @@
 //! Contact is continuous: the particle's substep motion against each triangle grown by the
 //! thickness on both sides (see `Triangles`).
 
+use crate::candidates::{broad_phase_particle, detect_candidates_particle};
 use crate::contact::{LeafKind, detect_brute_force_particle, detect_particle};
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
-    Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, SimParams, Triangle,
+    Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery,
+    SimParams, Triangle,
 };
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
@@ -17,15 +19,26 @@ use spirv_std::spirv;
 /// Bounds of a triangle.
 #[inline]
 pub fn triangle_aabb(t: &Triangle) -> Aabb {
-    Aabb { min: t.a.min(t.b).min(t.c), max: t.a.max(t.b).max(t.c) }
+    let (a, b, c) = (t.a.xyz(), t.b.xyz(), t.c.xyz());
+    Aabb { min: a.min(b).min(c).extend(0.0), max: a.max(b).max(c).extend(0.0) }
+}
+
+/// A triangle leaf with corners `a`, `b`, `c`: its unit normal (zero for a degenerate
+/// triangle) goes in the corners' w, computed once here instead of in every contact test.
+#[inline]
+pub fn triangle_leaf(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
+    let n = (b - a).cross(c - a);
+    let len = n.length();
+    let n = if len > 1e-30 { n * (1.0 / len) } else { Vec3::ZERO };
+    Triangle { a: a.extend(n.x), b: b.extend(n.y), c: c.extend(n.z) }
 }
 
 /// Triangle `i` of a mesh from its vertices (xyz) and flat index list (3 per triangle).
 #[inline]
 pub fn triangle_at(i: u32, vertices: &[Vec4], indices: &[u32]) -> Triangle {
     let base = 3 * i as usize;
-    let corner = |k: usize| vertices[indices[base + k] as usize].xyz().extend(0.0);
-    Triangle { a: corner(0), b: corner(1), c: corner(2) }
+    let corner = |k: usize| vertices[indices[base + k] as usize].xyz();
+    triangle_leaf(corner(0), corner(1), corner(2))
 }
 
 /// The point of segment `a`..`b` closest to `p`.
@@ -115,12 +128,10 @@ fn closest_in_plane(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
     a + ab * (vb * denom) + ac * (vc * denom)
 }
 
-/// Unit normal of `t` (`Vec3::ZERO` for a degenerate triangle).
+/// Unit normal of `t` (`Vec3::ZERO` for a degenerate triangle), as `triangle_leaf` stored it.
 #[inline]
 pub fn face_normal(t: &Triangle) -> Vec3 {
-    let n = (t.b.xyz() - t.a.xyz()).cross(t.c.xyz() - t.a.xyz());
-    let len = n.length();
-    if len > 1e-30 { n * (1.0 / len) } else { Vec3::ZERO }
+    Vec3::new(t.a.w, t.b.w, t.c.w)
 }
 
 /// Relative growth of the thickness in the continuous test: rounding never turns a motion that
@@ -292,6 +303,14 @@ impl LeafKind for Triangles {
             if d0 <= radius {
                 return (0.0, d0);
             }
+            // Every point of the motion is within its length of p0, so a motion shorter than
+            // p0's distance beyond the radius cannot come within it (most leaves near a slowly
+            // moving particle end here, before the costly entry test; the extra share of the
+            // radius absorbs rounding) nor cross the triangle.
+            let length = (p1 - p0).length();
+            if d0 > radius * (1.0 + CCD_SLACK) + length {
+                return (2.0, 0.0);
+            }
         }
         let entry = grown_triangle_entry(&t, n, p0, p1, radius);
         if entry <= 1.0 {
@@ -330,6 +349,13 @@ impl LeafKind for Triangles {
         };
         let lift = (thickness - (p1 - q).dot(normal)).max(0.0);
         (p1 + normal * lift, normal)
+    }
+
+    /// The motion's box is inside the region, so its grown box meets `b` only if the region's
+    /// does (the same sums, on bounds at least as far out).
+    #[inline]
+    fn may_touch_region(b: &Aabb, region: &Aabb, thickness: f32) -> bool {
+        Self::may_touch(b, region.min.xyz(), region.max.xyz(), thickness)
     }
 
     #[inline]
@@ -433,4 +459,67 @@ pub fn detect_brute_force(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] contacts: &mut [Contact],
 ) {
     detect_brute_force_particle::<Triangles>(id.x, push, params, collider, pose, leaves, (x, x_prev), contacts);
+}
+
+/// Broad phase over the LBVH (once per frame): each particle's query box and candidate list.
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn broad_phase(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &BroadPhasePush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] queries: &mut [ContactQuery],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] candidates: &mut [u32],
+) {
+    broad_phase_particle::<Triangles>(
+        id.x,
+        push,
+        params,
+        collider,
+        pose,
+        (nodes, aabbs, leaf_bounds),
+        (x, v),
+        queries,
+        candidates,
+    );
+}
+
+/// Narrow phase (every substep): detect over each particle's candidate list.
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn detect_candidates(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &ContactPush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] queries: &[ContactQuery],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] candidates: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] contacts: &mut [Contact],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] status: &mut CollisionStatus,
+) {
+    detect_candidates_particle::<Triangles>(
+        id.x,
+        push,
+        params,
+        collider,
+        pose,
+        (nodes, aabbs, leaves),
+        (queries, candidates),
+        (x, x_prev),
+        contacts,
+        status,
+    );
 }

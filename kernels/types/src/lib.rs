@@ -166,6 +166,36 @@ pub struct ContactPush {
     pub _pad: [u32; 2],
 }
 
+/// Push constants of the broad phase (once per frame, before the substeps).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct BroadPhasePush {
+    /// Substeps in the frame (the frame lasts `substeps` x `SimParams::substep`).
+    pub substeps: u32,
+    pub _pad: [u32; 3],
+}
+
+/// Leaves a particle's candidate list holds at most (the broad phase's output per particle).
+pub const MAX_CANDIDATES: u32 = 64;
+/// `ContactQuery::count` of a list that would have held more than `MAX_CANDIDATES`.
+pub const CANDIDATES_OVERFLOWED: u32 = u32::MAX;
+
+/// A particle's broad-phase query, in the collider's frame: the box its motion is expected to
+/// stay in over the frame, and how many leaves near it its candidate list holds. Every leaf
+/// the particle can touch while its substep motion stays inside the box is in the list.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct ContactQuery {
+    /// The query box (xyz; w unused).
+    pub low: Vec4,
+    pub high: Vec4,
+    /// Leaves in the list, or `CANDIDATES_OVERFLOWED`.
+    pub count: u32,
+    pub _pad: [u32; 3],
+}
+
 /// Push constants of the surface shaders (`render::surface_vertex` / `surface_fragment`): how a
 /// renderer draws a cloth or a collider straight from its vertex buffers. 128 bytes, the
 /// minimum push-constant size every Vulkan device supports.
@@ -208,10 +238,13 @@ pub struct CollisionStatus {
     pub skipped: u32,
     /// Substeps whose traversal ran.
     pub ran: u32,
-    pub _pad: u32,
+    /// Particle-substeps the narrow phase answered by a full traversal instead of the
+    /// particle's candidate list (it left its query box, or its list had overflowed).
+    pub fallbacks: u32,
 }
 
-/// A collider triangle's corners (xyz; w unused), in the collider's own frame: a leaf of the
+/// A collider triangle's corners (xyz) and unit normal (the corners' w: `a.w`, `b.w`, `c.w`
+/// = x, y, z; zero for a degenerate triangle), in the collider's own frame: a leaf of the
 /// triangle leaf kind, gathered into the tree's order.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
@@ -273,6 +306,8 @@ const _: () = assert!(core::mem::size_of::<SortPush>() == 16);
 const _: () = assert!(core::mem::size_of::<RigidPose>() == 32);
 const _: () = assert!(core::mem::size_of::<ColliderPose>() == 64);
 const _: () = assert!(core::mem::size_of::<ContactPush>() == 16);
+const _: () = assert!(core::mem::size_of::<BroadPhasePush>() == 16);
+const _: () = assert!(core::mem::size_of::<ContactQuery>() == 48);
 const _: () = assert!(core::mem::size_of::<SurfacePush>() == 128);
 const _: () = assert!(core::mem::size_of::<CollisionStatus>() == 16);
 const _: () = assert!(core::mem::size_of::<DispatchArgs>() == 16);

@@ -1,0 +1,245 @@
+//! Contact in two phases, for any leaf kind (`contact::LeafKind`):
+//! - **broad phase, once per frame**: each particle gets a query box in the collider's frame,
+//!   where its motion is expected to stay over the frame (its start, its start moved by its
+//!   velocity, both taken into the collider's frame at the frame's start and end pose, grown by
+//!   a slop), and the list of the leaves a motion inside that box can touch (at most
+//!   `MAX_CANDIDATES`), from one LBVH walk.
+//! - **narrow phase, every substep**: a particle whose substep motion stays inside its box tests
+//!   only its list (hits, clearance and the path check); one that left its box, or whose list
+//!   overflowed, walks the whole LBVH as `contact::detect_at` does (a counted fallback).
+//!
+//! The answer is the full traversal's: every leaf a motion inside the box can touch is in the
+//! list (`LeafKind::may_touch_region`), and `contact::consider` is a total order, so the list
+//! gives the same earliest contact as the tree or the brute-force loop.
+
+use crate::contact::{
+    Candidate, LeafKind, NO_CANDIDATE, STACK_SIZE, consider, detect_at, local_motion, path_blocked, point_in_aabb,
+    substep_motion, target_of,
+};
+use crate::pose::{SubstepMotion, to_local};
+use drape_types::glam::{Vec3, Vec4, Vec4Swizzles};
+use drape_types::{
+    Aabb, BroadPhasePush, BvhNode, CANDIDATES_OVERFLOWED, ColliderParams, ColliderPose, CollisionStatus, Contact,
+    ContactPush, ContactQuery, LEAF_BIT, MAX_CANDIDATES, SimParams,
+};
+
+/// The box particle (`x`, `v`) is expected to stay in over a frame of `frame_time` seconds,
+/// in the collider's frame (`motion` spans the whole frame): its start and its start moved by
+/// its velocity, each in the collider's frame at that time, grown by the thickness, a quarter of
+/// the predicted motion and the distance gravity adds over the frame. A particle that still
+/// leaves it only costs a full traversal for that substep.
+#[inline]
+pub fn query_box(motion: &SubstepMotion, x: Vec3, v: Vec3, gravity: Vec3, frame_time: f32, thickness: f32) -> Aabb {
+    let start = to_local(&motion.start, x);
+    let end = to_local(&motion.end, x + v * frame_time);
+    let slop = 0.25 * thickness + 0.25 * (end - start).length() + 0.5 * gravity.length() * frame_time * frame_time;
+    let s = Vec3::splat(slop);
+    Aabb { min: (start.min(end) - s).extend(0.0), max: (start.max(end) + s).extend(0.0) }
+}
+
+/// Writes into `list` (up to `MAX_CANDIDATES` entries) the leaves, in tree order, that a motion
+/// inside `region` can touch; returns how many, or `CANDIDATES_OVERFLOWED` when they do not fit
+/// (or the walk's stack overflowed).
+pub fn gather_candidates<K: LeafKind>(
+    collider: &ColliderParams,
+    nodes: &[BvhNode],
+    aabbs: &[Aabb],
+    leaf_bounds: &[Aabb],
+    region: &Aabb,
+    list: &mut [u32],
+    base: usize,
+) -> u32 {
+    let thickness = collider.thickness;
+    if collider.leaf_count == 1 {
+        if K::may_touch_region(&leaf_bounds[0], region, thickness) {
+            list[base] = 0;
+            return 1;
+        }
+        return 0;
+    }
+    let mut count = 0u32;
+    let mut stack = [0u32; STACK_SIZE];
+    let mut top = 1; // stack[0] = root
+    while top > 0 {
+        top -= 1;
+        let node = nodes[stack[top] as usize];
+        let mut side = 0;
+        while side < 2 {
+            let child = if side == 0 { node.left } else { node.right };
+            if child & LEAF_BIT != 0 {
+                let leaf = child & !LEAF_BIT;
+                if K::may_touch_region(&leaf_bounds[leaf as usize], region, thickness) {
+                    if count == MAX_CANDIDATES {
+                        return CANDIDATES_OVERFLOWED;
+                    }
+                    list[base + count as usize] = leaf;
+                    count += 1;
+                }
+            } else if K::may_touch_region(&aabbs[child as usize], region, thickness) {
+                if top == STACK_SIZE {
+                    return CANDIDATES_OVERFLOWED;
+                }
+                stack[top] = child;
+                top += 1;
+            }
+            side += 1;
+        }
+    }
+    count
+}
+
+/// Broad phase for particle `index`: its query box and candidate list (`candidates[index *
+/// MAX_CANDIDATES..]`). Pinned particles get an empty list (detect skips them anyway).
+#[allow(clippy::too_many_arguments)]
+pub fn broad_phase_at<K: LeafKind>(
+    index: u32,
+    params: &SimParams,
+    collider: &ColliderParams,
+    motion: &SubstepMotion,
+    frame_time: f32,
+    (nodes, aabbs, leaf_bounds): (&[BvhNode], &[Aabb], &[Aabb]),
+    (x, v): (&[Vec4], &[Vec4]),
+    queries: &mut [ContactQuery],
+    candidates: &mut [u32],
+) {
+    let i = index as usize;
+    let region = query_box(motion, x[i].xyz(), v[i].xyz(), params.gravity.xyz(), frame_time, collider.thickness);
+    let count = if x[i].w == 0.0 {
+        0
+    } else {
+        let base = i * MAX_CANDIDATES as usize;
+        gather_candidates::<K>(collider, nodes, aabbs, leaf_bounds, &region, candidates, base)
+    };
+    queries[i] = ContactQuery { low: region.min, high: region.max, count, _pad: [0; 3] };
+}
+
+/// The body of every leaf kind's broad-phase entry point (threads past the cloth do nothing).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn broad_phase_particle<K: LeafKind>(
+    index: u32,
+    push: &BroadPhasePush,
+    params: &SimParams,
+    collider: &ColliderParams,
+    pose: &ColliderPose,
+    tree: (&[BvhNode], &[Aabb], &[Aabb]),
+    state: (&[Vec4], &[Vec4]),
+    queries: &mut [ContactQuery],
+    candidates: &mut [u32],
+) {
+    if index >= params.particle_count {
+        return;
+    }
+    let frame_time = params.substep * push.substeps as f32;
+    let frame = SubstepMotion::of(pose, 0.0, 1.0, frame_time);
+    broad_phase_at::<K>(index, params, collider, &frame, frame_time, tree, state, queries, candidates);
+}
+
+/// Whether the path `a -> b` crosses any leaf of a candidate list.
+#[inline]
+fn list_blocks<K: LeafKind>(
+    leaves: &[K::Leaf],
+    list: &[u32],
+    base: usize,
+    count: u32,
+    a: Vec3,
+    b: Vec3,
+    thickness: f32,
+) -> bool {
+    let mut j = 0;
+    while j < count {
+        if K::blocks(leaves[list[base + j as usize] as usize], a, b, thickness) {
+            return true;
+        }
+        j += 1;
+    }
+    false
+}
+
+/// What a narrow-phase detect did for one particle beyond writing its contact.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub struct NarrowOutcome {
+    /// It walked the whole LBVH (left its query box, or its list had overflowed).
+    pub fell_back: bool,
+    /// That walk's stack overflowed.
+    pub overflowed: bool,
+}
+
+/// Narrow-phase detect for one particle: writes `contacts[index]`, from its candidate list when
+/// its substep motion stays inside its query box, else by a full traversal.
+#[allow(clippy::too_many_arguments)]
+pub fn detect_candidates_at<K: LeafKind>(
+    index: u32,
+    collider: &ColliderParams,
+    motion: &SubstepMotion,
+    (nodes, aabbs, leaves): (&[BvhNode], &[Aabb], &[K::Leaf]),
+    (queries, candidates): (&[ContactQuery], &[u32]),
+    x: &[Vec4],
+    x_prev: &[Vec4],
+    contacts: &mut [Contact],
+) -> NarrowOutcome {
+    let i = index as usize;
+    if x[i].w == 0.0 {
+        contacts[i] = Contact::NONE;
+        return NarrowOutcome::default();
+    }
+    let (p0, p1) = local_motion(index, motion, x, x_prev);
+    let query = queries[i];
+    let region = Aabb { min: query.low, max: query.high };
+    if query.count == CANDIDATES_OVERFLOWED || !point_in_aabb(p0, &region, 0.0) || !point_in_aabb(p1, &region, 0.0) {
+        let overflowed = detect_at::<K>(index, collider, motion, nodes, aabbs, leaves, x, x_prev, contacts);
+        return NarrowOutcome { fell_back: true, overflowed };
+    }
+    let thickness = collider.thickness;
+    let base = i * MAX_CANDIDATES as usize;
+    let mut best: Candidate = NO_CANDIDATE;
+    let mut j = 0;
+    while j < query.count {
+        let leaf = candidates[base + j as usize];
+        let (t, key) = K::hit(leaves[leaf as usize], p0, p1, thickness);
+        best = consider(best, t, key, leaf);
+        j += 1;
+    }
+    // No clearance bound (as the brute-force loop): checking the short list costs less than
+    // bounding the clearance over it would.
+    let target = target_of::<K>(best, 0.0, leaves, (p0, p1), thickness);
+    let blocked = target.check
+        && if point_in_aabb(target.position, &region, 0.0) {
+            list_blocks::<K>(leaves, candidates, base, query.count, p0, target.position, thickness)
+        } else {
+            // The path leaves the box, where the list is not complete (a stack overflow in
+            // this walk counts as blocked, the safe answer).
+            path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position)
+        };
+    contacts[i] = target.contact(blocked);
+    NarrowOutcome { fell_back: false, overflowed: false }
+}
+
+/// The body of every leaf kind's narrow-phase detect entry point: fallbacks and overflows
+/// counted in `status`.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn detect_candidates_particle<K: LeafKind>(
+    index: u32,
+    push: &ContactPush,
+    params: &SimParams,
+    collider: &ColliderParams,
+    pose: &ColliderPose,
+    tree: (&[BvhNode], &[Aabb], &[K::Leaf]),
+    lists: (&[ContactQuery], &[u32]),
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    contacts: &mut [Contact],
+    status: &mut CollisionStatus,
+) {
+    if index >= params.particle_count {
+        return;
+    }
+    let motion = substep_motion(params, pose, push);
+    let outcome = detect_candidates_at::<K>(index, collider, &motion, tree, lists, x, x_prev, contacts);
+    if outcome.fell_back {
+        crate::atomics::add(&mut status.fallbacks, 1);
+    }
+    if outcome.overflowed {
+        crate::atomics::add(&mut status.overflows, 1);
+    }
+}
