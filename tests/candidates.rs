@@ -47,7 +47,7 @@ fn check_particle<K: LeafKind>(
     let frame = SubstepMotion::of(&ColliderPose::default(), 0.0, 1.0, FRAME);
     let mut queries = [ContactQuery::default()];
     let mut candidates = vec![0u32; MAX_CANDIDATES as usize];
-    let tree_in = (tree.nodes.as_slice(), tree.aabbs.as_slice(), tree.leaf_bounds.as_slice());
+    let tree_in = (tree.nodes.as_slice(), tree.aabbs.as_slice(), tree.leaf_bounds.as_slice(), leaves);
     broad_phase_at::<K>(
         0,
         &sim,

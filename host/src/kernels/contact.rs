@@ -54,6 +54,7 @@ pub const BROAD_PHASE_BINDINGS: &[BindingSpec] = &[
     read("nodes"),
     read("aabbs"),
     read("leaf_bounds"),
+    read("leaves"),
     read("x"),
     read("v"),
     write("queries"),
@@ -141,15 +142,19 @@ where
 }
 
 /// CPU adapter of leaf kind `K`'s broad phase (`BROAD_PHASE_BINDINGS`).
-pub fn broad_phase_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String> {
+pub fn broad_phase_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String>
+where
+    K::Leaf: bytemuck::Pod,
+{
     let threads = d.invocations();
     let push: BroadPhasePush = d.push_as();
-    let [params, collider, pose, nodes, aabbs, leaf_bounds, x, v, queries, candidates] = d.bindings()?;
+    let [params, collider, pose, nodes, aabbs, leaf_bounds, leaves, x, v, queries, candidates] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = collider.first()?;
     let frame_time = p.substep * push.substeps as f32;
     let frame = SubstepMotion::of(&pose.first::<ColliderPose>()?, 0.0, 1.0, frame_time);
-    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>());
+    let tree =
+        (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), leaves.slice::<K::Leaf>());
     let (x, v) = (x.slice::<Vec4>(), v.slice::<Vec4>());
     let (queries, candidates) = (queries.slice_mut::<ContactQuery>(), candidates.slice_mut::<u32>());
     for i in 0..threads.min(p.particle_count) {

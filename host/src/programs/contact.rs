@@ -153,6 +153,7 @@ impl ContactBuffers {
                 tree.nodes.id(),
                 tree.aabbs.id(),
                 tree.sorted_bounds.id(),
+                leaves.sorted_leaves(),
                 cloth.x.id(),
                 cloth.v.id(),
                 lists.queries.id(),

@@ -23,6 +23,10 @@ use drape_types::{
     ContactPush, ContactQuery, LEAF_BIT, MAX_CANDIDATES, SimParams,
 };
 
+/// What the broad phase walks: the LBVH's nodes and boxes, the leaves' boxes and the leaves,
+/// all in tree order.
+pub type BroadPhaseTree<'a, L> = (&'a [BvhNode], &'a [Aabb], &'a [Aabb], &'a [L]);
+
 /// The box particle (`x`, `v`) is expected to stay in over a frame of `frame_time` seconds,
 /// in the collider's frame (`motion` spans the whole frame): its start and its start moved by
 /// its velocity, each in the collider's frame at that time, grown by the thickness, a quarter of
@@ -44,14 +48,16 @@ pub fn gather_candidates<K: LeafKind>(
     collider: &ColliderParams,
     nodes: &[BvhNode],
     aabbs: &[Aabb],
-    leaf_bounds: &[Aabb],
+    (leaf_bounds, leaves): (&[Aabb], &[K::Leaf]),
     region: &Aabb,
     list: &mut [u32],
     base: usize,
 ) -> u32 {
     let thickness = collider.thickness;
     if collider.leaf_count == 1 {
-        if K::may_touch_region(&leaf_bounds[0], region, thickness) {
+        if K::may_touch_region(&leaf_bounds[0], region, thickness)
+            && K::may_touch_leaf_region(leaves[0], region, thickness)
+        {
             list[base] = 0;
             return 1;
         }
@@ -68,7 +74,9 @@ pub fn gather_candidates<K: LeafKind>(
             let child = if side == 0 { node.left } else { node.right };
             if child & LEAF_BIT != 0 {
                 let leaf = child & !LEAF_BIT;
-                if K::may_touch_region(&leaf_bounds[leaf as usize], region, thickness) {
+                if K::may_touch_region(&leaf_bounds[leaf as usize], region, thickness)
+                    && K::may_touch_leaf_region(leaves[leaf as usize], region, thickness)
+                {
                     if count == MAX_CANDIDATES {
                         return CANDIDATES_OVERFLOWED;
                     }
@@ -97,7 +105,7 @@ pub fn broad_phase_at<K: LeafKind>(
     collider: &ColliderParams,
     motion: &SubstepMotion,
     frame_time: f32,
-    (nodes, aabbs, leaf_bounds): (&[BvhNode], &[Aabb], &[Aabb]),
+    (nodes, aabbs, leaf_bounds, leaves): BroadPhaseTree<'_, K::Leaf>,
     (x, v): (&[Vec4], &[Vec4]),
     queries: &mut [ContactQuery],
     candidates: &mut [u32],
@@ -108,7 +116,7 @@ pub fn broad_phase_at<K: LeafKind>(
         0
     } else {
         let base = i * MAX_CANDIDATES as usize;
-        gather_candidates::<K>(collider, nodes, aabbs, leaf_bounds, &region, candidates, base)
+        gather_candidates::<K>(collider, nodes, aabbs, (leaf_bounds, leaves), &region, candidates, base)
     };
     queries[i] = ContactQuery { low: region.min, high: region.max, count, _pad: [0; 3] };
 }
@@ -122,7 +130,7 @@ pub fn broad_phase_particle<K: LeafKind>(
     params: &SimParams,
     collider: &ColliderParams,
     pose: &ColliderPose,
-    tree: (&[BvhNode], &[Aabb], &[Aabb]),
+    tree: BroadPhaseTree<'_, K::Leaf>,
     state: (&[Vec4], &[Vec4]),
     queries: &mut [ContactQuery],
     candidates: &mut [u32],

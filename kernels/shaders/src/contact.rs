@@ -63,6 +63,11 @@ pub trait LeafKind {
     /// for some `p0`, `p1` in `region`, so a candidate list misses no leaf a motion inside its
     /// query box can touch.
     fn may_touch_region(b: &Aabb, region: &Aabb, thickness: f32) -> bool;
+    /// A finer test of one leaf whose box passed `may_touch_region` (the same guarantee: false
+    /// only when no motion inside `region` can hit `leaf`).
+    fn may_touch_leaf_region(_leaf: Self::Leaf, _region: &Aabb, _thickness: f32) -> bool {
+        true
+    }
 }
 
 /// The best leaf found so far: hit parameter, tie-break key, leaf index (tree order).

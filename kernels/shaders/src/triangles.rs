@@ -358,6 +358,20 @@ impl LeafKind for Triangles {
         Self::may_touch(b, region.min.xyz(), region.max.xyz(), thickness)
     }
 
+    /// Every point of the region is within its half diagonal of its centre, and a hit needs a
+    /// point of the motion within the grown radius of the triangle: a triangle farther from the
+    /// centre than both together (plus a margin for rounding, relative to the coordinates)
+    /// cannot be hit. Far tighter than the box test for a particle beside a dense surface.
+    #[inline]
+    fn may_touch_leaf_region(t: Triangle, region: &Aabb, thickness: f32) -> bool {
+        let (lo, hi) = (region.min.xyz(), region.max.xyz());
+        let centre = (lo + hi) * 0.5;
+        let half_diagonal = (hi - lo).length() * 0.5;
+        let reach = half_diagonal + Self::grown(thickness) * (1.0 + CCD_SLACK);
+        let margin = 1e-5 * (centre.abs().max_element() + half_diagonal);
+        (centre - closest_on_triangle(centre, &t)).length() <= reach + margin
+    }
+
     #[inline]
     fn checks_path() -> bool {
         true
@@ -473,10 +487,11 @@ pub fn broad_phase(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_bounds: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] v: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] queries: &mut [ContactQuery],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] candidates: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] leaves: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] queries: &mut [ContactQuery],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] candidates: &mut [u32],
 ) {
     broad_phase_particle::<Triangles>(
         id.x,
@@ -484,7 +499,7 @@ pub fn broad_phase(
         params,
         collider,
         pose,
-        (nodes, aabbs, leaf_bounds),
+        (nodes, aabbs, leaf_bounds, leaves),
         (x, v),
         queries,
         candidates,
