@@ -5,10 +5,10 @@
 mod common;
 
 use common::{Rng, assert_validation_clean, context};
-use drape::lbvh::{build_mesh_cpu, mesh_collider_params, triangle_boxes};
+use drape::lbvh::{build_mesh_cpu, build_swept_mesh_cpu, mesh_collider_params, triangle_boxes};
 use drape::{ClothBuilder, ClothId, Collider, ColliderId, CpuSolver, Mesh, Model, SimSettings, Solver};
 use drape_kernels::contact::{brute_force, traverse};
-use drape_kernels::triangles::{Triangles, closest_on_triangle};
+use drape_kernels::triangles::{Triangles, closest_on_triangle, swept_aabb, swept_triangle_leaf};
 use drape_types::Triangle;
 use glam::{DVec3, Mat4, Vec3, Vec4};
 
@@ -201,8 +201,22 @@ fn a_deforming_mesh_collider_is_refit_on_the_gpu() {
         let diff = common::max_distance(&gpu.positions(CLOTH).unwrap(), &cpu.positions(CLOTH).unwrap());
         assert!(diff <= 1e-5, "frame {frame}: GPU and CPU differ by {diff}");
     }
+    // The last frame deformed, so its leaves sweep from the previous frame's vertices.
     let tree = gpu.collider_bvh(BODY).unwrap();
-    let boxes = triangle_boxes(&vertices, &mesh.triangles);
+    let lift = 0.004 * 59.0;
+    let previous: Vec<Vec3> =
+        mesh.vertices.iter().map(|v| Vec3::new(v.x, v.y + lift * if v.x < 0.0 { 1.0 } else { 0.5 }, v.z)).collect();
+    let boxes: Vec<_> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| i as usize);
+            swept_aabb(&swept_triangle_leaf(
+                [previous[a], previous[b], previous[c]],
+                [vertices[a], vertices[b], vertices[c]],
+            ))
+        })
+        .collect();
     tree.validate_boxes(&boxes).unwrap();
     // The surface under each particle: the plane through the deformed square's triangles.
     let below =
@@ -436,4 +450,183 @@ fn triangle_detect_through_the_bvh_equals_brute_force() {
     }
     assert!(hits > 2_000, "only {hits} contacts");
     assert!(stopped > 0, "no path was blocked: the check must be exercised");
+}
+
+/// A deforming collider's surface moving through a particle within one frame (10 cm up, the
+/// thickness 1 cm) catches it in the substep it arrives and carries it: each substep the
+/// particle is tested against the triangle where it stands then, not where it stands at the
+/// frame's end. Without the sweep (only the end-of-frame triangle) the particle would be left
+/// 5 cm below the surface.
+#[test]
+fn a_deforming_surface_sweeping_through_a_particle_catches_it() {
+    use drape_kernels::contact::detect_brute_force_at;
+    use drape_kernels::pose::SubstepMotion;
+    use drape_types::{ColliderPose, Contact};
+    let (r, substeps) = (0.01, 10);
+    let end = [Vec3::new(-1.0, 0.0, -1.0), Vec3::new(0.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0)];
+    // One corner rises 1 cm less, so the sweep is not a pure translation.
+    let start = [end[0] - Vec3::Y * 0.1, end[1] - Vec3::Y * 0.09, end[2] - Vec3::Y * 0.1];
+    let leaf = swept_triangle_leaf(start, end);
+    assert!(leaf.sweep.w > 0.0, "the sweep must deform the triangle");
+    let params = drape_types::ColliderParams { leaf_count: 1, thickness: r, ..Default::default() };
+    let below = Vec3::new(0.0, -0.05, 0.0);
+    let mut p = below;
+    let mut caught = None;
+    for k in 0..substeps {
+        let motion = SubstepMotion::of(&ColliderPose::default(), k as f32 / 10.0, (k + 1) as f32 / 10.0, 1.0 / 600.0);
+        let mut contact = [Contact::NONE];
+        detect_brute_force_at::<Triangles>(
+            0,
+            &params,
+            &motion,
+            &[leaf],
+            &[p.extend(1.0)],
+            &[p.extend(1.0)],
+            &mut contact,
+        );
+        if contact[0].is_some() {
+            caught.get_or_insert(k);
+            p = contact[0].position.truncate();
+        }
+    }
+    // The surface under the particle rises from -9.5 cm to 0: within the thickness of -5 cm
+    // from about 37% of the frame on.
+    let caught = caught.expect("the sweeping surface never touched the particle");
+    assert!((2..=4).contains(&caught), "caught in substep {caught}, expected when the surface arrives (2..4)");
+    // At the frame's end the particle rests on the end triangle near the thickness (the sweep's
+    // residual, 0.7 cm at most here, widens the band).
+    assert!(p.y >= 0.3 * r && p.y <= 2.0 * r, "particle at y = {}, expected above the surface at ~{r}", p.y);
+    let static_leaf = drape_kernels::triangles::triangle_leaf(end[0], end[1], end[2]);
+    let motion = SubstepMotion::of(&ColliderPose::default(), 0.9, 1.0, 1.0 / 600.0);
+    let mut contact = [Contact::NONE];
+    let at = [below.extend(1.0)];
+    detect_brute_force_at::<Triangles>(0, &params, &motion, &[static_leaf], &at, &at, &mut contact);
+    assert!(!contact[0].is_some(), "the end-of-frame triangle alone does not see the particle 5 cm below it");
+}
+
+/// With a deforming torus (every vertex moved by up to 2 cm beyond a 5 cm shift over the frame)
+/// the detect through the LBVH over swept leaf boxes, and over candidate lists, equals the
+/// brute-force loop for motions in every substep of the frame.
+#[test]
+fn swept_leaves_through_the_bvh_and_lists_equal_brute_force() {
+    use drape_kernels::candidates::{broad_phase_at, detect_candidates_at};
+    use drape_kernels::contact::{detect_at, detect_brute_force_at};
+    use drape_kernels::pose::SubstepMotion;
+    use drape_types::{ColliderPose, Contact, ContactQuery, MAX_CANDIDATES, SimParams};
+    let mesh = Mesh::torus(0.35, 0.12, 32, 16);
+    let mut rng = Rng::new(5);
+    let shift = Vec3::new(0.03, 0.04, 0.0);
+    let previous: Vec<Vec3> = mesh
+        .vertices
+        .iter()
+        .map(|v| *v - shift + Vec3::new(rng.range(-0.02, 0.02), rng.range(-0.02, 0.02), rng.range(-0.02, 0.02)))
+        .collect();
+    let thickness = 0.01;
+    let params = mesh_collider_params(&mesh.vertices, &mesh.triangles, thickness, 0.0).unwrap();
+    let tree = build_swept_mesh_cpu(&previous, &mesh.vertices, &mesh.triangles, &params).unwrap();
+    assert!(tree.triangles.iter().all(|t| t.sweep.w > 0.0), "every leaf must deform");
+    let sim = SimParams { gravity: Vec4::new(0.0, -9.81, 0.0, 0.0), particle_count: 1, ..Default::default() };
+    let frame = SubstepMotion::of(&ColliderPose::default(), 0.0, 1.0, 1.0 / 60.0);
+    let (mut hits, mut listed) = (0, 0);
+    for i in 0..12_000 {
+        let angle = rng.range(0.0, std::f32::consts::TAU);
+        let ring = Vec3::new(angle.cos(), 0.0, angle.sin()) * 0.35;
+        let dir = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).normalize_or(Vec3::Y);
+        let p0 = ring + dir * rng.range(0.1, 0.16);
+        let step = [1e-4, 1e-3, 1e-2, 0.05][i % 4];
+        let p1 = p0 + Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)) * step;
+        let k = (i / 4 % 10) as f32;
+        let motion = SubstepMotion::of(&ColliderPose::default(), k / 10.0, (k + 1.0) / 10.0, 1.0 / 600.0);
+        let (x, x_prev) = ([p1.extend(1.0)], [p0.extend(1.0)]);
+        let (mut bvh, mut brute, mut lists) = ([Contact::NONE], [Contact::NONE], [Contact::NONE]);
+        let overflow = detect_at::<Triangles>(
+            0,
+            &params,
+            &motion,
+            &tree.nodes,
+            &tree.aabbs,
+            &tree.triangles,
+            &x,
+            &x_prev,
+            &mut bvh,
+        );
+        detect_brute_force_at::<Triangles>(0, &params, &motion, &tree.triangles, &x, &x_prev, &mut brute);
+        assert!(!overflow);
+        assert_eq!(bvh[0], brute[0], "case {i}: {p0} -> {p1}, substep {k}");
+        let mut queries = [ContactQuery::default()];
+        let mut candidates = vec![0u32; MAX_CANDIDATES as usize];
+        let broad =
+            (tree.nodes.as_slice(), tree.aabbs.as_slice(), tree.leaf_bounds.as_slice(), tree.triangles.as_slice());
+        let start = p0 - (p1 - p0) * k;
+        let v = (p1 - p0) * 600.0;
+        broad_phase_at::<Triangles>(
+            0,
+            &sim,
+            &params,
+            &frame,
+            1.0 / 60.0,
+            broad,
+            (&[start.extend(1.0)], &[v.extend(0.0)]),
+            &mut queries,
+            &mut candidates,
+        );
+        let tree_in = (tree.nodes.as_slice(), tree.aabbs.as_slice(), tree.triangles.as_slice());
+        let outcome = detect_candidates_at::<Triangles>(
+            0,
+            &params,
+            &motion,
+            tree_in,
+            (&queries, &candidates),
+            &x,
+            &x_prev,
+            &mut lists,
+        );
+        assert_eq!(lists[0], brute[0], "case {i}: lists, {outcome:?}");
+        hits += brute[0].is_some() as u32;
+        listed += !outcome.fell_back as u32;
+    }
+    assert!(hits > 2_000, "only {hits} contacts");
+    assert!(listed > 5_000, "only {listed} answered from lists");
+}
+
+/// A deforming mesh plate rising at 4 m/s (6.7 cm per frame: more than its 1 cm plus twice the
+/// contact thickness) under a cloth: its vertices are rewritten every frame (its pose never
+/// changes), and because its triangles sweep from the previous frame's vertices over the
+/// substeps, it lifts the cloth instead of jumping through it. GPU == CPU twin.
+#[test]
+fn a_fast_deforming_plate_does_not_jump_through_the_cloth() {
+    let ctx = context();
+    let plate = common::slab(Vec3::new(1.2, 0.01, 1.2));
+    let cloth = ClothBuilder::new(16, 16)
+        .size(0.6)
+        .transform(Mat4::from_translation(Vec3::new(0.0, 0.05, 0.0)))
+        .build()
+        .unwrap();
+    let start = -0.1;
+    let placed = |y: f32| plate.vertices.iter().map(|v| *v + Vec3::Y * y).collect::<Vec<_>>();
+    let mut model_plate = plate.clone();
+    model_plate.vertices = placed(start);
+    let model =
+        Model::single(&cloth, &[Collider::mesh(&model_plate, 0.002)], SimSettings::default().with_timestamps(false))
+            .unwrap();
+    let mut gpu = Solver::new(&ctx, &model).unwrap();
+    let mut cpu = CpuSolver::new(&model).unwrap();
+    let per_frame = 4.0 * SimSettings::default().frame_dt;
+    assert!(per_frame > 0.01 + 2.0 * 0.002);
+    let mut height = start;
+    for frame in 1..=8 {
+        height += per_frame;
+        gpu.set_collider_vertices(BODY, &placed(height)).unwrap();
+        cpu.set_collider_vertices(BODY, &placed(height)).unwrap();
+        gpu.step().unwrap();
+        cpu.step().unwrap();
+        let x = gpu.positions(CLOTH).unwrap();
+        let diff = common::max_distance(&x, &cpu.positions(CLOTH).unwrap());
+        assert!(diff <= 1e-5, "frame {frame}: GPU and CPU differ by {diff}");
+        let below = x.iter().filter(|p| p.y < height).count();
+        assert_eq!(below, 0, "frame {frame}: particles below the plate's middle at {height}: it jumped through");
+    }
+    let lowest = gpu.positions(CLOTH).unwrap().iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+    assert!(lowest > height, "the plate at {height} must carry the cloth (lowest particle {lowest})");
+    assert_validation_clean(&ctx);
 }

@@ -24,6 +24,15 @@ enum PinChange {
     Unpin,
 }
 
+/// What a collider starts with: its parameters, pose, and what deforming it writes (spheres or
+/// mesh vertices) with its starting contents.
+pub(crate) struct ColliderStart {
+    pub params: ColliderParams,
+    pub pose: RigidPose,
+    pub deformable: &'static str,
+    pub contents: Vec<Vec4>,
+}
+
 /// One collider's host-side values.
 struct ColliderControl {
     params: ColliderParams,
@@ -38,6 +47,11 @@ struct ColliderControl {
     /// New spheres or vertices (collider frame) for the next frame: written, then the LBVH is
     /// refit.
     deformed: Option<Vec<Vec4>>,
+    /// The spheres or vertices the GPU holds (what a frame that deforms sweeps from).
+    current: Vec<Vec4>,
+    /// Whether the last frame's leaves swept (so the next one, if it does not deform, resets
+    /// them to standing still).
+    sweeping: bool,
 }
 
 /// One cloth's host-side values.
@@ -71,20 +85,18 @@ fn non_negative(name: &'static str, values: &[f32]) -> Result<()> {
 }
 
 impl Controls {
-    pub fn new(
-        cloths: Vec<(SimParams, Stability)>,
-        settings: SimSettings,
-        colliders: &[(ColliderParams, RigidPose, (&'static str, u32))],
-    ) -> Self {
+    pub fn new(cloths: Vec<(SimParams, Stability)>, settings: SimSettings, colliders: Vec<ColliderStart>) -> Self {
         let cloths = cloths
             .into_iter()
             .map(|(params, stability)| ClothControl { params, stability, params_dirty: false, pins: Vec::new() })
             .collect();
         let colliders = colliders
-            .iter()
-            .map(|&(params, pose, deformable)| ColliderControl {
+            .into_iter()
+            .map(|ColliderStart { params, pose, deformable, contents }| ColliderControl {
                 params,
-                deformable,
+                deformable: (deformable, contents.len() as u32),
+                current: contents,
+                sweeping: false,
                 params_dirty: false,
                 end_of_last_frame: pose,
                 target: pose,
@@ -287,9 +299,22 @@ impl Controls {
                 c.written = pose;
             }
             c.end_of_last_frame = c.target;
+            let leaves = buffers.leaves.kind();
             if let Some(data) = c.deformed.take() {
-                steps.push(Step::write(buffers.leaves.kind().deformable(), 0, &data));
-                steps.extend(buffers.leaves.kind().refit_steps());
+                // Leaves that sweep go from what the GPU holds to the new input over the frame.
+                if let Some(from) = leaves.swept_from() {
+                    steps.push(Step::write(from, 0, &c.current));
+                    c.sweeping = true;
+                }
+                steps.push(Step::write(leaves.deformable(), 0, &data));
+                steps.extend(leaves.refit_steps());
+                c.current = data;
+            } else if std::mem::take(&mut c.sweeping) {
+                // It stopped deforming: its leaves stand still again.
+                if let Some(from) = leaves.swept_from() {
+                    steps.push(Step::write(from, 0, &c.current));
+                    steps.extend(leaves.refit_steps());
+                }
             }
         }
         steps

@@ -192,11 +192,24 @@ pub fn build_cpu(spheres: &[Vec4], params: &ColliderParams) -> Result<Lbvh> {
 
 /// CPU twin of the build over a triangle mesh.
 pub fn build_mesh_cpu(vertices: &[Vec3], triangles: &[[u32; 3]], params: &ColliderParams) -> Result<Lbvh> {
+    build_swept_mesh_cpu(vertices, vertices, triangles, params)
+}
+
+/// CPU twin of the build over a deforming mesh whose vertices moved from `previous` to
+/// `vertices` over the frame (its leaves sweep between them).
+pub fn build_swept_mesh_cpu(
+    previous: &[Vec3],
+    vertices: &[Vec3],
+    triangles: &[[u32; 3]],
+    params: &ColliderParams,
+) -> Result<Lbvh> {
     let mut resources = Resources::new();
     let b = TriangleBvh::declare(&mut resources, "lbvh", vertices.len() as u32, params.leaf_count);
     let mut cpu = CpuExecutor::new(&resources);
     cpu.upload(b.tree.collider, std::slice::from_ref(params))?;
-    cpu.upload(b.vertices, &vertices.iter().map(|v| v.extend(0.0)).collect::<Vec<_>>())?;
+    let corners = |v: &[Vec3]| v.iter().map(|v| v.extend(0.0)).collect::<Vec<Vec4>>();
+    cpu.upload(b.vertices, &corners(vertices))?;
+    cpu.upload(b.previous, &corners(previous))?;
     cpu.upload(b.indices, triangles.as_flattened())?;
     cpu.run(&b.build_steps())?;
     read_tree(&cpu, &ColliderLeaves::Triangles(b))

@@ -385,6 +385,5 @@ fn ray_hits_triangle(origin: Vec3, dir: Vec3, a: Vec3, b: Vec3, c: Vec3) -> bool
 /// Closest point to `p` on triangle `abc`: the triangle leaf kind's own function (tested
 /// against an f64 reference on random, thin and degenerate triangles in `tests/triangles.rs`).
 fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    let corners = drape_types::Triangle { a: a.extend(0.0), b: b.extend(0.0), c: c.extend(0.0) };
-    drape_kernels::triangles::closest_on_triangle(p, &corners)
+    drape_kernels::triangles::closest_on_triangle(p, &drape_kernels::triangles::triangle_leaf(a, b, c))
 }

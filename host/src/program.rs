@@ -2,7 +2,7 @@
 //! contact, the initial contents of each, the LBVH builds and the frame's steps. The GPU
 //! `Solver` and the `CpuSolver` both run exactly this.
 
-use crate::controls::Controls;
+use crate::controls::{ColliderStart, Controls};
 use crate::error::Result;
 use crate::graph::{BufferId, Resources, Step};
 use crate::model::{ColliderShape, ContactSearch, Model};
@@ -10,7 +10,7 @@ use crate::programs::cloth::{ClothBuffers, FramePlan, frame_steps};
 use crate::programs::contact::{ColliderBuffers, ColliderLeaves, ContactBuffers, ContactMode};
 use crate::programs::spheres::SphereBvh;
 use crate::programs::triangles::TriangleBvh;
-use drape_types::ColliderPose;
+use drape_types::{ColliderParams, ColliderPose, RigidPose};
 
 pub(crate) struct SolverProgram {
     pub resources: Resources,
@@ -23,12 +23,13 @@ pub(crate) struct SolverProgram {
     pub frame: Vec<Step>,
 }
 
-/// What deforming a collider of `shape` writes: (what it is, how many).
-fn deformable_count(shape: &ColliderShape) -> (&'static str, u32) {
-    match shape {
-        ColliderShape::Spheres(s) => ("spheres", s.len() as u32),
-        ColliderShape::Triangles { vertices, .. } => ("vertices", vertices.len() as u32),
-    }
+/// What a collider of `shape` starts with (see `ColliderStart`).
+fn collider_start(params: ColliderParams, pose: RigidPose, shape: &ColliderShape) -> ColliderStart {
+    let (deformable, contents) = match shape {
+        ColliderShape::Spheres(s) => ("spheres", s.clone()),
+        ColliderShape::Triangles { vertices, .. } => ("vertices", vertices.iter().map(|v| v.extend(0.0)).collect()),
+    };
+    ColliderStart { params, pose, deformable, contents }
 }
 
 /// Debug-name prefix of item `index` of a kind (the first keeps the plain name).
@@ -67,7 +68,7 @@ impl SolverProgram {
             cloths.push(b);
         }
         let mut colliders = Vec::new();
-        let mut collider_start = Vec::new();
+        let mut starts = Vec::new();
         for (i, c) in model.colliders().iter().enumerate() {
             let params = c.params()?;
             let name = numbered("collider", i);
@@ -81,6 +82,7 @@ impl SolverProgram {
                     let b = TriangleBvh::declare(&mut resources, &name, vertices.len() as u32, params.leaf_count);
                     let corners: Vec<glam::Vec4> = vertices.iter().map(|v| v.extend(0.0)).collect();
                     initial.push((b.vertices.id(), bytes(&corners)));
+                    initial.push((b.previous.id(), bytes(&corners)));
                     initial.push((b.indices.id(), bytemuck::cast_slice::<_, u8>(triangles).to_vec()));
                     ColliderLeaves::Triangles(b)
                 }
@@ -90,7 +92,7 @@ impl SolverProgram {
             let pose = ColliderPose { previous: c.pose, current: c.pose };
             initial.push((b.pose.id(), bytemuck::bytes_of(&pose).to_vec()));
             colliders.push(b);
-            collider_start.push((params, c.pose, deformable_count(&c.shape)));
+            starts.push(collider_start(params, c.pose, &c.shape));
         }
         let contacts = cloths
             .iter()
@@ -117,7 +119,7 @@ impl SolverProgram {
             })
             .collect();
         let mut program = SolverProgram { resources, cloths, colliders, contacts, initial, frame: Vec::new() };
-        let controls = Controls::new(resolved, settings, &collider_start);
+        let controls = Controls::new(resolved, settings, starts);
         program.frame = program.frame_steps(&controls.plans());
         Ok((program, controls))
     }

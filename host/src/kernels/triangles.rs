@@ -8,7 +8,7 @@ use super::contact::{
 use super::lbvh::THREADS;
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::contact::CONTACT_THREADS;
-use drape_kernels::triangles::{Triangles, triangle_aabb, triangle_at};
+use drape_kernels::triangles::{Triangles, swept_aabb, triangle_at};
 use drape_types::{Aabb, ColliderParams, Triangle};
 use glam::Vec4;
 
@@ -19,7 +19,7 @@ const fn read(name: &'static str) -> BindingSpec {
 pub static TRIANGLE_BOUNDS: Kernel = Kernel {
     spec: KernelSpec::new(
         "triangles::triangle_bounds",
-        &[read("collider"), read("vertices"), read("indices"), BindingSpec::write("bounds")],
+        &[read("collider"), read("vertices"), read("previous"), read("indices"), BindingSpec::write("bounds")],
         THREADS,
     ),
     cpu: bounds_cpu,
@@ -27,7 +27,14 @@ pub static TRIANGLE_BOUNDS: Kernel = Kernel {
 pub static GATHER_TRIANGLES: Kernel = Kernel {
     spec: KernelSpec::new(
         "triangles::gather_triangles",
-        &[read("collider"), read("vertices"), read("indices"), read("order"), BindingSpec::write("sorted")],
+        &[
+            read("collider"),
+            read("vertices"),
+            read("previous"),
+            read("indices"),
+            read("order"),
+            BindingSpec::write("sorted"),
+        ],
         THREADS,
     ),
     cpu: gather_cpu,
@@ -47,23 +54,24 @@ pub static DETECT_TRIANGLES_BRUTE_FORCE: Kernel = Kernel {
 
 fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [collider, vertices, indices, bounds] = d.bindings()?;
+    let [collider, vertices, previous, indices, bounds] = d.bindings()?;
     let c: ColliderParams = collider.first()?;
-    let (vertices, indices, bounds) = (vertices.slice::<Vec4>(), indices.slice::<u32>(), bounds.slice_mut::<Aabb>());
+    let (vertices, previous, indices) = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
+    let bounds = bounds.slice_mut::<Aabb>();
     for i in 0..threads.min(c.leaf_count) {
-        bounds[i as usize] = triangle_aabb(&triangle_at(i, vertices, indices));
+        bounds[i as usize] = swept_aabb(&triangle_at(i, vertices, previous, indices));
     }
     Ok(())
 }
 
 fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [collider, vertices, indices, order, sorted] = d.bindings()?;
+    let [collider, vertices, previous, indices, order, sorted] = d.bindings()?;
     let c: ColliderParams = collider.first()?;
-    let (vertices, indices, order) = (vertices.slice::<Vec4>(), indices.slice::<u32>(), order.slice::<u32>());
-    let sorted = sorted.slice_mut::<Triangle>();
+    let (vertices, previous, indices) = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
+    let (order, sorted) = (order.slice::<u32>(), sorted.slice_mut::<Triangle>());
     for i in 0..threads.min(c.leaf_count) {
-        sorted[i as usize] = triangle_at(order[i as usize], vertices, indices);
+        sorted[i as usize] = triangle_at(order[i as usize], vertices, previous, indices);
     }
     Ok(())
 }

@@ -62,6 +62,12 @@ pub trait ContactLeaves {
     fn refit_steps(&self) -> Vec<Step>;
     /// What the host writes to deform the collider before a refit (spheres, mesh vertices).
     fn deformable(&self) -> Handle<glam::Vec4>;
+    /// Where the kind keeps the deformable input at the frame's start, when its leaves sweep
+    /// from there to the current input over the frame (continuous contact with a deforming
+    /// collider); `None` when the leaves stand at the current input all frame.
+    fn swept_from(&self) -> Option<Handle<glam::Vec4>> {
+        None
+    }
 }
 
 /// A collider's leaves, of one of the leaf kinds.

@@ -13,8 +13,11 @@ use glam::Vec4;
 /// A triangle collider's buffers: its mesh (what the host writes), the triangles in the tree's
 /// order, and its LBVH.
 pub struct TriangleBvh {
-    /// Vertex positions (xyz, w unused).
+    /// Vertex positions (xyz, w unused) at the frame's end.
     pub vertices: Handle<Vec4>,
+    /// The same at the frame's start (equal to `vertices` unless the collider deforms): the
+    /// leaves sweep from these to `vertices` over the frame.
+    pub previous: Handle<Vec4>,
     /// 3 vertex indices per triangle.
     pub indices: Handle<u32>,
     /// Triangles in the tree's leaf order: what the traversal reads.
@@ -26,6 +29,7 @@ impl TriangleBvh {
     pub fn declare(resources: &mut Resources, name: &str, vertices: u32, triangles: u32) -> Self {
         TriangleBvh {
             vertices: resources.device(format!("{name}: vertices"), vertices),
+            previous: resources.device(format!("{name}: previous vertices"), vertices),
             indices: resources.device(format!("{name}: triangle indices"), 3 * triangles),
             sorted: resources.device(format!("{name}: sorted triangles"), triangles),
             tree: LbvhBuffers::declare(resources, name, triangles),
@@ -37,7 +41,7 @@ impl TriangleBvh {
         Step::run(
             "triangle boxes",
             &TRIANGLE_BOUNDS,
-            vec![t.collider.id(), self.vertices.id(), self.indices.id(), t.bounds.id()],
+            vec![t.collider.id(), self.vertices.id(), self.previous.id(), self.indices.id(), t.bounds.id()],
             Dispatch::Threads(t.leaves),
         )
     }
@@ -47,7 +51,14 @@ impl TriangleBvh {
         Step::run(
             "gather triangles",
             &GATHER_TRIANGLES,
-            vec![t.collider.id(), self.vertices.id(), self.indices.id(), t.order.id(), self.sorted.id()],
+            vec![
+                t.collider.id(),
+                self.vertices.id(),
+                self.previous.id(),
+                self.indices.id(),
+                t.order.id(),
+                self.sorted.id(),
+            ],
             Dispatch::Threads(t.leaves),
         )
     }
@@ -71,6 +82,9 @@ impl ContactLeaves for TriangleBvh {
     }
     fn deformable(&self) -> Handle<Vec4> {
         self.vertices
+    }
+    fn swept_from(&self) -> Option<Handle<Vec4>> {
+        Some(self.previous)
     }
     fn detect_brute_force_kernel(&self) -> &'static Kernel {
         &DETECT_TRIANGLES_BRUTE_FORCE

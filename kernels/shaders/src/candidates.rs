@@ -13,8 +13,8 @@
 //! gives the same earliest contact as the tree or the brute-force loop.
 
 use crate::contact::{
-    Candidate, LeafKind, NO_CANDIDATE, STACK_SIZE, consider, detect_at, local_motion, path_blocked, point_in_aabb,
-    substep_motion, target_of,
+    Candidate, LeafKind, Left, NO_CANDIDATE, STACK_SIZE, blocks_relative, consider, detect_at, hit_relative,
+    local_motion, path_blocked, point_in_aabb, substep_motion, target_of,
 };
 use crate::pose::{SubstepMotion, to_local};
 use drape_types::glam::{Vec3, Vec4, Vec4Swizzles};
@@ -147,16 +147,14 @@ pub fn broad_phase_particle<K: LeafKind>(
 #[inline]
 fn list_blocks<K: LeafKind>(
     leaves: &[K::Leaf],
-    list: &[u32],
-    base: usize,
-    count: u32,
-    a: Vec3,
-    b: Vec3,
+    (list, base, count): (&[u32], usize, u32),
+    (a, b): (Vec3, Vec3),
     thickness: f32,
+    left: Left,
 ) -> bool {
     let mut j = 0;
     while j < count {
-        if K::blocks(leaves[list[base + j as usize] as usize], a, b, thickness) {
+        if blocks_relative::<K>(leaves[list[base + j as usize] as usize], a, b, thickness, left) {
             return true;
         }
         j += 1;
@@ -199,25 +197,26 @@ pub fn detect_candidates_at<K: LeafKind>(
         return NarrowOutcome { fell_back: true, overflowed };
     }
     let thickness = collider.thickness;
+    let left = motion.left();
     let base = i * MAX_CANDIDATES as usize;
     let mut best: Candidate = NO_CANDIDATE;
     let mut j = 0;
     while j < query.count {
         let leaf = candidates[base + j as usize];
-        let (t, key) = K::hit(leaves[leaf as usize], p0, p1, thickness);
+        let (t, key) = hit_relative::<K>(leaves[leaf as usize], p0, p1, thickness, left);
         best = consider(best, t, key, leaf);
         j += 1;
     }
     // No clearance bound (as the brute-force loop): checking the short list costs less than
     // bounding the clearance over it would.
-    let target = target_of::<K>(best, 0.0, leaves, (p0, p1), thickness);
+    let target = target_of::<K>(best, 0.0, leaves, (p0, p1), thickness, left);
     let blocked = target.check
         && if point_in_aabb(target.position, &region, 0.0) {
-            list_blocks::<K>(leaves, candidates, base, query.count, p0, target.position, thickness)
+            list_blocks::<K>(leaves, (candidates, base, query.count), (p0, target.position), thickness, left)
         } else {
             // The path leaves the box, where the list is not complete (a stack overflow in
             // this walk counts as blocked, the safe answer).
-            path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position)
+            path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position, left)
         };
     contacts[i] = target.contact(blocked);
     NarrowOutcome { fell_back: false, overflowed: false }

@@ -63,6 +63,13 @@ pub trait LeafKind {
     /// for some `p0`, `p1` in `region`, so a candidate list misses no leaf a motion inside its
     /// query box can touch.
     fn may_touch_region(b: &Aabb, region: &Aabb, thickness: f32) -> bool;
+    /// Where `p`, a point at the time when `left` of the frame (a fraction) is still to come,
+    /// is relative to `leaf` as it stands at the frame's end, for a leaf that moves over the
+    /// frame (a deforming collider's): `p` plus the leaf's remaining motion. The tests then see
+    /// the motion relative to the leaf. Identity for leaves that do not move.
+    fn relative(_leaf: Self::Leaf, p: Vec3, _left: f32) -> Vec3 {
+        p
+    }
     /// A finer test of one leaf whose box passed `may_touch_region` (the same guarantee: false
     /// only when no motion inside `region` can hit `leaf`).
     fn may_touch_leaf_region(_leaf: Self::Leaf, _region: &Aabb, _thickness: f32) -> bool {
@@ -100,8 +107,24 @@ pub fn consider(best: Candidate, t: f32, key: f32, leaf: u32) -> Candidate {
     if better { Candidate { t, key, leaf } } else { best }
 }
 
-/// Earliest contact of p0 -> p1 with the LBVH's leaves. Returns it and whether the stack
-/// overflowed (some subtrees were then not visited).
+/// How much of the frame is left at a motion's start and end (`SubstepMotion::left`); (0, 0)
+/// tests against the leaves as they stand at the frame's end.
+pub type Left = (f32, f32);
+
+/// `K::hit` of the motion `p0 -> p1` relative to `leaf` (see `LeafKind::relative`).
+#[inline]
+pub fn hit_relative<K: LeafKind>(leaf: K::Leaf, p0: Vec3, p1: Vec3, thickness: f32, left: Left) -> (f32, f32) {
+    K::hit(leaf, K::relative(leaf, p0, left.0), K::relative(leaf, p1, left.1), thickness)
+}
+
+/// `K::blocks` of the path `a -> b` relative to `leaf`.
+#[inline]
+pub fn blocks_relative<K: LeafKind>(leaf: K::Leaf, a: Vec3, b: Vec3, thickness: f32, left: Left) -> bool {
+    K::blocks(leaf, K::relative(leaf, a, left.0), K::relative(leaf, b, left.1), thickness)
+}
+
+/// Earliest contact of p0 -> p1 with the LBVH's leaves as they stand at the frame's end.
+/// Returns it and whether the stack overflowed (some subtrees were then not visited).
 pub fn traverse<K: LeafKind>(
     collider: &ColliderParams,
     nodes: &[BvhNode],
@@ -110,7 +133,7 @@ pub fn traverse<K: LeafKind>(
     p0: Vec3,
     p1: Vec3,
 ) -> (Candidate, bool) {
-    let (best, overflow, _) = traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1);
+    let (best, overflow, _) = traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1, (0.0, 0.0));
     (best, overflow)
 }
 
@@ -125,13 +148,14 @@ pub fn traverse_with_clearance<K: LeafKind>(
     leaves: &[K::Leaf],
     p0: Vec3,
     p1: Vec3,
+    left: Left,
 ) -> (Candidate, bool, f32) {
     let thickness = collider.thickness;
     let mut clearance = if K::checks_path() { thickness } else { 0.0 };
     if collider.leaf_count == 1 {
-        let (t, key) = K::hit(leaves[0], p0, p1, thickness);
+        let (t, key) = hit_relative::<K>(leaves[0], p0, p1, thickness, left);
         if K::checks_path() {
-            clearance = clearance.min(K::clearance(leaves[0], p0));
+            clearance = clearance.min(K::clearance(leaves[0], K::relative(leaves[0], p0, left.0)));
         }
         return (consider(NO_CANDIDATE, t, key, 0), false, clearance);
     }
@@ -147,10 +171,11 @@ pub fn traverse_with_clearance<K: LeafKind>(
             let child = if side == 0 { node.left } else { node.right };
             if child & LEAF_BIT != 0 {
                 let leaf = child & !LEAF_BIT;
-                let (t, key) = K::hit(leaves[leaf as usize], p0, p1, thickness);
+                let l = leaves[leaf as usize];
+                let (t, key) = hit_relative::<K>(l, p0, p1, thickness, left);
                 best = consider(best, t, key, leaf);
                 if K::checks_path() {
-                    clearance = clearance.min(K::clearance(leaves[leaf as usize], p0));
+                    clearance = clearance.min(K::clearance(l, K::relative(l, p0, left.0)));
                 }
             } else if K::may_touch(&aabbs[child as usize], p0, p1, thickness) {
                 if top < STACK_SIZE {
@@ -168,10 +193,21 @@ pub fn traverse_with_clearance<K: LeafKind>(
 
 /// The same contact by testing every leaf (reference and benchmark baseline).
 pub fn brute_force<K: LeafKind>(collider: &ColliderParams, leaves: &[K::Leaf], p0: Vec3, p1: Vec3) -> Candidate {
+    brute_force_relative::<K>(collider, leaves, p0, p1, (0.0, 0.0))
+}
+
+/// `brute_force` for a motion with `left` of the frame to come at its start and end.
+pub fn brute_force_relative<K: LeafKind>(
+    collider: &ColliderParams,
+    leaves: &[K::Leaf],
+    p0: Vec3,
+    p1: Vec3,
+    left: Left,
+) -> Candidate {
     let mut best = NO_CANDIDATE;
     let mut i = 0;
     while i < collider.leaf_count {
-        let (t, key) = K::hit(leaves[i as usize], p0, p1, collider.thickness);
+        let (t, key) = hit_relative::<K>(leaves[i as usize], p0, p1, collider.thickness, left);
         best = consider(best, t, key, i);
         i += 1;
     }
@@ -187,10 +223,11 @@ pub fn path_blocked<K: LeafKind>(
     leaves: &[K::Leaf],
     a: Vec3,
     b: Vec3,
+    left: Left,
 ) -> bool {
     let thickness = collider.thickness;
     if collider.leaf_count == 1 {
-        return K::blocks(leaves[0], a, b, thickness);
+        return blocks_relative::<K>(leaves[0], a, b, thickness, left);
     }
     let mut stack = [0u32; STACK_SIZE];
     let mut top = 1; // stack[0] = root
@@ -201,7 +238,7 @@ pub fn path_blocked<K: LeafKind>(
         while side < 2 {
             let child = if side == 0 { node.left } else { node.right };
             if child & LEAF_BIT != 0 {
-                if K::blocks(leaves[(child & !LEAF_BIT) as usize], a, b, thickness) {
+                if blocks_relative::<K>(leaves[(child & !LEAF_BIT) as usize], a, b, thickness, left) {
                     return true;
                 }
             } else if K::may_touch(&aabbs[child as usize], a, b, thickness) {
@@ -218,10 +255,16 @@ pub fn path_blocked<K: LeafKind>(
 }
 
 /// The same question by testing every leaf.
-pub fn path_blocked_brute_force<K: LeafKind>(collider: &ColliderParams, leaves: &[K::Leaf], a: Vec3, b: Vec3) -> bool {
+pub fn path_blocked_brute_force<K: LeafKind>(
+    collider: &ColliderParams,
+    leaves: &[K::Leaf],
+    a: Vec3,
+    b: Vec3,
+    left: Left,
+) -> bool {
     let mut i = 0;
     while i < collider.leaf_count {
-        if K::blocks(leaves[i as usize], a, b, collider.thickness) {
+        if blocks_relative::<K>(leaves[i as usize], a, b, collider.thickness, left) {
             return true;
         }
         i += 1;
@@ -231,6 +274,8 @@ pub fn path_blocked_brute_force<K: LeafKind>(collider: &ColliderParams, leaves: 
 
 /// Where `best` (found for the collider-frame motion `p0 -> p1`) sends the particle, before
 /// any path check: its target, outward normal, and the first contact point (the safe stop).
+/// The leaf's surface is found for the motion relative to it, and the target taken back by the
+/// leaf's remaining motion at the motion's end.
 #[inline]
 fn surface_of<K: LeafKind>(
     best: Candidate,
@@ -238,9 +283,12 @@ fn surface_of<K: LeafKind>(
     p0: Vec3,
     p1: Vec3,
     thickness: f32,
+    left: Left,
 ) -> (Vec3, Vec3, Vec3) {
-    let (position, normal) = K::surface(leaves[best.leaf as usize], p0, p1, best.t, thickness);
-    (position, normal, p0 + (p1 - p0) * best.t)
+    let leaf = leaves[best.leaf as usize];
+    let (q0, q1) = (K::relative(leaf, p0, left.0), K::relative(leaf, p1, left.1));
+    let (position, normal) = K::surface(leaf, q0, q1, best.t, thickness);
+    (position - (q1 - p1), normal, p0 + (p1 - p0) * best.t)
 }
 
 /// The contact record of `best` at `position` (`Contact::NONE` for no contact).
@@ -279,9 +327,10 @@ pub fn detect_at<K: LeafKind>(
         return false;
     }
     let (p0, p1) = local_motion(index, motion, x, x_prev);
-    let (best, overflow, clearance) = traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1);
-    let target = target_of::<K>(best, clearance, leaves, (p0, p1), collider.thickness);
-    let blocked = target.check && path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position);
+    let left = motion.left();
+    let (best, overflow, clearance) = traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1, left);
+    let target = target_of::<K>(best, clearance, leaves, (p0, p1), collider.thickness, left);
+    let blocked = target.check && path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position, left);
     contacts[i] = target.contact(blocked);
     overflow
 }
@@ -318,11 +367,12 @@ pub fn target_of<K: LeafKind>(
     leaves: &[K::Leaf],
     (p0, p1): (Vec3, Vec3),
     thickness: f32,
+    left: Left,
 ) -> Target {
     if best.t > 1.0 {
         return Target { best, position: p1, normal: Vec3::ZERO, first: p1, check: false };
     }
-    let (position, normal, first) = surface_of::<K>(best, leaves, p0, p1, thickness);
+    let (position, normal, first) = surface_of::<K>(best, leaves, p0, p1, thickness, left);
     // A path shorter than half the clearance cannot reach any surface (the half covers the
     // crossing test's own margin and rounding): the answer is known without the walk, the
     // same one the walk (or the brute-force loop) would give.
@@ -391,10 +441,11 @@ pub fn detect_brute_force_at<K: LeafKind>(
         return;
     }
     let (p0, p1) = local_motion(index, motion, x, x_prev);
-    let best = brute_force::<K>(collider, leaves, p0, p1);
+    let left = motion.left();
+    let best = brute_force_relative::<K>(collider, leaves, p0, p1, left);
     // No clearance bound: every path is checked.
-    let target = target_of::<K>(best, 0.0, leaves, (p0, p1), collider.thickness);
-    let blocked = target.check && path_blocked_brute_force::<K>(collider, leaves, p0, target.position);
+    let target = target_of::<K>(best, 0.0, leaves, (p0, p1), collider.thickness, left);
+    let blocked = target.check && path_blocked_brute_force::<K>(collider, leaves, p0, target.position, left);
     contacts[i] = target.contact(blocked);
 }
 

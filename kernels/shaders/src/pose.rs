@@ -52,19 +52,29 @@ pub fn interpolate(pose: &ColliderPose, t: f32) -> RigidPose {
     RigidPose { rotation: q, translation: t0 + (t1 - t0) * t }
 }
 
-/// The collider's poses at the start and end of one substep, and the substep length (s).
+/// The collider's poses at the start and end of one substep, the substep length (s), and its
+/// span as fractions of the frame (what a deforming collider's leaves interpolate with).
 #[derive(Copy, Clone)]
 pub struct SubstepMotion {
     pub start: RigidPose,
     pub end: RigidPose,
     pub h: f32,
+    pub from: f32,
+    pub to: f32,
 }
 
 impl SubstepMotion {
     /// The motion over the substep spanning fractions `from..to` of the frame.
     #[inline]
     pub fn of(pose: &ColliderPose, from: f32, to: f32, h: f32) -> Self {
-        SubstepMotion { start: interpolate(pose, from), end: interpolate(pose, to), h }
+        SubstepMotion { start: interpolate(pose, from), end: interpolate(pose, to), h, from, to }
+    }
+
+    /// How much of the frame is left at the substep's start and end (what a leaf that moves
+    /// over the frame still has to move).
+    #[inline]
+    pub fn left(&self) -> (f32, f32) {
+        (1.0 - self.from, 1.0 - self.to)
     }
 
     /// Velocity of the collider's material point `local` over the substep (m/s).

@@ -23,22 +23,56 @@ pub fn triangle_aabb(t: &Triangle) -> Aabb {
     Aabb { min: a.min(b).min(c).extend(0.0), max: a.max(b).max(c).extend(0.0) }
 }
 
-/// A triangle leaf with corners `a`, `b`, `c`: its unit normal (zero for a degenerate
-/// triangle) goes in the corners' w, computed once here instead of in every contact test.
+/// A triangle leaf with corners `a`, `b`, `c` that does not move over the frame: its unit
+/// normal (zero for a degenerate triangle) goes in the corners' w, computed once here instead of
+/// in every contact test.
 #[inline]
 pub fn triangle_leaf(a: Vec3, b: Vec3, c: Vec3) -> Triangle {
     let n = (b - a).cross(c - a);
     let len = n.length();
     let n = if len > 1e-30 { n * (1.0 / len) } else { Vec3::ZERO };
-    Triangle { a: a.extend(n.x), b: b.extend(n.y), c: c.extend(n.z) }
+    Triangle { a: a.extend(n.x), b: b.extend(n.y), c: c.extend(n.z), sweep: Vec4::ZERO }
 }
 
-/// Triangle `i` of a mesh from its vertices (xyz) and flat index list (3 per triangle).
+/// A triangle leaf whose corners moved from `previous` to `current` over the frame (a
+/// deforming collider): the leaf at `current`, its sweep the centroid's displacement and how
+/// far any corner moved beyond it. Between the two, every point of the linearly interpolated
+/// triangle is within that residual of the current triangle moved back by the remaining share
+/// of the centroid's displacement, which is what contact tests against (`Triangles::relative`).
+/// Equal corners give exactly `triangle_leaf`.
 #[inline]
-pub fn triangle_at(i: u32, vertices: &[Vec4], indices: &[u32]) -> Triangle {
+pub fn swept_triangle_leaf(previous: [Vec3; 3], current: [Vec3; 3]) -> Triangle {
+    let mut t = triangle_leaf(current[0], current[1], current[2]);
+    let (d0, d1, d2) = (current[0] - previous[0], current[1] - previous[1], current[2] - previous[2]);
+    let shift = (d0 + d1 + d2) * (1.0 / 3.0);
+    let beyond = (d0 - shift).length().max((d1 - shift).length()).max((d2 - shift).length());
+    t.sweep = shift.extend(beyond);
+    t
+}
+
+/// Triangle `i` of a mesh from its vertices (xyz) at the frame's end and start, and its flat
+/// index list (3 per triangle).
+#[inline]
+pub fn triangle_at(i: u32, vertices: &[Vec4], previous: &[Vec4], indices: &[u32]) -> Triangle {
     let base = 3 * i as usize;
-    let corner = |k: usize| vertices[indices[base + k] as usize].xyz();
-    triangle_leaf(corner(0), corner(1), corner(2))
+    let (i0, i1, i2) = (indices[base] as usize, indices[base + 1] as usize, indices[base + 2] as usize);
+    swept_triangle_leaf(
+        [previous[i0].xyz(), previous[i1].xyz(), previous[i2].xyz()],
+        [vertices[i0].xyz(), vertices[i1].xyz(), vertices[i2].xyz()],
+    )
+}
+
+/// The box a leaf occupies over the frame: its triangle at the end and moved back by its sweep's
+/// translation, grown by the sweep's residual (what the LBVH is built and refit over).
+#[inline]
+pub fn swept_aabb(t: &Triangle) -> Aabb {
+    let end = triangle_aabb(t);
+    let back = t.sweep.xyz();
+    let grow = Vec3::splat(t.sweep.w);
+    Aabb {
+        min: (end.min.xyz().min(end.min.xyz() - back) - grow).extend(0.0),
+        max: (end.max.xyz().max(end.max.xyz() - back) + grow).extend(0.0),
+    }
 }
 
 /// The point of segment `a`..`b` closest to `p`.
@@ -274,7 +308,8 @@ impl LeafKind for Triangles {
         (p0.min(p1) - m).cmple(b.max.xyz()).all() && (p0.max(p1) + m).cmpge(b.min.xyz()).all()
     }
 
-    /// Hit parameter: 0 when the motion starts within the thickness (key: the distance, so the
+    /// Hit parameter (for the motion relative to the leaf, see `relative`; a deforming leaf's
+    /// radius grows by its sweep's residual): 0 when the motion starts within the thickness (key: the distance, so the
     /// nearest surface wins), else the first entry into the grown triangle. As a safety net
     /// against rounding, a motion that crosses the triangle itself is a hit at the crossing.
     ///
@@ -284,7 +319,7 @@ impl LeafKind for Triangles {
     /// only be within the radius when it is within the slab.
     #[inline]
     fn hit(t: Triangle, p0: Vec3, p1: Vec3, thickness: f32) -> (f32, f32) {
-        let radius = Self::grown(thickness);
+        let radius = Self::grown(thickness) + t.sweep.w;
         let n = face_normal(&t);
         let o = t.a.xyz();
         let (h0, h1) = ((p0 - o).dot(n), (p1 - o).dot(n));
@@ -295,7 +330,8 @@ impl LeafKind for Triangles {
         if (h0 > high && h1 > high) || (h0 < low && h1 < low) {
             return (2.0, 0.0);
         }
-        if !Self::may_touch(&triangle_aabb(&t), p0, p1, thickness) {
+        let (b, m) = (triangle_aabb(&t), Vec3::splat(radius + 1e-6));
+        if !((p0.min(p1) - m).cmple(b.max.xyz()).all() && (p0.max(p1) + m).cmpge(b.min.xyz()).all()) {
             return (2.0, 0.0);
         }
         if h0 >= low && h0 <= high {
@@ -364,12 +400,23 @@ impl LeafKind for Triangles {
     /// cannot be hit. Far tighter than the box test for a particle beside a dense surface.
     #[inline]
     fn may_touch_leaf_region(t: Triangle, region: &Aabb, thickness: f32) -> bool {
+        if t.sweep != Vec4::ZERO {
+            return true; // the box test over its sweep is all there is
+        }
         let (lo, hi) = (region.min.xyz(), region.max.xyz());
         let centre = (lo + hi) * 0.5;
         let half_diagonal = (hi - lo).length() * 0.5;
         let reach = half_diagonal + Self::grown(thickness) * (1.0 + CCD_SLACK);
         let margin = 1e-5 * (centre.abs().max_element() + half_diagonal);
         (centre - closest_on_triangle(centre, &t)).length() <= reach + margin
+    }
+
+    /// The leaf stands at the frame's end; with `left` of the frame to come, it still has that
+    /// share of its sweep's translation to move, so a point then is where `p` plus that share is
+    /// now.
+    #[inline]
+    fn relative(t: Triangle, p: Vec3, left: f32) -> Vec3 {
+        p + t.sweep.xyz() * left
     }
 
     #[inline]
@@ -386,6 +433,9 @@ impl LeafKind for Triangles {
     /// along its normal: both are at most the true distance.
     #[inline]
     fn clearance(t: Triangle, p: Vec3) -> f32 {
+        if t.sweep.w != 0.0 {
+            return 0.0; // deforming: no bound, every path is checked
+        }
         let b = triangle_aabb(&t);
         let to_box = (b.min.xyz() - p).max(p - b.max.xyz()).max(Vec3::ZERO).length();
         let n = face_normal(&t);
@@ -397,18 +447,19 @@ impl LeafKind for Triangles {
     }
 }
 
-/// `bounds[i]` = the box of triangle `i` (input order).
+/// `bounds[i]` = the box triangle `i` (input order) occupies over the frame.
 #[spirv(compute(threads(256)))]
 pub fn triangle_bounds(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] collider: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] vertices: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] indices: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bounds: &mut [Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] previous: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] bounds: &mut [Aabb],
 ) {
     let i = id.x;
     if i < collider.leaf_count {
-        bounds[i as usize] = triangle_aabb(&triangle_at(i, vertices, indices));
+        bounds[i as usize] = swept_aabb(&triangle_at(i, vertices, previous, indices));
     }
 }
 
@@ -418,13 +469,14 @@ pub fn gather_triangles(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] collider: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] vertices: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] indices: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] order: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &mut [Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] previous: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] order: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sorted: &mut [Triangle],
 ) {
     let i = id.x;
     if i < collider.leaf_count {
-        sorted[i as usize] = triangle_at(order[i as usize], vertices, indices);
+        sorted[i as usize] = triangle_at(order[i as usize], vertices, previous, indices);
     }
 }
 

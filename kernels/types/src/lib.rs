@@ -243,9 +243,10 @@ pub struct CollisionStatus {
     pub fallbacks: u32,
 }
 
-/// A collider triangle's corners (xyz) and unit normal (the corners' w: `a.w`, `b.w`, `c.w`
-/// = x, y, z; zero for a degenerate triangle), in the collider's own frame: a leaf of the
-/// triangle leaf kind, gathered into the tree's order.
+/// A collider triangle at the end of the frame: its corners (xyz) and unit normal (the
+/// corners' w: `a.w`, `b.w`, `c.w` = x, y, z; zero for a degenerate triangle), in the
+/// collider's own frame, and how it moved over the frame when the collider deforms: a leaf of
+/// the triangle leaf kind, gathered into the tree's order.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 #[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
@@ -253,6 +254,10 @@ pub struct Triangle {
     pub a: Vec4,
     pub b: Vec4,
     pub c: Vec4,
+    /// xyz: the centroid's displacement over the frame (end minus start); w: how far any corner
+    /// moved beyond that translation (zero for a static or rigidly moving collider, whose
+    /// motion is its pose's).
+    pub sweep: Vec4,
 }
 
 /// "No leaf" in a `Contact`.
@@ -312,4 +317,4 @@ const _: () = assert!(core::mem::size_of::<SurfacePush>() == 128);
 const _: () = assert!(core::mem::size_of::<CollisionStatus>() == 16);
 const _: () = assert!(core::mem::size_of::<DispatchArgs>() == 16);
 const _: () = assert!(core::mem::size_of::<Contact>() == 48);
-const _: () = assert!(core::mem::size_of::<Triangle>() == 48);
+const _: () = assert!(core::mem::size_of::<Triangle>() == 64);
