@@ -402,15 +402,35 @@ fn continuous_contact_matches_an_f64_reference() {
     assert!(cases_seen.iter().all(|&n| n > 300), "every kind of case must hit: {cases_seen:?}");
 }
 
+/// One particle's detect of the substep motion `p0 -> p1` through the LBVH and by the
+/// brute-force loop, checked equal (and without stack overflow).
+fn bvh_and_brute_force(
+    params: &drape_types::ColliderParams,
+    tree: &drape::lbvh::Lbvh,
+    motion: &drape_kernels::pose::SubstepMotion,
+    (p0, p1): (Vec3, Vec3),
+    case: &str,
+) -> (drape_types::Contact, drape_types::Contact) {
+    use drape_kernels::contact::{detect_at, detect_brute_force_at};
+    use drape_types::Contact;
+    let (x, x_prev) = ([p1.extend(1.0)], [p0.extend(1.0)]);
+    let (mut bvh, mut brute) = ([Contact::NONE], [Contact::NONE]);
+    let overflow =
+        detect_at::<Triangles>(0, params, motion, &tree.nodes, &tree.aabbs, &tree.triangles, &x, &x_prev, &mut bvh);
+    detect_brute_force_at::<Triangles>(0, params, motion, &tree.triangles, &x, &x_prev, &mut brute);
+    assert!(!overflow, "{case}: stack overflow");
+    assert_eq!(bvh[0], brute[0], "{case}: {p0} -> {p1}");
+    (bvh[0], brute[0])
+}
+
 /// The whole detect for a particle (first contact, response target, and the path check that
 /// stops it at its first contact when the straight way to the target is blocked, skipped when
 /// the path is shorter than the clearance) through the LBVH equals the brute-force detect
 /// exactly, on a torus with motions from resting-sized to long, and some paths are blocked.
 #[test]
 fn triangle_detect_through_the_bvh_equals_brute_force() {
-    use drape_kernels::contact::{detect_at, detect_brute_force_at};
     use drape_kernels::pose::SubstepMotion;
-    use drape_types::{ColliderPose, Contact};
+    use drape_types::ColliderPose;
     let mesh = Mesh::torus(0.35, 0.12, 32, 16);
     let thickness = 0.01;
     let params = mesh_collider_params(&mesh.vertices, &mesh.triangles, thickness, 0.0).unwrap();
@@ -426,26 +446,11 @@ fn triangle_detect_through_the_bvh_equals_brute_force() {
         let p0 = ring + dir * rng.range(0.12, 0.16);
         let step = [1e-4, 1e-3, 1e-2, 0.2][i % 4];
         let p1 = p0 + Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)) * step;
-        let (x, x_prev) = ([p1.extend(1.0)], [p0.extend(1.0)]);
-        let (mut bvh, mut brute) = ([Contact::NONE], [Contact::NONE]);
-        let overflow = detect_at::<Triangles>(
-            0,
-            &params,
-            &motion,
-            &tree.nodes,
-            &tree.aabbs,
-            &tree.triangles,
-            &x,
-            &x_prev,
-            &mut bvh,
-        );
-        detect_brute_force_at::<Triangles>(0, &params, &motion, &tree.triangles, &x, &x_prev, &mut brute);
-        assert!(!overflow);
-        assert_eq!(bvh[0], brute[0], "case {i}: {p0} -> {p1}");
-        if bvh[0].is_some() {
+        let (bvh, _) = bvh_and_brute_force(&params, &tree, &motion, (p0, p1), &format!("case {i}"));
+        if bvh.is_some() {
             hits += 1;
-            let first = p0 + (p1 - p0) * bvh[0].position.w;
-            stopped += (bvh[0].position.truncate() == first && bvh[0].position.w > 0.0) as u32;
+            let first = p0 + (p1 - p0) * bvh.position.w;
+            stopped += (bvh.position.truncate() == first && bvh.position.w > 0.0) as u32;
         }
     }
     assert!(hits > 2_000, "only {hits} contacts");
@@ -510,7 +515,6 @@ fn a_deforming_surface_sweeping_through_a_particle_catches_it() {
 #[test]
 fn swept_leaves_through_the_bvh_and_lists_equal_brute_force() {
     use drape_kernels::candidates::{broad_phase_at, detect_candidates_at};
-    use drape_kernels::contact::{detect_at, detect_brute_force_at};
     use drape_kernels::pose::SubstepMotion;
     use drape_types::{ColliderPose, Contact, ContactQuery, MAX_CANDIDATES, SimParams};
     let mesh = Mesh::torus(0.35, 0.12, 32, 16);
@@ -538,21 +542,8 @@ fn swept_leaves_through_the_bvh_and_lists_equal_brute_force() {
         let k = (i / 4 % 10) as f32;
         let motion = SubstepMotion::of(&ColliderPose::default(), k / 10.0, (k + 1.0) / 10.0, 1.0 / 600.0);
         let (x, x_prev) = ([p1.extend(1.0)], [p0.extend(1.0)]);
-        let (mut bvh, mut brute, mut lists) = ([Contact::NONE], [Contact::NONE], [Contact::NONE]);
-        let overflow = detect_at::<Triangles>(
-            0,
-            &params,
-            &motion,
-            &tree.nodes,
-            &tree.aabbs,
-            &tree.triangles,
-            &x,
-            &x_prev,
-            &mut bvh,
-        );
-        detect_brute_force_at::<Triangles>(0, &params, &motion, &tree.triangles, &x, &x_prev, &mut brute);
-        assert!(!overflow);
-        assert_eq!(bvh[0], brute[0], "case {i}: {p0} -> {p1}, substep {k}");
+        let (_, brute) = bvh_and_brute_force(&params, &tree, &motion, (p0, p1), &format!("case {i}, substep {k}"));
+        let mut lists = [Contact::NONE];
         let mut queries = [ContactQuery::default()];
         let mut candidates = vec![0u32; MAX_CANDIDATES as usize];
         let broad =
@@ -581,8 +572,8 @@ fn swept_leaves_through_the_bvh_and_lists_equal_brute_force() {
             &x_prev,
             &mut lists,
         );
-        assert_eq!(lists[0], brute[0], "case {i}: lists, {outcome:?}");
-        hits += brute[0].is_some() as u32;
+        assert_eq!(lists[0], brute, "case {i}: lists, {outcome:?}");
+        hits += brute.is_some() as u32;
         listed += !outcome.fell_back as u32;
     }
     assert!(hits > 2_000, "only {hits} contacts");
