@@ -113,6 +113,7 @@ fn cli_rejects_invalid_values() {
         &["--substeps", "0"],
         &["--velocity", "-1,0"],
         &["--velocity", "1,inf,0"],
+        &["--frames", "0"],
     ] {
         let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape")).args(args).output().unwrap();
         assert!(!output.status.success(), "{args:?} accepted");
@@ -255,4 +256,25 @@ fn committed_spirv_equals_a_fresh_build() {
         committed.len(),
         drape::KERNELS_SPV.len()
     );
+}
+
+/// A redirected run (stderr not a terminal) gets no progress bar: its log has no carriage
+/// returns; `--no-timestamps` omits the per-kernel table (no zeros) and still gives wall times.
+#[test]
+fn cli_redirected_log_has_no_carriage_returns_and_no_timestamps_omits_the_table() {
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+        .args(["--grid", "8", "--frames", "3", "--no-timestamps"])
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
+    assert!(output.status.success(), "stderr: {stderr}");
+    assert!(!stderr.contains('\r') && !stdout.contains('\r'), "carriage return in a redirected log: {stderr:?}");
+    assert!(!stdout.contains("GPU time per kernel") && !stdout.contains("total GPU"), "stdout: {stdout}");
+    assert!(stdout.contains("GPU timestamps off") && stdout.contains("wall time per frame over 3 frames"), "{stdout}");
+    let timed = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+        .args(["--grid", "8", "--frames", "3"])
+        .output()
+        .unwrap();
+    let timed_stdout = String::from_utf8_lossy(&timed.stdout);
+    assert!(timed_stdout.contains("GPU time per kernel") && timed_stdout.contains("total GPU"), "{timed_stdout}");
 }

@@ -90,7 +90,7 @@ struct Args {
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(2..=4096))]
     grid: u32,
     /// Frames to simulate (1/60 s each).
-    #[arg(long, default_value_t = SETTLE_FRAMES)]
+    #[arg(long, default_value_t = SETTLE_FRAMES, value_parser = clap::value_parser!(u32).range(1..))]
     frames: u32,
     /// Substeps per frame; default: automatic from the stability bound.
     #[arg(long)]
@@ -158,6 +158,7 @@ fn main() -> ExitCode {
     match run(&args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
+            end_progress_line();
             eprintln!("error: {e}");
             ExitCode::FAILURE
         }
@@ -303,9 +304,18 @@ fn run(args: &Args) -> drape::Result<()> {
             drape::obj::write_cloth_obj(&path, args.grid, args.grid, &sim.positions(cloth)?, &sim.normals(cloth)?)?;
         }
     }
-    eprintln!();
-    println!("\nGPU time per kernel (timestamp queries, median over frames):");
-    print!("{}", report.table());
+    end_progress_line();
+    if args.no_timestamps {
+        println!(
+            "\nGPU timestamps off (--no-timestamps): wall time per frame over {} frames: median {:.3} ms, min {:.3} ms",
+            report.frames(),
+            report.median_wall_ms(),
+            report.min_wall_ms()
+        );
+    } else {
+        println!("\nGPU time per kernel (timestamp queries, median over frames):");
+        print!("{}", report.table());
+    }
     if let Some(c) = &collider {
         println!("collision traversal: ran in {ran} substeps, culled (cloth cannot touch) in {skipped}");
         if c.search == ContactSearch::CandidateLists {
@@ -385,9 +395,26 @@ fn print_accuracy(a: &Accuracy, frames: u32, seconds: f64) {
     );
 }
 
+/// Whether a progress bar is on stderr's current line (so what comes next starts a new one).
+static PROGRESS_ON_LINE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The progress bar, redrawn in place: only on a terminal (a redirected log gets no carriage
+/// returns).
 fn progress(frame: u32, total: u32) {
+    use std::io::IsTerminal;
+    if !std::io::stderr().is_terminal() {
+        return;
+    }
     let width = 40;
     let done = (frame as usize * width) / total.max(1) as usize;
     eprint!("\r[{}{}] {frame}/{total} frames", "#".repeat(done), " ".repeat(width - done));
     let _ = std::io::stderr().flush();
+    PROGRESS_ON_LINE.store(true, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Ends the progress bar's line, if one is drawn.
+fn end_progress_line() {
+    if PROGRESS_ON_LINE.swap(false, std::sync::atomic::Ordering::Relaxed) {
+        eprintln!();
+    }
 }
