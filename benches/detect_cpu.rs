@@ -87,17 +87,7 @@ fn main() {
                         tree.leaf_bounds.as_slice(),
                         tree.triangles.as_slice(),
                     );
-                    broad_phase_at::<Triangles>(
-                        i,
-                        &params,
-                        &c,
-                        &still,
-                        frame_time,
-                        t,
-                        (&x_prev, &v),
-                        &mut queries,
-                        &mut lists,
-                    );
+                    broad_phase_at::<Triangles>(i, &params, &c, &still, t, (&x_prev, &v), &mut queries, &mut lists);
                 }
             });
             let mut fell = 0;

@@ -53,7 +53,6 @@ fn check_particle<K: LeafKind>(
         &sim,
         params,
         &frame,
-        FRAME,
         tree_in,
         (&[x.extend(1.0)], &[v.extend(0.0)]),
         &mut queries,

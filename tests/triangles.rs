@@ -555,7 +555,6 @@ fn swept_leaves_through_the_bvh_and_lists_equal_brute_force() {
             &sim,
             &params,
             &frame,
-            1.0 / 60.0,
             broad,
             (&[start.extend(1.0)], &[v.extend(0.0)]),
             &mut queries,

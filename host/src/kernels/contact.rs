@@ -4,12 +4,11 @@
 //! each leaf kind's file declares its own detect `Kernel`s with them).
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
-use drape_kernels::candidates::{broad_phase_at, detect_candidates_at};
+use drape_kernels::candidates::{broad_phase_at, detect_candidates_at, frame_motion};
 use drape_kernels::contact::{
     CONTACT_THREADS, CULL_THREADS, LeafKind, aabbs_overlap, detect_at, detect_brute_force_at, respond_at, root_aabb,
     substep_motion, swept_bounds,
 };
-use drape_kernels::pose::SubstepMotion;
 use drape_types::{
     Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery,
     DispatchArgs, SimParams,
@@ -151,14 +150,13 @@ where
     let [params, collider, pose, nodes, aabbs, leaf_bounds, leaves, x, v, queries, candidates] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = collider.first()?;
-    let frame_time = p.substep * push.substeps as f32;
-    let frame = SubstepMotion::of(&pose.first::<ColliderPose>()?, 0.0, 1.0, frame_time);
+    let frame = frame_motion(&p, &pose.first::<ColliderPose>()?, &push);
     let tree =
         (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), leaves.slice::<K::Leaf>());
     let (x, v) = (x.slice::<Vec4>(), v.slice::<Vec4>());
     let (queries, candidates) = (queries.slice_mut::<ContactQuery>(), candidates.slice_mut::<u32>());
     for i in 0..threads.min(p.particle_count) {
-        broad_phase_at::<K>(i, &p, &c, &frame, frame_time, tree, (x, v), queries, candidates);
+        broad_phase_at::<K>(i, &p, &c, &frame, tree, (x, v), queries, candidates);
     }
     Ok(())
 }

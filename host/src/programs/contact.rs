@@ -116,37 +116,45 @@ pub struct CandidateLists {
     pub candidates: Handle<u32>,
 }
 
+/// A contact's search (`ContactMode`) with the buffers it needs.
+pub enum Search {
+    Lists(CandidateLists),
+    Bvh,
+    BruteForce,
+}
+
 /// The contact's own buffers (one cloth against one collider).
 pub struct ContactBuffers {
-    pub mode: ContactMode,
+    pub search: Search,
     pub args: Handle<DispatchArgs>,
     /// Each particle's contact of the current substep (detect writes, respond reads).
     pub contacts: Handle<Contact>,
     /// Counters the host reads after every frame.
     pub status: Handle<CollisionStatus>,
-    /// The candidate lists (`ContactMode::Lists` only).
-    pub lists: Option<CandidateLists>,
 }
 
 impl ContactBuffers {
     pub fn declare(resources: &mut Resources, name: &str, particles: u32, mode: ContactMode) -> Self {
-        let lists = (mode == ContactMode::Lists).then(|| CandidateLists {
-            queries: resources.device(format!("{name}: query boxes"), particles),
-            candidates: resources.device(format!("{name}: candidate lists"), particles * MAX_CANDIDATES),
-        });
+        let search = match mode {
+            ContactMode::Lists => Search::Lists(CandidateLists {
+                queries: resources.device(format!("{name}: query boxes"), particles),
+                candidates: resources.device(format!("{name}: candidate lists"), particles * MAX_CANDIDATES),
+            }),
+            ContactMode::Bvh => Search::Bvh,
+            ContactMode::BruteForce => Search::BruteForce,
+        };
         ContactBuffers {
-            mode,
+            search,
             args: resources.device(format!("{name}: dispatch args"), 1),
             contacts: resources.device(format!("{name}: contacts"), particles),
             status: resources.readback(format!("{name}: status")),
-            lists,
         }
     }
 
     /// What runs once at the start of a frame of `substeps` substeps of `cloth` against
     /// `collider`, before its substeps: the broad phase in `ContactMode::Lists`.
     pub fn frame_start_steps(&self, cloth: &ClothBuffers, collider: &ColliderBuffers, substeps: u32, out: &mut Vec<Step>) {
-        let Some(lists) = &self.lists else { return };
+        let Search::Lists(lists) = &self.search else { return };
         let (leaves, tree) = (collider.leaves.kind(), collider.tree());
         let push: [u32; 4] = bytemuck::cast(BroadPhasePush { substeps, _pad: [0; 3] });
         out.push(Step::run_with(
@@ -187,8 +195,8 @@ impl ContactBuffers {
         };
         let push: [u32; 4] = bytemuck::cast(span);
         let (params, collider) = (cloth.params.id(), tree.collider.id());
-        let dispatch = match (self.mode, &self.lists) {
-            (ContactMode::Lists, Some(lists)) => {
+        let dispatch = match &self.search {
+            Search::Lists(lists) => {
                 out.push(self.cull_step(cloth, tree, pose, push));
                 out.push(Step::run_with(
                     DETECT_CANDIDATES_LABEL,
@@ -212,7 +220,7 @@ impl ContactBuffers {
                 ));
                 Dispatch::Indirect(self.args)
             }
-            (ContactMode::Bvh, _) | (ContactMode::Lists, None) => {
+            Search::Bvh => {
                 out.push(self.cull_step(cloth, tree, pose, push));
                 out.push(Step::run_with(
                     DETECT_LABEL,
@@ -234,7 +242,7 @@ impl ContactBuffers {
                 ));
                 Dispatch::Indirect(self.args)
             }
-            (ContactMode::BruteForce, _) => {
+            Search::BruteForce => {
                 out.push(Step::run_with(
                     DETECT_BRUTE_FORCE_LABEL,
                     leaves.detect_brute_force_kernel(),

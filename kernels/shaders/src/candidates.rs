@@ -27,15 +27,16 @@ use drape_types::{
 /// all in tree order.
 pub type BroadPhaseTree<'a, L> = (&'a [BvhNode], &'a [Aabb], &'a [Aabb], &'a [L]);
 
-/// The box particle (`x`, `v`) is expected to stay in over a frame of `frame_time` seconds,
-/// in the collider's frame (`motion` spans the whole frame): its start and its start moved by
-/// its velocity, each in the collider's frame at that time, grown by the thickness, a quarter of
-/// the predicted motion and the distance gravity adds over the frame. A particle that still
-/// leaves it only costs a full traversal for that substep.
+/// The box particle (`x`, `v`) is expected to stay in over the frame `frame` (`frame_motion`),
+/// in the collider's frame: its start and its start moved by its velocity, each in the
+/// collider's frame at that time, grown by a quarter of the thickness, a quarter of the
+/// predicted motion and the distance gravity adds over the frame. A particle that still leaves
+/// it only costs a full traversal for that substep.
 #[inline]
-pub fn query_box(motion: &SubstepMotion, x: Vec3, v: Vec3, gravity: Vec3, frame_time: f32, thickness: f32) -> Aabb {
-    let start = to_local(&motion.start, x);
-    let end = to_local(&motion.end, x + v * frame_time);
+pub fn query_box(frame: &SubstepMotion, x: Vec3, v: Vec3, gravity: Vec3, thickness: f32) -> Aabb {
+    let frame_time = frame.h;
+    let start = to_local(&frame.start, x);
+    let end = to_local(&frame.end, x + v * frame_time);
     let slop = 0.25 * thickness + 0.25 * (end - start).length() + 0.5 * gravity.length() * frame_time * frame_time;
     let s = Vec3::splat(slop);
     Aabb { min: (start.min(end) - s).extend(0.0), max: (start.max(end) + s).extend(0.0) }
@@ -96,22 +97,21 @@ pub fn gather_candidates<K: LeafKind>(
     count
 }
 
-/// Broad phase for particle `index`: its query box and candidate list (`candidates[index *
-/// MAX_CANDIDATES..]`). Pinned particles get an empty list (detect skips them anyway).
+/// Broad phase for particle `index` over the `frame` (`frame_motion`): its query box and
+/// candidate list (`candidates[index * MAX_CANDIDATES..]`). Pinned particles get an empty list (detect skips them anyway).
 #[allow(clippy::too_many_arguments)]
 pub fn broad_phase_at<K: LeafKind>(
     index: u32,
     params: &SimParams,
     collider: &ColliderParams,
-    motion: &SubstepMotion,
-    frame_time: f32,
+    frame: &SubstepMotion,
     (nodes, aabbs, leaf_bounds, leaves): BroadPhaseTree<'_, K::Leaf>,
     (x, v): (&[Vec4], &[Vec4]),
     queries: &mut [ContactQuery],
     candidates: &mut [u32],
 ) {
     let i = index as usize;
-    let region = query_box(motion, x[i].xyz(), v[i].xyz(), params.gravity.xyz(), frame_time, collider.thickness);
+    let region = query_box(frame, x[i].xyz(), v[i].xyz(), params.gravity.xyz(), collider.thickness);
     let count = if x[i].w == 0.0 {
         0
     } else {
@@ -138,9 +138,14 @@ pub fn broad_phase_particle<K: LeafKind>(
     if index >= params.particle_count {
         return;
     }
-    let frame_time = params.substep * push.substeps as f32;
-    let frame = SubstepMotion::of(pose, 0.0, 1.0, frame_time);
-    broad_phase_at::<K>(index, params, collider, &frame, frame_time, tree, state, queries, candidates);
+    broad_phase_at::<K>(index, params, collider, &frame_motion(params, pose, push), tree, state, queries, candidates);
+}
+
+/// The collider's motion over the whole frame the broad phase looks ahead over (its `h` is the
+/// frame's length).
+#[inline]
+pub fn frame_motion(params: &SimParams, pose: &ColliderPose, push: &BroadPhasePush) -> SubstepMotion {
+    SubstepMotion::of(pose, 0.0, 1.0, params.substep * push.substeps as f32)
 }
 
 /// Whether the path `a -> b` crosses any leaf of a candidate list.

@@ -598,3 +598,135 @@ pub fn cull_contact(
         }
     }
 }
+
+/// The contact entry points of leaf kind `$kind` (leaves of type `$leaf`), generated in the leaf
+/// kind's own module so they are named after it (`spheres::detect`, `triangles::detect`, ...):
+/// `detect` (through the LBVH), `detect_brute_force` (every leaf), `broad_phase` (once per
+/// frame: query boxes and candidate lists) and `detect_candidates` (every substep, over the
+/// lists). Their binding tables are `kernels::contact::{DETECT, DETECT_BRUTE_FORCE,
+/// BROAD_PHASE, DETECT_CANDIDATES}_BINDINGS` on the host.
+macro_rules! contact_entry_points {
+    ($kind:ty, $leaf:ty) => {
+        /// Detect through the LBVH (tree order): one contact per particle.
+        #[allow(clippy::too_many_arguments)]
+        #[spirv(compute(threads(64)))]
+        pub fn detect(
+            #[spirv(global_invocation_id)] id: ::drape_types::glam::UVec3,
+            #[spirv(push_constant)] push: &::drape_types::ContactPush,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &::drape_types::SimParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &::drape_types::ColliderParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &::drape_types::ColliderPose,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[::drape_types::BvhNode],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[::drape_types::Aabb],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[$leaf],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] contacts: &mut [::drape_types::Contact],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] status: &mut ::drape_types::CollisionStatus,
+        ) {
+            $crate::contact::detect_particle::<$kind>(
+                id.x,
+                push,
+                params,
+                collider,
+                pose,
+                (nodes, aabbs, leaves),
+                (x, x_prev),
+                contacts,
+                status,
+            );
+        }
+
+        /// Detect by testing every leaf (the baseline).
+        #[allow(clippy::too_many_arguments)]
+        #[spirv(compute(threads(64)))]
+        pub fn detect_brute_force(
+            #[spirv(global_invocation_id)] id: ::drape_types::glam::UVec3,
+            #[spirv(push_constant)] push: &::drape_types::ContactPush,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &::drape_types::SimParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &::drape_types::ColliderParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &::drape_types::ColliderPose,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaves: &[$leaf],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] x: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] contacts: &mut [::drape_types::Contact],
+        ) {
+            $crate::contact::detect_brute_force_particle::<$kind>(
+                id.x,
+                push,
+                params,
+                collider,
+                pose,
+                leaves,
+                (x, x_prev),
+                contacts,
+            );
+        }
+
+        /// Broad phase over the LBVH (once per frame): each particle's query box and candidate
+        /// list.
+        #[allow(clippy::too_many_arguments)]
+        #[spirv(compute(threads(64)))]
+        pub fn broad_phase(
+            #[spirv(global_invocation_id)] id: ::drape_types::glam::UVec3,
+            #[spirv(push_constant)] push: &::drape_types::BroadPhasePush,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &::drape_types::SimParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &::drape_types::ColliderParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &::drape_types::ColliderPose,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[::drape_types::BvhNode],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[::drape_types::Aabb],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_bounds: &[::drape_types::Aabb],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] leaves: &[$leaf],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] queries: &mut [::drape_types::ContactQuery],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] candidates: &mut [u32],
+        ) {
+            $crate::candidates::broad_phase_particle::<$kind>(
+                id.x,
+                push,
+                params,
+                collider,
+                pose,
+                (nodes, aabbs, leaf_bounds, leaves),
+                (x, v),
+                queries,
+                candidates,
+            );
+        }
+
+        /// Narrow phase (every substep): detect over each particle's candidate list.
+        #[allow(clippy::too_many_arguments)]
+        #[spirv(compute(threads(64)))]
+        pub fn detect_candidates(
+            #[spirv(global_invocation_id)] id: ::drape_types::glam::UVec3,
+            #[spirv(push_constant)] push: &::drape_types::ContactPush,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &::drape_types::SimParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &::drape_types::ColliderParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &::drape_types::ColliderPose,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[::drape_types::BvhNode],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[::drape_types::Aabb],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[$leaf],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] queries: &[::drape_types::ContactQuery],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] candidates: &[u32],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] x_prev: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] contacts: &mut [::drape_types::Contact],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] status: &mut ::drape_types::CollisionStatus,
+        ) {
+            $crate::candidates::detect_candidates_particle::<$kind>(
+                id.x,
+                push,
+                params,
+                collider,
+                pose,
+                (nodes, aabbs, leaves),
+                (queries, candidates),
+                (x, x_prev),
+                contacts,
+                status,
+            );
+        }
+    };
+}
+pub(crate) use contact_entry_points;

@@ -2,14 +2,10 @@
 //! the LBVH build, the spheres gathered into the tree's leaf order, and the contact detect pass
 //! over them (the generic traversal of `contact` with the sphere's hit test).
 
-use crate::candidates::{broad_phase_particle, detect_candidates_particle};
-use crate::contact::{LeafKind, detect_brute_force_particle, detect_particle, point_in_aabb};
+use crate::contact::{LeafKind, point_in_aabb};
 use crate::lbvh::gather_at;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{
-    Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery,
-    SimParams,
-};
+use drape_types::{Aabb, ColliderParams};
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
 use spirv_std::spirv;
@@ -126,113 +122,4 @@ pub fn gather_spheres(
     }
 }
 
-/// Detect through the LBVH over spheres (tree order): one contact per particle.
-#[allow(clippy::too_many_arguments)]
-#[spirv(compute(threads(64)))]
-pub fn detect(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(push_constant)] push: &ContactPush,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] contacts: &mut [Contact],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] status: &mut CollisionStatus,
-) {
-    detect_particle::<Spheres>(
-        id.x,
-        push,
-        params,
-        collider,
-        pose,
-        (nodes, aabbs, leaves),
-        (x, x_prev),
-        contacts,
-        status,
-    );
-}
-
-/// Detect by testing every sphere (the baseline).
-#[allow(clippy::too_many_arguments)]
-#[spirv(compute(threads(64)))]
-pub fn detect_brute_force(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(push_constant)] push: &ContactPush,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaves: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] contacts: &mut [Contact],
-) {
-    detect_brute_force_particle::<Spheres>(id.x, push, params, collider, pose, leaves, (x, x_prev), contacts);
-}
-
-/// Broad phase over the LBVH (once per frame): each particle's query box and candidate list.
-#[allow(clippy::too_many_arguments)]
-#[spirv(compute(threads(64)))]
-pub fn broad_phase(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(push_constant)] push: &BroadPhasePush,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_bounds: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] leaves: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] queries: &mut [ContactQuery],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] candidates: &mut [u32],
-) {
-    broad_phase_particle::<Spheres>(
-        id.x,
-        push,
-        params,
-        collider,
-        pose,
-        (nodes, aabbs, leaf_bounds, leaves),
-        (x, v),
-        queries,
-        candidates,
-    );
-}
-
-/// Narrow phase (every substep): detect over each particle's candidate list.
-#[allow(clippy::too_many_arguments)]
-#[spirv(compute(threads(64)))]
-pub fn detect_candidates(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(push_constant)] push: &ContactPush,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] queries: &[ContactQuery],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] candidates: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] contacts: &mut [Contact],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] status: &mut CollisionStatus,
-) {
-    detect_candidates_particle::<Spheres>(
-        id.x,
-        push,
-        params,
-        collider,
-        pose,
-        (nodes, aabbs, leaves),
-        (queries, candidates),
-        (x, x_prev),
-        contacts,
-        status,
-    );
-}
+crate::contact::contact_entry_points!(Spheres, Vec4);

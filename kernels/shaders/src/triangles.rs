@@ -5,13 +5,9 @@
 //! Contact is continuous: the particle's substep motion against each triangle grown by the
 //! thickness on both sides (see `Triangles`).
 
-use crate::candidates::{broad_phase_particle, detect_candidates_particle};
-use crate::contact::{LeafKind, detect_brute_force_particle, detect_particle};
+use crate::contact::LeafKind;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{
-    Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery,
-    SimParams, Triangle,
-};
+use drape_types::{Aabb, ColliderParams, Triangle};
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
 use spirv_std::spirv;
@@ -277,6 +273,14 @@ pub fn crosses(t: &Triangle, n: Vec3, a: Vec3, b: Vec3, margin: f32) -> bool {
     inside_in_plane(a + (b - a) * s, t, n, margin)
 }
 
+/// Whether the box of the motion `p0 -> p1` grown by `radius` (and 1 µm for rounding) meets
+/// `b`: the box test of a subtree and of a single triangle.
+#[inline]
+fn motion_box_meets(b: &Aabb, p0: Vec3, p1: Vec3, radius: f32) -> bool {
+    let m = Vec3::splat(radius + 1e-6);
+    (p0.min(p1) - m).cmple(b.max.xyz()).all() && (p0.max(p1) + m).cmpge(b.min.xyz()).all()
+}
+
 /// Triangles as contact leaves: continuous collision of the particle's substep motion (in the
 /// collider's frame) with each triangle grown by the thickness on both sides, so open meshes,
 /// thin parts and back-to-back faces work alike.
@@ -304,8 +308,7 @@ impl LeafKind for Triangles {
     /// thickness meets the motion's box.
     #[inline]
     fn may_touch(b: &Aabb, p0: Vec3, p1: Vec3, thickness: f32) -> bool {
-        let m = Vec3::splat(Self::grown(thickness) + 1e-6);
-        (p0.min(p1) - m).cmple(b.max.xyz()).all() && (p0.max(p1) + m).cmpge(b.min.xyz()).all()
+        motion_box_meets(b, p0, p1, Self::grown(thickness))
     }
 
     /// Hit parameter (for the motion relative to the leaf, see `relative`; a deforming leaf's
@@ -330,8 +333,7 @@ impl LeafKind for Triangles {
         if (h0 > high && h1 > high) || (h0 < low && h1 < low) {
             return (2.0, 0.0);
         }
-        let (b, m) = (triangle_aabb(&t), Vec3::splat(radius + 1e-6));
-        if !((p0.min(p1) - m).cmple(b.max.xyz()).all() && (p0.max(p1) + m).cmpge(b.min.xyz()).all()) {
+        if !motion_box_meets(&triangle_aabb(&t), p0, p1, radius) {
             return (2.0, 0.0);
         }
         if h0 >= low && h0 <= high {
@@ -480,113 +482,4 @@ pub fn gather_triangles(
     }
 }
 
-/// Detect through the LBVH over triangles (tree order): one contact per particle.
-#[allow(clippy::too_many_arguments)]
-#[spirv(compute(threads(64)))]
-pub fn detect(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(push_constant)] push: &ContactPush,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[Triangle],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] contacts: &mut [Contact],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] status: &mut CollisionStatus,
-) {
-    detect_particle::<Triangles>(
-        id.x,
-        push,
-        params,
-        collider,
-        pose,
-        (nodes, aabbs, leaves),
-        (x, x_prev),
-        contacts,
-        status,
-    );
-}
-
-/// Detect by testing every triangle (the baseline).
-#[allow(clippy::too_many_arguments)]
-#[spirv(compute(threads(64)))]
-pub fn detect_brute_force(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(push_constant)] push: &ContactPush,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaves: &[Triangle],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] contacts: &mut [Contact],
-) {
-    detect_brute_force_particle::<Triangles>(id.x, push, params, collider, pose, leaves, (x, x_prev), contacts);
-}
-
-/// Broad phase over the LBVH (once per frame): each particle's query box and candidate list.
-#[allow(clippy::too_many_arguments)]
-#[spirv(compute(threads(64)))]
-pub fn broad_phase(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(push_constant)] push: &BroadPhasePush,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_bounds: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] leaves: &[Triangle],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] queries: &mut [ContactQuery],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] candidates: &mut [u32],
-) {
-    broad_phase_particle::<Triangles>(
-        id.x,
-        push,
-        params,
-        collider,
-        pose,
-        (nodes, aabbs, leaf_bounds, leaves),
-        (x, v),
-        queries,
-        candidates,
-    );
-}
-
-/// Narrow phase (every substep): detect over each particle's candidate list.
-#[allow(clippy::too_many_arguments)]
-#[spirv(compute(threads(64)))]
-pub fn detect_candidates(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(push_constant)] push: &ContactPush,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[Triangle],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] queries: &[ContactQuery],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] candidates: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] contacts: &mut [Contact],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] status: &mut CollisionStatus,
-) {
-    detect_candidates_particle::<Triangles>(
-        id.x,
-        push,
-        params,
-        collider,
-        pose,
-        (nodes, aabbs, leaves),
-        (queries, candidates),
-        (x, x_prev),
-        contacts,
-        status,
-    );
-}
+crate::contact::contact_entry_points!(Triangles, Triangle);
