@@ -1,20 +1,30 @@
 //! Cloth description: a `rows x cols` particle grid with structural, shear and bend springs,
-//! built by `ClothBuilder` and validated before anything reaches the GPU.
+//! or any triangle mesh (`ClothMesh`) with springs on its edges and across them, built by
+//! `ClothBuilder` and validated before anything reaches the GPU.
 
+use crate::cloth_mesh::{ClothMesh, ClothUvs, SpringTopology, lumped_masses};
 use crate::error::{Error, Result};
 use drape_types::{SimParams, integrator};
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 
-/// Builder for a rectangular cloth. The grid lies in the local XZ plane (columns along +X, rows
-/// along +Z, normal +Y), centred on the origin, then `transform` places it in the world.
+/// Builder for a cloth: a rectangular grid (`new`), the fast path whose springs the kernels
+/// derive from the grid, or a triangle mesh (`from_mesh`), whose springs are listed. The grid
+/// lies in the local XZ plane (columns along +X, rows along +Z, normal +Y), centred on the
+/// origin; a mesh keeps its own coordinates; then `transform` places either in the world.
 #[derive(Clone, Debug)]
 pub struct ClothBuilder {
+    /// Grid particles per column and row (unused for a mesh cloth).
     pub rows: u32,
     pub cols: u32,
-    /// Side length (m) along X and Z.
+    /// Grid side length (m) along X and Z (unused for a mesh cloth).
     pub size: f32,
-    /// Total mass (kg), split evenly over the particles.
+    /// Total mass (kg): split evenly over a grid's particles, by area over a mesh's.
     pub mass: f32,
+    /// The mesh of a mesh cloth (`None`: the grid).
+    pub mesh: Option<ClothMesh>,
+    /// Build a grid with listed springs (the mesh cloths' kernels) instead of its fast path:
+    /// the same springs, for measuring and checking one path against the other.
+    pub listed_springs: bool,
     /// Spring stiffness (N/m): structural, shear, bend.
     pub k_struct: f32,
     pub k_shear: f32,
@@ -27,8 +37,12 @@ pub struct ClothBuilder {
     pub gravity: Vec3,
     /// Constant external force on the whole cloth (N), e.g. wind; split evenly over particles.
     pub external_force: Vec3,
-    /// Pinned particles as (row, col).
+    /// Pinned grid particles as (row, col).
     pub pins: Vec<(u32, u32)>,
+    /// Pinned particles by index (grid: row * cols + col; mesh: vertex index).
+    pub pinned_vertices: Vec<u32>,
+    /// Particles pinned by a box (min, max) in the cloth's own coordinates (before `transform`).
+    pub pin_boxes: Vec<(Vec3, Vec3)>,
     /// Initial velocity of every free particle (m/s), e.g. a throw.
     pub velocity: Vec3,
     /// Local-to-world placement (the paper's `trsMatrix`).
@@ -43,6 +57,8 @@ impl ClothBuilder {
             cols,
             size: 1.0,
             mass: 0.2,
+            mesh: None,
+            listed_springs: false,
             k_struct: 40.0,
             k_shear: 10.0,
             k_bend: 2.0,
@@ -51,9 +67,25 @@ impl ClothBuilder {
             gravity: Vec3::new(0.0, -9.81, 0.0),
             external_force: Vec3::ZERO,
             pins: Vec::new(),
+            pinned_vertices: Vec::new(),
+            pin_boxes: Vec::new(),
             velocity: Vec3::ZERO,
             transform: Mat4::IDENTITY,
         }
+    }
+
+    /// A cloth of `mesh`'s triangles (one particle per vertex, in its order), 0.2 kg/m^2.
+    pub fn from_mesh(mesh: ClothMesh) -> Self {
+        let area = mesh.area();
+        let mut builder = ClothBuilder::new(2, 2).mass(0.2 * area);
+        builder.mesh = Some(mesh);
+        builder
+    }
+
+    /// Builds the grid with listed springs (`listed_springs`).
+    pub fn listed_springs(mut self, listed: bool) -> Self {
+        self.listed_springs = listed;
+        self
     }
 
     pub fn size(mut self, size: f32) -> Self {
@@ -93,6 +125,17 @@ impl ClothBuilder {
         self.pins.push((row, col));
         self
     }
+    /// Pins particle `index` (a mesh's vertex index; a grid's row * cols + col).
+    pub fn pin_vertex(mut self, index: u32) -> Self {
+        self.pinned_vertices.push(index);
+        self
+    }
+    /// Pins every particle inside the box `min..=max`, in the cloth's own coordinates (before
+    /// `transform`).
+    pub fn pin_within(mut self, min: Vec3, max: Vec3) -> Self {
+        self.pin_boxes.push((min, max));
+        self
+    }
     /// Pins the two corners of the last row (the paper's demo pins two corners).
     pub fn pin_top_corners(self) -> Self {
         let (r, c) = (self.rows.saturating_sub(1), self.cols.saturating_sub(1));
@@ -106,13 +149,6 @@ impl ClothBuilder {
     /// Validates the parameters and lays out the particles.
     pub fn build(&self) -> Result<Cloth> {
         let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
-        if self.rows < 2 || self.cols < 2 {
-            return bad("rows/cols", format!("need at least 2 x 2 particles, got {} x {}", self.rows, self.cols));
-        }
-        let count = self.rows as u64 * self.cols as u64;
-        if count > 1 << 24 {
-            return bad("rows/cols", format!("{count} particles is more than the supported 16,777,216"));
-        }
         let positive = [("size", self.size), ("mass", self.mass)];
         for (name, value) in positive {
             if !(value.is_finite() && value > 0.0) {
@@ -137,36 +173,41 @@ impl ClothBuilder {
         if !self.transform.is_finite() || self.transform.determinant().abs() < 1e-12 {
             return bad("transform", "must be finite and invertible".into());
         }
-        for &(r, c) in &self.pins {
-            if r >= self.rows || c >= self.cols {
-                return bad("pins", format!("({r}, {c}) is outside the {} x {} grid", self.rows, self.cols));
+        for &(lo, hi) in &self.pin_boxes {
+            if !(lo.is_finite() && hi.is_finite() && lo.cmple(hi).all()) {
+                return bad("pin box", format!("needs finite corners with min <= max, got {lo} and {hi}"));
             }
         }
+        let (mut cloth, local) = match &self.mesh {
+            None => self.build_grid()?,
+            Some(mesh) => self.build_mesh(mesh)?,
+        };
+        let count = cloth.positions.len() as u32;
+        for &i in &self.pinned_vertices {
+            if i >= count {
+                return bad("pins", format!("particle {i} does not exist: the cloth has {count} particles"));
+            }
+            cloth.positions[i as usize].w = 0.0;
+        }
+        for (p, l) in cloth.positions.iter_mut().zip(&local) {
+            if self.pin_boxes.iter().any(|&(lo, hi)| l.cmpge(lo).all() && l.cmple(hi).all()) {
+                p.w = 0.0;
+            }
+        }
+        // Pinned particles (w = 0) stay at rest.
+        cloth.velocities = cloth.positions.iter().map(|p| (self.velocity * p.w).extend(0.0)).collect();
+        Ok(cloth)
+    }
 
-        let dx = self.size / (self.cols - 1) as f32;
-        let dz = self.size / (self.rows - 1) as f32;
-        let origin = Vec3::new(-0.5 * self.size, 0.0, -0.5 * self.size);
-        let mut positions = Vec::with_capacity(count as usize);
-        for r in 0..self.rows {
-            for c in 0..self.cols {
-                let local = origin + Vec3::new(c as f32 * dx, 0.0, r as f32 * dz);
-                positions.push(self.transform.transform_point3(local).extend(1.0));
-            }
-        }
-        for &(r, c) in &self.pins {
-            positions[(r * self.cols + c) as usize].w = 0.0;
-        }
-        // Rest lengths are the world-space grid steps, so any TRS keeps the cloth at rest.
-        let col_step = self.transform.transform_vector3(Vec3::new(dx, 0.0, 0.0));
-        let row_step = self.transform.transform_vector3(Vec3::new(0.0, 0.0, dz));
-        let particle_mass = self.mass / count as f32;
-        let params = SimParams {
-            rows: self.rows,
-            cols: self.cols,
-            particle_count: count as u32,
+    /// The parameters every cloth shares (the layout's fields left for the caller).
+    fn params(&self, particles: u32, particle_mass: f32) -> SimParams {
+        SimParams {
+            rows: 1,
+            cols: particles,
+            particle_count: particles,
             integrator: integrator::RK4,
             gravity: self.gravity.extend(0.0),
-            external_force: (self.external_force / count as f32).extend(0.0),
+            external_force: (self.external_force / particles as f32).extend(0.0),
             k_struct: self.k_struct,
             k_shear: self.k_shear,
             k_bend: self.k_bend,
@@ -175,26 +216,134 @@ impl ClothBuilder {
             particle_mass,
             substep: 0.0,
             _pad0: 0,
-            rest: Vec4::new(
-                col_step.length(),
-                row_step.length(),
-                (col_step + row_step).length(),
-                (row_step - col_step).length(),
-            ),
+            rest: Vec4::ZERO,
+        }
+    }
+
+    /// The grid (positions in the world, and in the cloth's own frame for pin boxes).
+    fn build_grid(&self) -> Result<(Cloth, Vec<Vec3>)> {
+        let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
+        if self.rows < 2 || self.cols < 2 {
+            return bad("rows/cols", format!("need at least 2 x 2 particles, got {} x {}", self.rows, self.cols));
+        }
+        let count = self.rows as u64 * self.cols as u64;
+        if count > 1 << 24 {
+            return bad("rows/cols", format!("{count} particles is more than the supported 16,777,216"));
+        }
+        for &(r, c) in &self.pins {
+            if r >= self.rows || c >= self.cols {
+                return bad("pins", format!("({r}, {c}) is outside the {} x {} grid", self.rows, self.cols));
+            }
+        }
+        let dx = self.size / (self.cols - 1) as f32;
+        let dz = self.size / (self.rows - 1) as f32;
+        let origin = Vec3::new(-0.5 * self.size, 0.0, -0.5 * self.size);
+        let mut local = Vec::with_capacity(count as usize);
+        for r in 0..self.rows {
+            for c in 0..self.cols {
+                local.push(origin + Vec3::new(c as f32 * dx, 0.0, r as f32 * dz));
+            }
+        }
+        let mut positions: Vec<Vec4> = local.iter().map(|&l| self.transform.transform_point3(l).extend(1.0)).collect();
+        for &(r, c) in &self.pins {
+            positions[(r * self.cols + c) as usize].w = 0.0;
+        }
+        // Rest lengths are the world-space grid steps, so any TRS keeps the cloth at rest.
+        let col_step = self.transform.transform_vector3(Vec3::new(dx, 0.0, 0.0));
+        let row_step = self.transform.transform_vector3(Vec3::new(0.0, 0.0, dz));
+        let mut params = self.params(count as u32, self.mass / count as f32);
+        (params.rows, params.cols) = (self.rows, self.cols);
+        params.rest = Vec4::new(
+            col_step.length(),
+            row_step.length(),
+            (col_step + row_step).length(),
+            (row_step - col_step).length(),
+        );
+        let triangles = grid_triangles(self.rows, self.cols);
+        let uvs = ClothUvs {
+            coords: (0..count as u32)
+                .map(|i| {
+                    let (r, c) = (i / self.cols, i % self.cols);
+                    Vec2::new(c as f32 / (self.cols - 1) as f32, r as f32 / (self.rows - 1) as f32)
+                })
+                .collect(),
+            triangles: triangles.clone(),
         };
-        // Pinned particles (w = 0) stay at rest.
-        let velocities = positions.iter().map(|p| (self.velocity * p.w).extend(0.0)).collect();
-        Ok(Cloth { params, positions, velocities })
+        let topology = if self.listed_springs {
+            ClothTopology::Springs(SpringTopology::of_grid(&params, &triangles))
+        } else {
+            ClothTopology::Grid
+        };
+        Ok((Cloth { params, positions, velocities: Vec::new(), triangles, uvs: Some(uvs), topology }, local))
+    }
+
+    /// A mesh cloth (positions in the world, and in the mesh's own coordinates for pin boxes).
+    fn build_mesh(&self, mesh: &ClothMesh) -> Result<(Cloth, Vec<Vec3>)> {
+        crate::Mesh::from_parts(mesh.vertices.clone(), mesh.triangles.clone())?;
+        let count = mesh.vertices.len();
+        if count > 1 << 24 {
+            return Err(Error::InvalidParameter {
+                name: "cloth mesh",
+                problem: format!("{count} vertices is more than the supported 16,777,216"),
+            });
+        }
+        let world: Vec<Vec3> = mesh.vertices.iter().map(|&v| self.transform.transform_point3(v)).collect();
+        let masses = lumped_masses(&world, &mesh.triangles, self.mass);
+        let mut positions: Vec<Vec4> = world.iter().map(|p| p.extend(1.0)).collect();
+        let mut loose = 0;
+        for (p, &m) in positions.iter_mut().zip(&masses) {
+            if m <= 0.0 {
+                p.w = 0.0; // a vertex of no triangle: nothing moves it, so it stays put
+                loose += 1;
+            }
+        }
+        if loose > 0 {
+            log::info!("cloth mesh: {loose} vertices belong to no triangle; they are pinned where they are");
+        }
+        // A mirroring transform turns the triangles inside out: keep the normals outward.
+        let triangles: Vec<[u32; 3]> = if self.transform.determinant() < 0.0 {
+            mesh.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect()
+        } else {
+            mesh.triangles.clone()
+        };
+        let used = masses.iter().filter(|&&m| m > 0.0).count().max(1);
+        let mut params = self.params(count as u32, self.mass / used as f32);
+        // The force on the whole cloth is spread over the particles that carry mass.
+        params.external_force = (self.external_force / used as f32).extend(0.0);
+        let topology = ClothTopology::Springs(SpringTopology::of_mesh(&world, &triangles, &masses));
+        let uvs = mesh.uvs.clone().map(|mut uvs| {
+            if self.transform.determinant() < 0.0 {
+                uvs.triangles = uvs.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect();
+            }
+            uvs
+        });
+        Ok((Cloth { params, positions, velocities: Vec::new(), triangles, uvs, topology }, mesh.vertices.clone()))
     }
 }
 
-/// A built cloth: GPU parameters (without a substep yet) and the initial state.
+/// How a cloth's kernels find its springs.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ClothTopology {
+    /// Implied by the `rows x cols` grid (the fast path: nothing to load per spring).
+    Grid,
+    /// Listed per particle (a mesh cloth, or a grid built with `listed_springs`).
+    Springs(SpringTopology),
+}
+
+/// A built cloth: GPU parameters (without a substep yet), the initial state, its triangles
+/// and how its springs are found.
 #[derive(Clone, Debug)]
 pub struct Cloth {
     pub params: SimParams,
     /// xyz = position (m), w = 1 for a free particle, 0 for a pinned one.
     pub positions: Vec<Vec4>,
     pub velocities: Vec<Vec4>,
+    /// The cloth's triangles (a grid's are CCW seen from +Y in local space), for renderers,
+    /// export and metrics.
+    pub triangles: Vec<[u32; 3]>,
+    /// Texture coordinates per triangle corner, when the cloth has them.
+    pub uvs: Option<ClothUvs>,
+    pub topology: ClothTopology,
 }
 
 impl Cloth {
@@ -202,9 +351,20 @@ impl Cloth {
         self.positions.len()
     }
 
-    /// Triangles of the grid (CCW seen from +Y in local space), for export and metrics.
+    /// The cloth's triangles.
     pub fn triangles(&self) -> Vec<[u32; 3]> {
-        grid_triangles(self.params.rows, self.params.cols)
+        self.triangles.clone()
+    }
+
+    /// Each structural spring once: (i, j, rest length), for stretch measurements.
+    pub fn structural_springs(&self) -> Vec<(u32, u32, f32)> {
+        match &self.topology {
+            ClothTopology::Springs(s) => s.structural_springs(),
+            ClothTopology::Grid => {
+                let p = &self.params;
+                crate::metrics::grid_structural_springs(p.rows, p.cols, p.rest.x, p.rest.y)
+            }
+        }
     }
 }
 

@@ -10,7 +10,7 @@ use crate::model::{ClothId, ColliderId};
 use crate::program::SolverProgram;
 use crate::programs::cloth::FramePlan;
 use crate::settings::SimSettings;
-use crate::stability::Stability;
+use crate::stability::{SpringProfile, Stability};
 use drape_types::{ColliderParams, ColliderPose, RigidPose, SimParams};
 use glam::{Quat, Vec3, Vec4};
 
@@ -58,6 +58,8 @@ struct ColliderControl {
 pub(crate) struct ClothControl {
     pub params: SimParams,
     pub stability: Stability,
+    /// What the stability bound needs of the cloth's springs.
+    profile: SpringProfile,
     params_dirty: bool,
     pins: Vec<(u32, PinChange)>,
 }
@@ -85,10 +87,20 @@ fn non_negative(name: &'static str, values: &[f32]) -> Result<()> {
 }
 
 impl Controls {
-    pub fn new(cloths: Vec<(SimParams, Stability)>, settings: SimSettings, colliders: Vec<ColliderStart>) -> Self {
+    pub fn new(
+        cloths: Vec<(SimParams, Stability, SpringProfile)>,
+        settings: SimSettings,
+        colliders: Vec<ColliderStart>,
+    ) -> Self {
         let cloths = cloths
             .into_iter()
-            .map(|(params, stability)| ClothControl { params, stability, params_dirty: false, pins: Vec::new() })
+            .map(|(params, stability, profile)| ClothControl {
+                params,
+                stability,
+                profile,
+                params_dirty: false,
+                pins: Vec::new(),
+            })
             .collect();
         let colliders = colliders
             .into_iter()
@@ -164,7 +176,8 @@ impl Controls {
     /// cloth before any changes.
     pub fn set_frame_dt(&mut self, frame_dt: f32) -> Result<bool> {
         let settings = SimSettings { frame_dt, ..self.settings };
-        let resolved = self.cloths.iter().map(|c| settings.resolve_params(&c.params)).collect::<Result<Vec<_>>>()?;
+        let resolved =
+            self.cloths.iter().map(|c| settings.resolve_params(&c.params, &c.profile)).collect::<Result<Vec<_>>>()?;
         let mut changed = false;
         for (c, (params, stability)) in self.cloths.iter_mut().zip(resolved) {
             changed |= adopt(c, params, stability);
@@ -176,7 +189,8 @@ impl Controls {
     /// Chooses `cloth`'s substep for `params` under `settings` (automatic substeps follow the
     /// stability bound) and adopts both if valid.
     fn restabilise(&mut self, cloth: ClothId, params: SimParams, settings: SimSettings) -> Result<bool> {
-        let (resolved, stability) = settings.resolve_params(&params)?;
+        let profile = &self.cloth(cloth)?.profile;
+        let (resolved, stability) = settings.resolve_params(&params, profile)?;
         Ok(adopt(self.cloth_mut(cloth)?, resolved, stability))
     }
 

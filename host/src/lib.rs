@@ -44,6 +44,7 @@ macro_rules! internal_modules {
 internal_modules!(cpu, gpu, graph, kernels, lbvh, programs, reference);
 
 pub mod cloth;
+pub mod cloth_mesh;
 pub mod collider;
 mod controls;
 mod cpu_solver;
@@ -61,7 +62,8 @@ mod state;
 pub mod timing;
 pub mod topology;
 
-pub use cloth::{Cloth, ClothBuilder};
+pub use cloth::{Cloth, ClothBuilder, ClothTopology};
+pub use cloth_mesh::{ClothMesh, ClothUvs};
 pub use cpu_solver::CpuSolver;
 pub use drape_types::{RigidPose, SimParams};
 pub use error::{Error, Result};

@@ -3,10 +3,12 @@
 
 use clap::{Parser, ValueEnum};
 use drape::mesh::Mesh;
-use drape::metrics::{Accuracy, TriangleBvh, accuracy, accuracy_on_triangles};
+use drape::metrics::{Accuracy, TriangleBvh, accuracy_of_cloth};
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, shared_model};
 use drape::timing::TimingReport;
-use drape::{ClothId, ContactSearch, Context, Integrator, Model, SimSettings, Solver, Validation};
+use drape::{
+    ClothBuilder, ClothId, ClothMesh, ContactSearch, Context, Integrator, Model, SimSettings, Solver, Validation,
+};
 use glam::Vec3;
 use std::io::Write;
 use std::path::PathBuf;
@@ -89,6 +91,23 @@ struct Args {
     /// Particles per side (rows = cols).
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(2..=4096))]
     grid: u32,
+    /// The cloth from a triangle mesh (OBJ): one particle per vertex in the file's order, springs
+    /// on its edges and across them, UVs kept. In the drape scene it is centred over the
+    /// collider, its lowest point 5 cm above the top; in the swing scene it stays where the
+    /// file puts it.
+    #[arg(long, conflicts_with = "grid")]
+    cloth_mesh: Option<PathBuf>,
+    /// Pin these particles (vertex indices, comma separated; a grid's are row * cols + col).
+    #[arg(long, value_delimiter = ',')]
+    pin_vertices: Vec<u32>,
+    /// Pin every particle inside this box, given as MIN_X,MIN_Y,MIN_Z,MAX_X,MAX_Y,MAX_Z in the
+    /// cloth's own coordinates (a mesh's file coordinates), e.g. `--pin-box=-1,0.9,-1,1,1,1`.
+    #[arg(long, value_parser = parse_box, allow_hyphen_values = true)]
+    pin_box: Option<(Vec3, Vec3)>,
+    /// Build the grid with listed springs (the kernels of mesh cloths) instead of its fast path:
+    /// the same cloth, to measure one path against the other.
+    #[arg(long, conflicts_with = "cloth_mesh")]
+    listed_springs: bool,
     /// Frames to simulate (1/60 s each).
     #[arg(long, default_value_t = SETTLE_FRAMES, value_parser = clap::value_parser!(u32).range(1..))]
     frames: u32,
@@ -187,6 +206,36 @@ fn parse_vec3(text: &str) -> Result<Vec3, String> {
     }
 }
 
+/// "MIN_X,MIN_Y,MIN_Z,MAX_X,MAX_Y,MAX_Z" (six finite numbers, min <= max) as a box.
+fn parse_box(text: &str) -> Result<(Vec3, Vec3), String> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f32>().map_err(|e| format!("`{v}`: {e}")))
+        .collect::<Result<_, _>>()?;
+    match values[..] {
+        [a, b, c, d, e, f] if values.iter().all(|v| v.is_finite()) && a <= d && b <= e && c <= f => {
+            Ok((Vec3::new(a, b, c), Vec3::new(d, e, f)))
+        }
+        _ => Err(format!(
+            "expected six finite numbers MIN_X,MIN_Y,MIN_Z,MAX_X,MAX_Y,MAX_Z with min <= max, got `{text}`"
+        )),
+    }
+}
+
+/// The cloth of `--cloth-mesh`, placed for `scene` (see the flag).
+fn mesh_cloth(path: &std::path::Path, scene: Option<&DrapeScene>) -> drape::Result<ClothBuilder> {
+    let mesh = ClothMesh::load_obj(path)?;
+    let builder = ClothBuilder::from_mesh(mesh.clone());
+    let Some(s) = scene else {
+        return Ok(builder);
+    };
+    let (lo, hi) = drape::Mesh { vertices: mesh.vertices.clone(), triangles: mesh.triangles.clone() }.bounds();
+    let (mesh_lo, mesh_hi) = s.mesh.bounds();
+    let centre = 0.5 * (mesh_lo + mesh_hi);
+    let shift = Vec3::new(centre.x - 0.5 * (lo.x + hi.x), mesh_hi.y + 0.05 - lo.y, centre.z - 0.5 * (lo.z + hi.z));
+    Ok(builder.transform(glam::Mat4::from_translation(shift)))
+}
+
 fn run(args: &Args) -> drape::Result<()> {
     let validation = if args.validate { Validation::Required } else { Validation::from_env() };
     let ctx = Context::new(validation)?;
@@ -225,7 +274,20 @@ fn run(args: &Args) -> drape::Result<()> {
             builder
         }
     };
-    let cloth = builder
+    let builder = match &args.cloth_mesh {
+        Some(path) => {
+            let wind = if args.scene == SceneArg::Swing { Vec3::from_slice(&args.wind) } else { Vec3::ZERO };
+            mesh_cloth(path, scene.as_ref())?.external_force(wind)
+        }
+        None => builder.listed_springs(args.listed_springs),
+    };
+    let builder = args.pin_vertices.iter().fold(builder, |b, &i| b.pin_vertex(i));
+    let builder = match args.pin_box {
+        Some((lo, hi)) => builder.pin_within(lo, hi),
+        None => builder,
+    };
+    let cloth_description = cloth_description(args, &builder);
+    let built = builder
         .velocity(args.velocity)
         .stiffness(args.stiffness[0], args.stiffness[1], args.stiffness[2])
         .spring_damping(args.spring_damping)
@@ -267,10 +329,10 @@ fn run(args: &Args) -> drape::Result<()> {
         }
         None => None,
     };
-    let model = Model::single(&cloth, collider.as_slice(), settings)?;
+    let model = Model::single(&built, collider.as_slice(), settings)?;
     let cloth = model.first_cloth();
     let mut sim = Solver::new(&ctx, &model)?;
-    print_setup(args, &sim, cloth, &settings)?;
+    print_setup(args, &cloth_description, &sim, cloth, &settings)?;
     println!("GPU memory ({} barriers per frame):\n{}", sim.barriers_per_frame(), sim.memory_report());
     if let Some(t) = sim.lbvh_timings() {
         println!("LBVH build on the GPU: {:.3} ms", t.total_micros() / 1e3);
@@ -301,7 +363,7 @@ fn run(args: &Args) -> drape::Result<()> {
         };
         if let (Some(dir), true) = (&args.obj_dir, write_this) {
             let path = dir.join(format!("frame_{frame:05}.obj"));
-            drape::obj::write_cloth_obj(&path, args.grid, args.grid, &sim.positions(cloth)?, &sim.normals(cloth)?)?;
+            drape::obj::write_cloth_obj(&path, &built, &sim.positions(cloth)?, &sim.normals(cloth)?)?;
         }
     }
     end_progress_line();
@@ -319,7 +381,7 @@ fn run(args: &Args) -> drape::Result<()> {
     if let Some(c) = &collider {
         println!("collision traversal: ran in {ran} substeps, culled (cloth cannot touch) in {skipped}");
         if c.search == ContactSearch::CandidateLists {
-            let particle_substeps = u64::from(ran) * u64::from(args.grid * args.grid);
+            let particle_substeps = u64::from(ran) * built.particle_count() as u64;
             println!(
                 "candidate lists: {fallbacks} of {particle_substeps} particle-substeps fell back to a full walk ({:.2} %)",
                 100.0 * fallbacks as f64 / particle_substeps.max(1) as f64
@@ -330,11 +392,8 @@ fn run(args: &Args) -> drape::Result<()> {
     if let (Some(s), Some(c)) = (&scene, &collider) {
         let start = Instant::now();
         let bvh = TriangleBvh::new(&s.mesh);
-        let p = sim.params(cloth)?;
-        let a = match args.contact {
-            ContactArg::Spheres => accuracy(&bvh, c.spheres(), c.thickness, p.rows, p.cols, p.rest.x, p.rest.y, &x),
-            ContactArg::Triangles => accuracy_on_triangles(&bvh, c.thickness, (p.rows, p.cols, p.rest.x, p.rest.y), &x),
-        };
+        let spheres = (args.contact == ContactArg::Spheres).then(|| c.spheres());
+        let a = accuracy_of_cloth(&bvh, spheres, c.thickness, &built.structural_springs(), &x);
         print_accuracy(&a, args.frames, start.elapsed().as_secs_f64());
     } else {
         let lowest = x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
@@ -343,15 +402,30 @@ fn run(args: &Args) -> drape::Result<()> {
     ctx.check_validation()
 }
 
-fn print_setup(args: &Args, sim: &Solver, cloth: ClothId, settings: &SimSettings) -> drape::Result<()> {
+/// What the setup line says the cloth is.
+fn cloth_description(args: &Args, builder: &ClothBuilder) -> String {
+    match (&args.cloth_mesh, &builder.mesh) {
+        (Some(path), Some(mesh)) => format!(
+            "mesh {} ({} particles, {} triangles{})",
+            path.display(),
+            mesh.vertices.len(),
+            mesh.triangles.len(),
+            if mesh.uvs.is_some() { ", UVs" } else { "" }
+        ),
+        _ if args.listed_springs => format!("{g} x {g} particles (listed springs)", g = args.grid),
+        _ => format!("{g} x {g} particles", g = args.grid),
+    }
+}
+
+fn print_setup(
+    args: &Args,
+    description: &str,
+    sim: &Solver,
+    cloth: ClothId,
+    settings: &SimSettings,
+) -> drape::Result<()> {
     let s = sim.stability(cloth)?;
-    println!(
-        "cloth: {g} x {g} particles, {:?}, {} substeps/frame of {:.3e} s",
-        settings.integrator,
-        s.substeps,
-        s.substep,
-        g = args.grid
-    );
+    println!("cloth: {description}, {:?}, {} substeps/frame of {:.3e} s", settings.integrator, s.substeps, s.substep);
     println!(
         "stability: omega_max {:.0} rad/s, gamma_max {:.0} 1/s, bound {:.3e} s, substep/bound {:.2}{}",
         s.omega_max,

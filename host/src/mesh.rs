@@ -39,11 +39,7 @@ impl Mesh {
     #[cfg(feature = "obj")]
     pub fn load_obj(path: &Path) -> Result<Mesh> {
         let error = |problem: String| Error::Mesh { path: path.to_path_buf(), problem };
-        let bytes = std::fs::read(path).map_err(|e| error(format!("cannot read the file: {e}")))?;
-        let text = String::from_utf8(bytes).map_err(|e| {
-            error(format!("is not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to()))
-        })?;
-        scan_obj(&text).map_err(error)?;
+        let text = read_obj_text(path)?;
         // `load_obj_buf` on the text already read: one read, so the scan and the parse see the
         // same bytes; `mtllib` lines load nothing (materials are not used).
         let options = tobj::LoadOptions { triangulate: true, single_index: true, ..tobj::GPU_LOAD_OPTIONS };
@@ -219,6 +215,17 @@ impl Mesh {
 }
 
 /// Checks what every consumer of a mesh relies on; the error text is the `problem`.
+/// The text of the OBJ file at `path`, checked line by line (`scan_obj`).
+#[cfg(feature = "obj")]
+pub(crate) fn read_obj_text(path: &Path) -> Result<String> {
+    let error = |problem: String| Error::Mesh { path: path.to_path_buf(), problem };
+    let bytes = std::fs::read(path).map_err(|e| error(format!("cannot read the file: {e}")))?;
+    let text = String::from_utf8(bytes)
+        .map_err(|e| error(format!("is not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to())))?;
+    scan_obj(&text).map_err(error)?;
+    Ok(text)
+}
+
 pub(crate) fn validate(vertices: &[Vec3], triangles: &[[u32; 3]]) -> std::result::Result<(), String> {
     if triangles.is_empty() {
         return Err("no triangles (a mesh needs at least one face with 3 or more vertices)".into());

@@ -203,7 +203,8 @@ pub fn accuracy(
     rest_row: f32,
     positions: &[Vec4],
 ) -> Accuracy {
-    measure(bvh, Some(SphereSet::new(spheres)), thickness, (rows, cols, rest_col, rest_row), positions)
+    let springs = grid_structural_springs(rows, cols, rest_col, rest_row);
+    measure(bvh, Some(SphereSet::new(spheres)), thickness, &springs, positions)
 }
 
 /// `accuracy` for a collider made of the mesh's own triangles: resting particles are those
@@ -214,7 +215,37 @@ pub fn accuracy_on_triangles(
     (rows, cols, rest_col, rest_row): (u32, u32, f32, f32),
     positions: &[Vec4],
 ) -> Accuracy {
-    measure(bvh, None, thickness, (rows, cols, rest_col, rest_row), positions)
+    measure(bvh, None, thickness, &grid_structural_springs(rows, cols, rest_col, rest_row), positions)
+}
+
+/// `accuracy` (with the collider's `spheres`) or `accuracy_on_triangles` (without) of any
+/// cloth, given its structural springs (`Cloth::structural_springs`: i, j, rest length).
+pub fn accuracy_of_cloth(
+    bvh: &TriangleBvh,
+    spheres: Option<&[Vec4]>,
+    thickness: f32,
+    springs: &[(u32, u32, f32)],
+    positions: &[Vec4],
+) -> Accuracy {
+    measure(bvh, spheres.map(SphereSet::new), thickness, springs, positions)
+}
+
+/// The structural springs of a `rows x cols` grid: row springs join `i` and `i + cols` (rest
+/// `rest_row`), column springs `i` and `i + 1` (rest `rest_col`).
+pub fn grid_structural_springs(rows: u32, cols: u32, rest_col: f32, rest_row: f32) -> Vec<(u32, u32, f32)> {
+    let mut springs = Vec::new();
+    for r in 0..rows {
+        for c in 0..cols {
+            let i = r * cols + c;
+            if r + 1 < rows {
+                springs.push((i, i + cols, rest_row));
+            }
+            if c + 1 < cols {
+                springs.push((i, i + 1, rest_col));
+            }
+        }
+    }
+    springs
 }
 
 /// The accuracy measures; resting is judged against `collider`'s spheres, or against the true
@@ -223,7 +254,7 @@ fn measure(
     bvh: &TriangleBvh,
     collider: Option<SphereSet>,
     thickness: f32,
-    (rows, cols, rest_col, rest_row): (u32, u32, f32, f32),
+    springs: &[(u32, u32, f32)],
     positions: &[Vec4],
 ) -> Accuracy {
     let particles = positions.len();
@@ -269,24 +300,12 @@ fn measure(
         result.gap_mean = (gap_sum / result.resting as f64) as f32;
     }
 
-    let mut stretches = Vec::with_capacity(2 * particles);
-    let (rows, cols) = (rows as usize, cols as usize);
-    let mut spring = |i: usize, j: usize, rest: f32| {
-        if let (Some(a), Some(b)) = (positions.get(i), positions.get(j)) {
+    let mut stretches = Vec::with_capacity(springs.len());
+    for &(i, j, rest) in springs {
+        let usable = rest.is_finite() && rest > 0.0;
+        if let (true, Some(a), Some(b)) = (usable, positions.get(i as usize), positions.get(j as usize)) {
             let stretch = a.xyz().distance(b.xyz()) / rest;
             stretches.push(if stretch.is_finite() { stretch } else { f32::INFINITY });
-        }
-    };
-    let usable = |rest: f32| rest.is_finite() && rest > 0.0;
-    for r in 0..rows {
-        for c in 0..cols {
-            let i = r * cols + c;
-            if r + 1 < rows && usable(rest_row) {
-                spring(i, i + cols, rest_row);
-            }
-            if c + 1 < cols && usable(rest_col) {
-                spring(i, i + 1, rest_col);
-            }
         }
     }
     result.max_stretch = stretches.iter().copied().fold(0.0, f32::max);

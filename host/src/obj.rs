@@ -1,27 +1,41 @@
-//! Wavefront OBJ export of a cloth frame (positions, normals, grid triangles).
+//! Wavefront OBJ export of a cloth frame (positions, texture coordinates, normals, triangles)
+//! and of a mesh.
 
-use crate::cloth::grid_triangles;
+use crate::cloth::Cloth;
 use crate::error::{Error, Result};
 use glam::Vec4;
 use std::io::Write;
 use std::path::Path;
 
-/// Writes `positions` and `normals` of a `rows x cols` grid as an OBJ mesh with `vn` lines.
-pub fn write_cloth_obj(path: &Path, rows: u32, cols: u32, positions: &[Vec4], normals: &[Vec4]) -> Result<()> {
+/// Writes one frame of `cloth` (`positions` and `normals`, one per particle) as an OBJ mesh:
+/// `v` and `vn` per particle in order, `vt` when the cloth has texture coordinates, and its
+/// triangles.
+pub fn write_cloth_obj(path: &Path, cloth: &Cloth, positions: &[Vec4], normals: &[Vec4]) -> Result<()> {
     let io = |source| Error::Io { path: path.to_path_buf(), source };
     let file = std::fs::File::create(path).map_err(io)?;
     let mut out = std::io::BufWriter::new(file);
     let mut write = || -> std::io::Result<()> {
-        writeln!(out, "# drape cloth {rows} x {cols}")?;
+        writeln!(out, "# drape cloth, {} particles", positions.len())?;
         for p in positions {
             writeln!(out, "v {} {} {}", p.x, p.y, p.z)?;
+        }
+        if let Some(uvs) = &cloth.uvs {
+            for uv in &uvs.coords {
+                writeln!(out, "vt {} {}", uv.x, uv.y)?;
+            }
         }
         for n in normals {
             writeln!(out, "vn {} {} {}", n.x, n.y, n.z)?;
         }
-        for t in grid_triangles(rows, cols) {
+        for (k, t) in cloth.triangles.iter().enumerate() {
             let [a, b, c] = t.map(|i| i + 1);
-            writeln!(out, "f {a}//{a} {b}//{b} {c}//{c}")?;
+            match cloth.uvs.as_ref().and_then(|uvs| uvs.triangles.get(k)) {
+                Some(uv) => {
+                    let [ta, tb, tc] = uv.map(|i| i + 1);
+                    writeln!(out, "f {a}/{ta}/{a} {b}/{tb}/{b} {c}/{tc}/{c}")?;
+                }
+                None => writeln!(out, "f {a}//{a} {b}//{b} {c}//{c}")?,
+            }
         }
         out.flush()
     };

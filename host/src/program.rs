@@ -2,6 +2,7 @@
 //! contact, the initial contents of each, the LBVH builds and the frame's steps. The GPU
 //! `Solver` and the `CpuSolver` both run exactly this.
 
+use crate::cloth::ClothTopology;
 use crate::controls::{ColliderStart, Controls};
 use crate::error::Result;
 use crate::graph::{BufferId, Resources, Step};
@@ -10,6 +11,7 @@ use crate::programs::cloth::{ClothBuffers, FramePlan, frame_steps};
 use crate::programs::contact::{ColliderBuffers, ColliderLeaves, ContactBuffers, ContactMode};
 use crate::programs::spheres::SphereBvh;
 use crate::programs::triangles::TriangleBvh;
+use crate::stability::SpringProfile;
 use drape_types::{ColliderParams, ColliderPose, RigidPose};
 
 pub(crate) struct SolverProgram {
@@ -44,27 +46,33 @@ impl SolverProgram {
         let settings = *model.settings();
         let mut resolved = Vec::new();
         for cloth in model.cloths() {
-            resolved.push(settings.resolve(cloth)?);
+            let (params, stability) = settings.resolve(cloth)?;
+            resolved.push((params, stability, SpringProfile::of(cloth)));
         }
         let mut resources = Resources::new();
         let bytes = |data: &[glam::Vec4]| bytemuck::cast_slice::<_, u8>(data).to_vec();
         let mut initial = Vec::new();
         let mut cloths = Vec::new();
-        for (i, (cloth, (params, _))) in model.cloths().iter().zip(&resolved).enumerate() {
-            let triangles = cloth.triangles();
-            let b = ClothBuffers::declare(
-                &mut resources,
-                &numbered("cloth", i),
-                params.particle_count,
-                triangles.len() as u32,
-            );
+        for (i, (cloth, (params, _, _))) in model.cloths().iter().zip(&resolved).enumerate() {
+            let triangles = &cloth.triangles;
+            let b = ClothBuffers::declare(&mut resources, &numbered("cloth", i), cloth);
+            if let (Some(list), ClothTopology::Springs(topology)) = (&b.springs, &cloth.topology) {
+                initial.push((list.particles.id(), bytemuck::cast_slice::<_, u8>(&topology.particles).to_vec()));
+                initial.push((list.springs.id(), bytemuck::cast_slice::<_, u8>(&topology.springs).to_vec()));
+                let offsets = bytemuck::cast_slice::<_, u8>(&topology.vertex_triangle_offsets).to_vec();
+                initial.push((list.vertex_triangle_offsets.id(), offsets));
+                initial.push((
+                    list.vertex_triangles.id(),
+                    bytemuck::cast_slice::<_, u8>(&topology.vertex_triangles).to_vec(),
+                ));
+            }
             initial.push((b.params.id(), bytemuck::bytes_of(params).to_vec()));
             // Stage buffers start as copies of the state so pinned particles read sane values.
             for h in [b.x, b.xa, b.xb, b.x_prev] {
                 initial.push((h.id(), bytes(&cloth.positions)));
             }
             initial.push((b.v.id(), bytes(&cloth.velocities)));
-            initial.push((b.indices.id(), bytemuck::cast_slice::<_, u8>(&triangles).to_vec()));
+            initial.push((b.indices.id(), bytemuck::cast_slice::<_, u8>(triangles).to_vec()));
             cloths.push(b);
         }
         let mut colliders = Vec::new();

@@ -1,7 +1,9 @@
 //! An independent f64 reference integrator for accuracy tests: the same cloth model written
-//! directly with an explicit spring list and `DVec3`, classical RK4, any (tiny) step.
+//! directly with an explicit spring list and `DVec3`, classical RK4, any (tiny) step. A grid's
+//! springs come from its offsets, a mesh cloth's from its spring list (each once), with the
+//! particles' own masses.
 
-use crate::cloth::Cloth;
+use crate::cloth::{Cloth, ClothTopology};
 use glam::DVec3;
 
 /// One spring: particle indices, stiffness, rest length.
@@ -20,7 +22,10 @@ pub struct ReferenceCloth {
     pub v: Vec<DVec3>,
     free: Vec<bool>,
     springs: Vec<Spring>,
-    mass: f64,
+    /// Each particle's mass, and the mean the external force and velocity damping are given
+    /// per (`cloth::acceleration_springs`; a grid's particles all have the mean).
+    masses: Vec<f64>,
+    mean_mass: f64,
     gravity: DVec3,
     external: DVec3,
     spring_damping: f64,
@@ -30,36 +35,35 @@ pub struct ReferenceCloth {
 impl ReferenceCloth {
     pub fn new(cloth: &Cloth) -> Self {
         let p = &cloth.params;
-        let (rows, cols) = (p.rows as i64, p.cols as i64);
         let x: Vec<DVec3> = cloth.positions.iter().map(|q| q.truncate().as_dvec3()).collect();
-        let mut springs = Vec::new();
-        // Each spring once: offsets with a positive first non-zero component.
-        let families = [
-            ((0, 1), p.k_struct),
-            ((1, 0), p.k_struct),
-            ((1, 1), p.k_shear),
-            ((1, -1), p.k_shear),
-            ((0, 2), p.k_bend),
-            ((2, 0), p.k_bend),
-        ];
-        for r in 0..rows {
-            for c in 0..cols {
-                for ((dr, dc), k) in families {
-                    let (r2, c2) = (r + dr, c + dc);
-                    if r2 < 0 || c2 < 0 || r2 >= rows || c2 >= cols {
-                        continue;
+        let (springs, masses) = match &cloth.topology {
+            ClothTopology::Grid => (grid_springs(cloth, &x), vec![p.particle_mass as f64; x.len()]),
+            ClothTopology::Springs(topology) => {
+                let mut springs = Vec::new();
+                for (a, particle) in topology.particles.iter().enumerate() {
+                    for s in &topology.springs[particle.first as usize..(particle.first + particle.count) as usize] {
+                        let b = s.other as usize;
+                        if a < b {
+                            let k = drape_kernels::cloth::stiffness(p, s.family) as f64;
+                            springs.push(Spring { a, b, k, rest: (x[b] - x[a]).length() });
+                        }
                     }
-                    let (a, b) = ((r * cols + c) as usize, (r2 * cols + c2) as usize);
-                    springs.push(Spring { a, b, k: k as f64, rest: (x[b] - x[a]).length() });
                 }
+                let masses = topology
+                    .particles
+                    .iter()
+                    .map(|q| if q.inverse_mass > 0.0 { 1.0 / q.inverse_mass as f64 } else { 0.0 })
+                    .collect();
+                (springs, masses)
             }
-        }
+        };
         ReferenceCloth {
             v: cloth.velocities.iter().map(|q| q.truncate().as_dvec3()).collect(),
-            free: cloth.positions.iter().map(|q| q.w != 0.0).collect(),
+            free: cloth.positions.iter().zip(&masses).map(|(q, &m)| q.w != 0.0 && m > 0.0).collect(),
             x,
             springs,
-            mass: p.particle_mass as f64,
+            masses,
+            mean_mass: p.particle_mass as f64,
             gravity: p.gravity.truncate().as_dvec3(),
             external: p.external_force.truncate().as_dvec3(),
             spring_damping: p.spring_damping as f64,
@@ -68,8 +72,11 @@ impl ReferenceCloth {
     }
 
     fn accelerations(&self, x: &[DVec3], v: &[DVec3]) -> Vec<DVec3> {
-        let mut f: Vec<DVec3> =
-            v.iter().map(|vi| self.gravity * self.mass + self.external - *vi * self.velocity_damping).collect();
+        let mut f: Vec<DVec3> = v
+            .iter()
+            .zip(&self.masses)
+            .map(|(vi, &m)| self.gravity * m + (self.external - *vi * self.velocity_damping) * (m / self.mean_mass))
+            .collect();
         for s in &self.springs {
             let d = x[s.b] - x[s.a];
             let len = d.length();
@@ -81,7 +88,11 @@ impl ReferenceCloth {
             f[s.a] += force;
             f[s.b] -= force;
         }
-        f.iter().zip(&self.free).map(|(fi, &free)| if free { *fi / self.mass } else { DVec3::ZERO }).collect()
+        f.iter()
+            .zip(&self.free)
+            .zip(&self.masses)
+            .map(|((fi, &free), &m)| if free { *fi / m } else { DVec3::ZERO })
+            .collect()
     }
 
     /// One classical RK4 step of length `h`.
@@ -123,11 +134,40 @@ impl ReferenceCloth {
     }
 }
 
+/// Each spring of a grid cloth once (offsets with a positive first non-zero component), rest
+/// lengths from the f64 positions `x`.
+fn grid_springs(cloth: &Cloth, x: &[DVec3]) -> Vec<Spring> {
+    let p = &cloth.params;
+    let (rows, cols) = (p.rows as i64, p.cols as i64);
+    let mut springs = Vec::new();
+    let families = [
+        ((0, 1), p.k_struct),
+        ((1, 0), p.k_struct),
+        ((1, 1), p.k_shear),
+        ((1, -1), p.k_shear),
+        ((0, 2), p.k_bend),
+        ((2, 0), p.k_bend),
+    ];
+    for r in 0..rows {
+        for c in 0..cols {
+            for ((dr, dc), k) in families {
+                let (r2, c2) = (r + dr, c + dc);
+                if r2 < 0 || c2 < 0 || r2 >= rows || c2 >= cols {
+                    continue;
+                }
+                let (a, b) = ((r * cols + c) as usize, (r2 * cols + c2) as usize);
+                springs.push(Spring { a, b, k: k as f64, rest: (x[b] - x[a]).length() });
+            }
+        }
+    }
+    springs
+}
+
 fn energy_of(c: &ReferenceCloth, x: &[DVec3], v: &[DVec3]) -> f64 {
     let mut e = 0.0;
     for i in 0..x.len() {
         if c.free[i] {
-            e += 0.5 * c.mass * v[i].length_squared() - c.mass * c.gravity.dot(x[i]);
+            e += 0.5 * c.masses[i] * v[i].length_squared() - c.masses[i] * c.gravity.dot(x[i]);
         }
     }
     for s in &c.springs {

@@ -3,7 +3,7 @@
 use crate::cloth::Cloth;
 use crate::error::{Error, Result};
 use crate::programs::cloth::FramePlan;
-use crate::stability::{self, DEFAULT_SAFETY, Stability};
+use crate::stability::{self, DEFAULT_SAFETY, SpringProfile, Stability};
 use drape_types::{Health, SimParams, integrator};
 
 /// Time integration scheme.
@@ -104,18 +104,30 @@ impl SimSettings {
     /// Checks the settings and chooses the substep for `cloth`; returns the params to upload.
     pub(crate) fn resolve(&self, cloth: &Cloth) -> Result<(SimParams, Stability)> {
         let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
-        let n = cloth.params.rows as usize * cloth.params.cols as usize;
-        if cloth.positions.len() != n || cloth.velocities.len() != n || cloth.params.particle_count as usize != n {
-            return bad("cloth", format!("state arrays must hold rows x cols = {n} particles"));
+        let n = cloth.params.particle_count as usize;
+        if cloth.positions.len() != n || cloth.velocities.len() != n {
+            return bad("cloth", format!("state arrays must hold the cloth's {n} particles"));
+        }
+        let grid = cloth.params.rows as usize * cloth.params.cols as usize;
+        if cloth.topology == crate::cloth::ClothTopology::Grid && grid != n {
+            return bad("cloth", format!("a grid cloth needs rows x cols = {n} particles, has {grid}"));
+        }
+        if let crate::cloth::ClothTopology::Springs(s) = &cloth.topology
+            && (s.particles.len() != n || s.vertex_triangle_offsets.len() != n + 1)
+        {
+            return bad("cloth", format!("the spring list must describe the cloth's {n} particles"));
+        }
+        if cloth.triangles.iter().flatten().any(|&i| i as usize >= n) {
+            return bad("cloth", format!("a triangle refers to a particle beyond the cloth's {n}"));
         }
         if !cloth.positions.iter().chain(&cloth.velocities).all(|p| p.is_finite()) {
             return bad("cloth", "positions and velocities must be finite".into());
         }
-        self.resolve_params(&cloth.params)
+        self.resolve_params(&cloth.params, &SpringProfile::of(cloth))
     }
 
     /// Checks the settings and chooses the substep for a cloth's `params`.
-    pub(crate) fn resolve_params(&self, params: &SimParams) -> Result<(SimParams, Stability)> {
+    pub(crate) fn resolve_params(&self, params: &SimParams, profile: &SpringProfile) -> Result<(SimParams, Stability)> {
         let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
         if !(self.frame_dt.is_finite() && self.frame_dt > 0.0) {
             return bad("frame_dt", format!("must be finite and > 0, got {}", self.frame_dt));
@@ -129,7 +141,8 @@ impl SimSettings {
         if self.max_stretch.is_nan() || self.max_stretch <= 1.0 {
             return bad("max_stretch", format!("must be > 1, got {}", self.max_stretch));
         }
-        let stability = stability::choose_for(params, self.integrator.id(), self.frame_dt, self.substeps, self.safety);
+        let stability =
+            stability::choose_for(params, profile, self.integrator.id(), self.frame_dt, self.substeps, self.safety);
         if stability.substeps > 100_000 {
             return bad(
                 "stiffness/mass",

@@ -1,9 +1,9 @@
 //! The cloth integrator kernel (`drape_kernels::integrate`).
 
-use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use crate::graph::{BindingSpec, HostBuffer, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
-use drape_kernels::integrate::{StageBuffers, integrate_stage_at};
-use drape_types::{SimParams, StagePush};
+use drape_kernels::integrate::{GridSprings, SpringList, StageBuffers, integrate_stage_at};
+use drape_types::{ParticleSprings, SimParams, Spring, StagePush};
 
 const fn read(name: &'static str) -> BindingSpec {
     BindingSpec::read(name)
@@ -12,11 +12,10 @@ const fn write(name: &'static str) -> BindingSpec {
     BindingSpec::write(name)
 }
 
-/// One Runge-Kutta (or Euler) stage for every particle; push constants: `StagePush`.
-pub static INTEGRATE_STAGE: Kernel = Kernel {
-    spec: KernelSpec {
-        entry: "integrate::integrate_stage",
-        bindings: &[
+/// The bindings both integrator kernels start with.
+macro_rules! stage_bindings {
+    ($($extra:expr),*) => {
+        &[
             read("params"),
             write("x"),
             write("v"),
@@ -27,19 +26,37 @@ pub static INTEGRATE_STAGE: Kernel = Kernel {
             write("acc_x"),
             write("acc_v"),
             write("x_prev"),
-        ],
+            $($extra),*
+        ]
+    };
+}
+
+/// One Runge-Kutta (or Euler) stage for every particle of a grid cloth; push constants:
+/// `StagePush`.
+pub static INTEGRATE_STAGE: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "integrate::integrate_stage",
+        bindings: stage_bindings!(),
         push_constant_size: size_of::<StagePush>() as u32,
         workgroup_size: WORKGROUP_SIZE,
     },
     cpu: integrate_cpu,
 };
 
-fn integrate_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
-    let push: StagePush = d.push_as();
-    let threads = d.invocations();
-    let [params, x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev] = d.bindings()?;
-    let p: SimParams = params.first()?;
-    let mut b = StageBuffers {
+/// `INTEGRATE_STAGE` for a spring-list cloth (a cloth built from a mesh).
+pub static INTEGRATE_STAGE_SPRINGS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "integrate::integrate_stage_springs",
+        bindings: stage_bindings!(read("particles"), read("springs")),
+        push_constant_size: size_of::<StagePush>() as u32,
+        workgroup_size: WORKGROUP_SIZE,
+    },
+    cpu: integrate_springs_cpu,
+};
+
+/// The stage buffers (bindings 1..=9 of both integrator kernels) over host buffers.
+fn stage_buffers([x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev]: [&mut HostBuffer; 9]) -> StageBuffers<'_> {
+    StageBuffers {
         x: x.slice_mut(),
         v: v.slice_mut(),
         x_in: x_in.slice(),
@@ -49,9 +66,30 @@ fn integrate_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         acc_x: acc_x.slice_mut(),
         acc_v: acc_v.slice_mut(),
         x_prev: x_prev.slice_mut(),
-    };
+    }
+}
+
+fn integrate_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: StagePush = d.push_as();
+    let threads = d.invocations();
+    let [params, x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let mut b = stage_buffers([x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev]);
     for i in 0..threads.min(p.particle_count) {
-        integrate_stage_at(&p, push.stage, i, &mut b);
+        integrate_stage_at(&p, push.stage, i, &mut b, &GridSprings);
+    }
+    Ok(())
+}
+
+fn integrate_springs_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: StagePush = d.push_as();
+    let threads = d.invocations();
+    let [params, x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev, particles, springs] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let mut b = stage_buffers([x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev]);
+    let forces = SpringList { particles: particles.slice::<ParticleSprings>(), springs: springs.slice::<Spring>() };
+    for i in 0..threads.min(p.particle_count) {
+        integrate_stage_at(&p, push.stage, i, &mut b, &forces);
     }
     Ok(())
 }

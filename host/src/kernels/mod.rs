@@ -14,10 +14,13 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 25] = [
+pub const ALL: [&Kernel; 28] = [
     &integrate::INTEGRATE_STAGE,
+    &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::VERTEX_NORMALS,
+    &normals::MESH_VERTEX_NORMALS,
     &normals::CHECK_HEALTH,
+    &normals::CHECK_HEALTH_SPRINGS,
     &sort::RADIX_COUNT,
     &sort::RADIX_SCATTER,
     &sort::SCAN_BLOCKS,

@@ -3,9 +3,9 @@
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
-use drape_kernels::health::check_health_at;
-use drape_kernels::normals::vertex_normal_at;
-use drape_types::{Health, SimParams};
+use drape_kernels::health::{check_health_at, particle_health_springs, record_health};
+use drape_kernels::normals::{mesh_vertex_normal_at, vertex_normal_at};
+use drape_types::{Health, ParticleSprings, SimParams, Spring};
 use glam::Vec4;
 
 pub static VERTEX_NORMALS: Kernel = Kernel {
@@ -16,6 +16,42 @@ pub static VERTEX_NORMALS: Kernel = Kernel {
         workgroup_size: WORKGROUP_SIZE,
     },
     cpu: normals_cpu,
+};
+
+/// Normals of a mesh cloth, from its triangles around each vertex.
+pub static MESH_VERTEX_NORMALS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "normals::mesh_vertex_normals",
+        bindings: &[
+            BindingSpec::read("params"),
+            BindingSpec::read("x"),
+            BindingSpec::read("vertex_triangle_offsets"),
+            BindingSpec::read("vertex_triangles"),
+            BindingSpec::read("indices"),
+            BindingSpec::write("normals"),
+        ],
+        push_constant_size: 0,
+        workgroup_size: WORKGROUP_SIZE,
+    },
+    cpu: mesh_normals_cpu,
+};
+
+/// The blow-up check of a spring-list cloth.
+pub static CHECK_HEALTH_SPRINGS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "health::check_health_springs",
+        bindings: &[
+            BindingSpec::read("params"),
+            BindingSpec::read("x"),
+            BindingSpec::read("v"),
+            BindingSpec::read("particles"),
+            BindingSpec::read("springs"),
+            BindingSpec::write("health"),
+        ],
+        push_constant_size: 0,
+        workgroup_size: WORKGROUP_SIZE,
+    },
+    cpu: health_springs_cpu,
 };
 
 pub static CHECK_HEALTH: Kernel = Kernel {
@@ -51,6 +87,30 @@ fn health_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let health = health.first_mut::<Health>()?;
     for i in 0..threads.min(p.particle_count) {
         check_health_at(&p, i, x.slice(), v.slice(), health);
+    }
+    Ok(())
+}
+
+fn mesh_normals_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [params, x, offsets, vertex_triangles, indices, normals] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let (x, normals) = (x.slice::<Vec4>(), normals.slice_mut::<Vec4>());
+    let (offsets, vertex_triangles, indices) = (offsets.slice::<u32>(), vertex_triangles.slice::<u32>(), indices.slice::<u32>());
+    for i in 0..threads.min(p.particle_count) {
+        normals[i as usize] = mesh_vertex_normal_at(i, x, offsets, vertex_triangles, indices).extend(0.0);
+    }
+    Ok(())
+}
+
+fn health_springs_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [params, x, v, particles, springs, health] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let health = health.first_mut::<Health>()?;
+    let (particles, springs) = (particles.slice::<ParticleSprings>(), springs.slice::<Spring>());
+    for i in 0..threads.min(p.particle_count) {
+        record_health(health, particle_health_springs(i, x.slice(), v.slice(), particles, springs));
     }
     Ok(())
 }

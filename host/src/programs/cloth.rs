@@ -2,11 +2,20 @@
 //! vertex normals and the blow-up check.
 
 use super::contact::{CONTACT_LABEL, ColliderBuffers, ContactBuffers};
-use crate::graph::{Dispatch, Handle, Resources, Step};
-use crate::kernels::integrate::INTEGRATE_STAGE;
-use crate::kernels::normals::{CHECK_HEALTH, VERTEX_NORMALS};
-use drape_types::{Health, SimParams, StagePush, integrator};
+use crate::cloth::{Cloth, ClothTopology};
+use crate::graph::{Dispatch, Handle, Kernel, Resources, Step};
+use crate::kernels::integrate::{INTEGRATE_STAGE, INTEGRATE_STAGE_SPRINGS};
+use crate::kernels::normals::{CHECK_HEALTH, CHECK_HEALTH_SPRINGS, MESH_VERTEX_NORMALS, VERTEX_NORMALS};
+use drape_types::{Health, ParticleSprings, SimParams, Spring, StagePush, integrator};
 use glam::Vec4;
+
+/// The spring list of a cloth that is not a grid (`SpringTopology`).
+pub struct SpringBuffers {
+    pub particles: Handle<ParticleSprings>,
+    pub springs: Handle<Spring>,
+    pub vertex_triangle_offsets: Handle<u32>,
+    pub vertex_triangles: Handle<u32>,
+}
 
 /// The buffers of one cloth.
 pub struct ClothBuffers {
@@ -30,10 +39,23 @@ pub struct ClothBuffers {
     pub indices: Handle<u32>,
     /// Blow-up detector, read by the host after every frame.
     pub health: Handle<Health>,
+    /// The spring list (`None`: a grid, whose kernels derive its springs).
+    pub springs: Option<SpringBuffers>,
 }
 
 impl ClothBuffers {
-    pub fn declare(resources: &mut Resources, name: &str, particles: u32, triangles: u32) -> Self {
+    pub fn declare(resources: &mut Resources, name: &str, cloth: &Cloth) -> Self {
+        let particles = cloth.params.particle_count;
+        let triangles = cloth.triangles.len() as u32;
+        let springs = match &cloth.topology {
+            ClothTopology::Grid => None,
+            ClothTopology::Springs(s) => Some(SpringBuffers {
+                particles: resources.device(format!("{name}: particle springs"), particles),
+                springs: resources.device(format!("{name}: springs"), s.springs.len().max(1) as u32),
+                vertex_triangle_offsets: resources.device(format!("{name}: vertex triangle offsets"), particles + 1),
+                vertex_triangles: resources.device(format!("{name}: vertex triangles"), s.vertex_triangles.len().max(1) as u32),
+            }),
+        };
         let mut vec4s = |what: &str| resources.device::<Vec4>(format!("{name}: {what}"), particles);
         let (x, v, xa, va, xb, vb) =
             (vec4s("x"), vec4s("v"), vec4s("x stage a"), vec4s("v stage a"), vec4s("x stage b"), vec4s("v stage b"));
@@ -53,6 +75,7 @@ impl ClothBuffers {
             normals,
             indices: resources.device(format!("{name}: triangle indices"), 3 * triangles),
             health: resources.readback(format!("{name}: health")),
+            springs,
         }
     }
 
@@ -64,7 +87,7 @@ impl ClothBuffers {
         output: (Handle<Vec4>, Handle<Vec4>),
     ) -> Step {
         let push = StagePush { stage, _pad: [0; 3] };
-        let bindings = vec![
+        let mut bindings = vec![
             self.params.id(),
             self.x.id(),
             self.v.id(),
@@ -76,7 +99,51 @@ impl ClothBuffers {
             self.acc_v.id(),
             self.x_prev.id(),
         ];
-        Step::run_with(label, &INTEGRATE_STAGE, bindings, bytemuck::cast(push), Dispatch::Threads(self.particles))
+        let kernel: &'static Kernel = match &self.springs {
+            None => &INTEGRATE_STAGE,
+            Some(list) => {
+                bindings.extend([list.particles.id(), list.springs.id()]);
+                &INTEGRATE_STAGE_SPRINGS
+            }
+        };
+        Step::run_with(label, kernel, bindings, bytemuck::cast(push), Dispatch::Threads(self.particles))
+    }
+
+    fn normals(&self) -> Step {
+        let threads = Dispatch::Threads(self.particles);
+        match &self.springs {
+            None => Step::run("normals", &VERTEX_NORMALS, vec![self.params.id(), self.x.id(), self.normals.id()], threads),
+            Some(list) => {
+                let bindings = vec![
+                    self.params.id(),
+                    self.x.id(),
+                    list.vertex_triangle_offsets.id(),
+                    list.vertex_triangles.id(),
+                    self.indices.id(),
+                    self.normals.id(),
+                ];
+                Step::run("normals", &MESH_VERTEX_NORMALS, bindings, threads)
+            }
+        }
+    }
+
+    fn health_check(&self) -> Step {
+        let threads = Dispatch::Threads(self.particles);
+        let (kernel, bindings): (&'static Kernel, _) = match &self.springs {
+            None => (&CHECK_HEALTH, vec![self.params.id(), self.x.id(), self.v.id(), self.health.id()]),
+            Some(list) => (
+                &CHECK_HEALTH_SPRINGS,
+                vec![
+                    self.params.id(),
+                    self.x.id(),
+                    self.v.id(),
+                    list.particles.id(),
+                    list.springs.id(),
+                    self.health.id(),
+                ],
+            ),
+        };
+        Step::run("health check", kernel, bindings, threads)
     }
 }
 
@@ -118,21 +185,7 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
             steps.push(Step::Skip { label: CONTACT_LABEL });
         }
     }
-    if plan.normals {
-        steps.push(Step::run(
-            "normals",
-            &VERTEX_NORMALS,
-            vec![cloth.params.id(), cloth.x.id(), cloth.normals.id()],
-            Dispatch::Threads(cloth.particles),
-        ));
-    } else {
-        steps.push(Step::Skip { label: "normals" });
-    }
-    steps.push(Step::run(
-        "health check",
-        &CHECK_HEALTH,
-        vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), cloth.health.id()],
-        Dispatch::Threads(cloth.particles),
-    ));
+    steps.push(if plan.normals { cloth.normals() } else { Step::Skip { label: "normals" } });
+    steps.push(cloth.health_check());
     steps
 }

@@ -1,8 +1,8 @@
 //! Mass-spring cloth forces (design.md §1): springs are gathered per particle from its grid
 //! neighbours, so no thread writes another particle's force and results are identical run to run.
 
-use drape_types::SimParams;
 use drape_types::glam::{Vec3, Vec4, Vec4Swizzles};
+use drape_types::{ParticleSprings, SimParams, Spring};
 
 /// Spring families, by grid offset.
 pub const STRUCTURAL: u32 = 0;
@@ -143,6 +143,42 @@ pub fn acceleration(p: &SimParams, index: u32, pos: &[Vec4], vel: &[Vec4]) -> Ve
         s += 1;
     }
     force * (pin_weight * (1.0 / p.particle_mass))
+}
+
+/// Acceleration (m/s^2) of particle `index` of a spring-list cloth (one built from a mesh):
+/// its own springs (`particles[index]`), gravity, and the external force and velocity damping
+/// per unit of the mean particle mass, so a light particle and a heavy one drift alike in wind
+/// and a uniform cloth behaves as the grid does. `pos.w` is the pin weight.
+pub fn acceleration_springs(
+    p: &SimParams,
+    index: u32,
+    pos: &[Vec4],
+    vel: &[Vec4],
+    particles: &[ParticleSprings],
+    springs: &[Spring],
+) -> Vec3 {
+    let here = load(pos, index);
+    let xi = here.xyz();
+    let vi = load(vel, index).xyz();
+    let me = particles[index as usize];
+    let mut force = Vec3::ZERO;
+    let mut s = me.first;
+    let end = me.first + me.count;
+    while s < end {
+        let spring = springs[s as usize];
+        force += spring_force(
+            stiffness(p, spring.family),
+            spring.rest,
+            p.spring_damping,
+            xi,
+            vi,
+            load(pos, spring.other).xyz(),
+            load(vel, spring.other).xyz(),
+        );
+        s += 1;
+    }
+    let per_mass = (p.external_force.xyz() - vi * p.velocity_damping) * (1.0 / p.particle_mass);
+    (force * me.inverse_mass + per_mass + p.gravity.xyz()) * here.w
 }
 
 #[cfg(test)]

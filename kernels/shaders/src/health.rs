@@ -2,8 +2,9 @@
 //! structural stretch, so the host can stop with an error instead of returning NaN.
 
 use crate::atomics;
+use crate::cloth::STRUCTURAL;
 use drape_types::glam::{UVec3, Vec4, Vec4Swizzles};
-use drape_types::{Health, SimParams};
+use drape_types::{Health, ParticleSprings, SimParams, Spring};
 use spirv_std::spirv;
 
 /// (is this particle non-finite, largest stretch of its +col and +row structural springs).
@@ -21,15 +22,60 @@ pub fn particle_health(p: &SimParams, index: u32, x: &[Vec4], v: &[Vec4]) -> (bo
     (!finite, stretch)
 }
 
-/// Folds one particle into `health` (atomically on the GPU).
-pub fn check_health_at(p: &SimParams, index: u32, x: &[Vec4], v: &[Vec4], health: &mut Health) {
-    let (non_finite, stretch) = particle_health(p, index, x, v);
+/// `particle_health` of a spring-list cloth: the largest stretch of the particle's structural
+/// springs (each is seen from both ends; either answer is the same maximum).
+pub fn particle_health_springs(
+    index: u32,
+    x: &[Vec4],
+    v: &[Vec4],
+    particles: &[ParticleSprings],
+    springs: &[Spring],
+) -> (bool, f32) {
+    let i = index as usize;
+    let here = x[i].xyz();
+    let finite = here.is_finite() && v[i].xyz().is_finite();
+    let me = particles[i];
+    let mut stretch: f32 = 0.0;
+    let mut s = me.first;
+    while s < me.first + me.count {
+        let spring = springs[s as usize];
+        if spring.family == STRUCTURAL && spring.rest > 0.0 {
+            stretch = stretch.max((x[spring.other as usize].xyz() - here).length() * (1.0 / spring.rest));
+        }
+        s += 1;
+    }
+    (!finite, stretch)
+}
+
+/// Folds one particle's (non-finite, stretch) into `health` (atomically on the GPU).
+pub fn record_health(health: &mut Health, (non_finite, stretch): (bool, f32)) {
     if non_finite {
         atomics::add(&mut health.non_finite, 1);
     } else {
         // NaN stretch cannot happen here: positions are finite and rest lengths positive.
         atomics::max(&mut health.max_stretch_bits, stretch.to_bits());
     }
+}
+
+/// Folds one grid particle into `health`.
+pub fn check_health_at(p: &SimParams, index: u32, x: &[Vec4], v: &[Vec4], health: &mut Health) {
+    record_health(health, particle_health(p, index, x, v));
+}
+
+#[spirv(compute(threads(256)))]
+pub fn check_health_springs(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] particles: &[ParticleSprings],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] springs: &[Spring],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] health: &mut Health,
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    record_health(health, particle_health_springs(id.x, x, v, particles, springs));
 }
 
 #[spirv(compute(threads(256)))]

@@ -13,9 +13,9 @@
 //! `in`/`out` are two ping-pong buffer pairs swapped between stages by the host. Semi-implicit
 //! Euler (the paper's eq. 3) is stage 0 (a = acc) then stage 3 (v += h a; x += h v).
 
-use crate::cloth::acceleration;
+use crate::cloth::{acceleration, acceleration_springs};
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{SimParams, StagePush, integrator};
+use drape_types::{ParticleSprings, SimParams, Spring, StagePush, integrator};
 use spirv_std::spirv;
 
 /// Buffers of one integration stage. On the GPU these are the kernel's bindings 1..=9.
@@ -36,13 +36,42 @@ pub struct StageBuffers<'a> {
     pub x_prev: &'a mut [Vec4],
 }
 
+/// Where a cloth's forces come from: its grid (springs implied by the grid offsets) or its
+/// spring list (a cloth built from a mesh).
+pub trait ClothForces {
+    fn acceleration(&self, p: &SimParams, index: u32, pos: &[Vec4], vel: &[Vec4]) -> Vec3;
+}
+
+/// A `rows x cols` grid cloth (`cloth::acceleration`): the fast path, nothing to load.
+pub struct GridSprings;
+
+impl ClothForces for GridSprings {
+    #[inline]
+    fn acceleration(&self, p: &SimParams, index: u32, pos: &[Vec4], vel: &[Vec4]) -> Vec3 {
+        acceleration(p, index, pos, vel)
+    }
+}
+
+/// A spring-list cloth (`cloth::acceleration_springs`).
+pub struct SpringList<'a> {
+    pub particles: &'a [ParticleSprings],
+    pub springs: &'a [Spring],
+}
+
+impl ClothForces for SpringList<'_> {
+    #[inline]
+    fn acceleration(&self, p: &SimParams, index: u32, pos: &[Vec4], vel: &[Vec4]) -> Vec3 {
+        acceleration_springs(p, index, pos, vel, self.particles, self.springs)
+    }
+}
+
 #[inline]
 fn with_w(v: Vec3, w: f32) -> Vec4 {
     v.extend(w)
 }
 
 /// One particle's work in one stage. Pinned particles (w = 0) keep x bit-identical and v = 0.
-pub fn integrate_stage_at(p: &SimParams, stage: u32, index: u32, b: &mut StageBuffers) {
+pub fn integrate_stage_at<F: ClothForces>(p: &SimParams, stage: u32, index: u32, b: &mut StageBuffers, forces: &F) {
     let i = index as usize;
     let h = p.substep;
     let x0 = b.x[i];
@@ -62,7 +91,7 @@ pub fn integrate_stage_at(p: &SimParams, stage: u32, index: u32, b: &mut StageBu
 
     if p.integrator == integrator::SEMI_IMPLICIT_EULER {
         if stage == 0 {
-            let a = acceleration(p, index, b.x, b.v);
+            let a = forces.acceleration(p, index, b.x, b.v);
             b.acc_v[i] = with_w(a, 0.0);
         } else if stage == 3 {
             let v1 = v0 + b.acc_v[i].xyz() * h;
@@ -74,9 +103,9 @@ pub fn integrate_stage_at(p: &SimParams, stage: u32, index: u32, b: &mut StageBu
 
     // RK4: derivative k = (dx, dv) at this stage's state.
     let (dx, dv) = if stage == 0 {
-        (v0, acceleration(p, index, b.x, b.v))
+        (v0, forces.acceleration(p, index, b.x, b.v))
     } else {
-        (b.v_in[i].xyz(), acceleration(p, index, b.x_in, b.v_in))
+        (b.v_in[i].xyz(), forces.acceleration(p, index, b.x_in, b.v_in))
     };
     if stage == 3 {
         let sum_x = b.acc_x[i].xyz() + dx;
@@ -130,5 +159,33 @@ pub fn integrate_stage(
     // Parameters copied to registers once (measured ~4% faster on llvmpipe than re-reading the
     // storage buffer inside the spring loop).
     let params = *params;
-    integrate_stage_at(&params, push.stage, id.x, &mut buffers);
+    integrate_stage_at(&params, push.stage, id.x, &mut buffers, &GridSprings);
+}
+
+/// `integrate_stage` for a spring-list cloth: bindings 10 and 11 hold its particles' spring
+/// ranges and masses, and the springs.
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(256)))]
+pub fn integrate_stage_springs(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &StagePush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] x_in: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] v_in: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_out: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] v_out: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] acc_x: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] acc_v: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] x_prev: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] particles: &[ParticleSprings],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] springs: &[Spring],
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    let mut buffers = StageBuffers { x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev };
+    let params = *params;
+    integrate_stage_at(&params, push.stage, id.x, &mut buffers, &SpringList { particles, springs });
 }

@@ -71,7 +71,38 @@ pub struct Health {
     pub _pad: [u32; 2],
 }
 
+/// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
+/// its ends: every spring is stored at both ends, so each particle gathers its own force and
+/// no thread writes another's. Its stiffness is its family's (`SimParams::k_struct`, ...), so
+/// runtime stiffness changes apply to every cloth alike.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct Spring {
+    /// The particle at the other end.
+    pub other: u32,
+    /// Rest length (m).
+    pub rest: f32,
+    /// Spring family: `drape_kernels::cloth::{STRUCTURAL, SHEAR, BEND}`.
+    pub family: u32,
+    pub _pad: u32,
+}
+
+/// A particle of a spring-list cloth: its springs are `springs[first..first + count]`.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct ParticleSprings {
+    pub first: u32,
+    pub count: u32,
+    /// 1 / mass (1/kg): a mesh's particles carry the mass of their share of its area.
+    pub inverse_mass: f32,
+    pub _pad: u32,
+}
+
 const _: () = assert!(core::mem::size_of::<SimParams>() == 96);
+const _: () = assert!(core::mem::size_of::<Spring>() == 16);
+const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
 const _: () = assert!(core::mem::size_of::<Health>() == 16);
 

@@ -1,0 +1,308 @@
+//! Cloths that are not grids: a triangle mesh as a cloth (`ClothMesh`, loaded from OBJ with its
+//! texture coordinates and vertex order kept for the renderer) and the spring list the kernels
+//! gather forces from (`SpringTopology`): structural springs on the mesh's edges, bend springs
+//! across the shared edge of each pair of triangles, rest lengths from the mesh, masses from
+//! the triangles' areas.
+
+use crate::error::{Error, Result};
+use drape_kernels::cloth::{BEND, SPRINGS, STRUCTURAL};
+use drape_types::{ParticleSprings, SimParams, Spring};
+use glam::{Vec2, Vec3};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Texture coordinates of a cloth, per triangle corner (an OBJ's `vt` indices): a vertex on a
+/// UV seam has one coordinate per side, and the cloth still has one particle there.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ClothUvs {
+    pub coords: Vec<Vec2>,
+    /// Per cloth triangle, its corners' indices into `coords`.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// A triangle mesh to build a cloth from: one particle per vertex, in the mesh's vertex order.
+#[derive(Clone, Debug, Default)]
+pub struct ClothMesh {
+    pub vertices: Vec<Vec3>,
+    pub triangles: Vec<[u32; 3]>,
+    /// The mesh's texture coordinates, when it has them on every face.
+    pub uvs: Option<ClothUvs>,
+}
+
+impl ClothMesh {
+    /// A cloth mesh from vertices and triangles (checked as `Mesh::from_parts` checks).
+    pub fn from_parts(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Self> {
+        let mesh = crate::Mesh::from_parts(vertices, triangles)?;
+        Ok(ClothMesh { vertices: mesh.vertices, triangles: mesh.triangles, uvs: None })
+    }
+
+    /// Loads a Wavefront OBJ as a cloth: its `v` lines in order are the particles (a vertex is
+    /// never split at a UV or normal seam, which would tear the cloth there), polygons are
+    /// fanned into triangles, and `vt` coordinates are kept per corner when every face has
+    /// them. The file is checked line by line first, as `Mesh::load_obj` does; every failure is
+    /// `Error::Mesh` naming the file and the line.
+    #[cfg(feature = "obj")]
+    pub fn load_obj(path: &Path) -> Result<Self> {
+        let error = |problem: String| Error::Mesh { path: path.to_path_buf(), problem };
+        let text = crate::mesh::read_obj_text(path)?;
+        let mesh = parse_obj(&text).map_err(error)?;
+        crate::mesh::validate(&mesh.vertices, &mesh.triangles).map_err(error)?;
+        Ok(mesh)
+    }
+
+    /// A `rows x cols` grid of `size` (m) in the XZ plane centred on the origin, as a mesh: the
+    /// grid cloth's particles and triangles, with UVs across the grid.
+    pub fn grid(rows: u32, cols: u32, size: f32) -> Self {
+        let (rows, cols) = (rows.max(2), cols.max(2));
+        let mut vertices = Vec::with_capacity((rows * cols) as usize);
+        let mut coords = Vec::with_capacity(vertices.capacity());
+        for r in 0..rows {
+            for c in 0..cols {
+                let (u, v) = (c as f32 / (cols - 1) as f32, r as f32 / (rows - 1) as f32);
+                vertices.push(Vec3::new((u - 0.5) * size, 0.0, (v - 0.5) * size));
+                coords.push(Vec2::new(u, v));
+            }
+        }
+        let triangles = crate::cloth::grid_triangles(rows, cols);
+        ClothMesh { vertices, uvs: Some(ClothUvs { coords, triangles: triangles.clone() }), triangles }
+    }
+
+    /// Total area (m^2).
+    pub fn area(&self) -> f32 {
+        self.triangles.iter().map(|&t| triangle_area(&self.vertices, t)).sum()
+    }
+}
+
+fn triangle_area(vertices: &[Vec3], [a, b, c]: [u32; 3]) -> f32 {
+    let (a, b, c) = (vertices[a as usize], vertices[b as usize], vertices[c as usize]);
+    0.5 * (b - a).cross(c - a).length()
+}
+
+/// What the spring-list kernels read: each particle's springs (every spring stored at both
+/// ends) and inverse mass, and for the normals each vertex's triangles.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SpringTopology {
+    pub particles: Vec<ParticleSprings>,
+    pub springs: Vec<Spring>,
+    /// Vertex `i`'s triangles are `vertex_triangles[offsets[i]..offsets[i + 1]]`.
+    pub vertex_triangle_offsets: Vec<u32>,
+    pub vertex_triangles: Vec<u32>,
+}
+
+/// An undirected spring: its ends, rest length and family.
+type Link = (u32, u32, f32, u32);
+
+impl SpringTopology {
+    /// The springs of `mesh` (placed in the world: rest lengths are its edge lengths) with
+    /// per-vertex `masses` (kg; a vertex of mass 0 gets inverse mass 0, i.e. it must be pinned).
+    pub fn of_mesh(vertices: &[Vec3], triangles: &[[u32; 3]], masses: &[f32]) -> Self {
+        let length = |a: u32, b: u32| (vertices[a as usize] - vertices[b as usize]).length();
+        let mut families: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut links: Vec<Link> = Vec::new();
+        let mut add = |a: u32, b: u32, family: u32, links: &mut Vec<Link>| {
+            if a != b && !families.contains_key(&(a.min(b), a.max(b))) {
+                families.insert((a.min(b), a.max(b)), family);
+                links.push((a, b, length(a, b), family));
+            }
+        };
+        for &[a, b, c] in triangles {
+            for (p, q) in [(a, b), (b, c), (c, a)] {
+                add(p, q, STRUCTURAL, &mut links);
+            }
+        }
+        // Bend springs join the corners opposite each shared edge, for every pair of triangles
+        // on it (a non-manifold edge has more than one pair).
+        let mut opposite: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+        for &[a, b, c] in triangles {
+            for (p, q, o) in [(a, b, c), (b, c, a), (c, a, b)] {
+                opposite.entry((p.min(q), p.max(q))).or_default().push(o);
+            }
+        }
+        let mut edges: Vec<_> = opposite.into_iter().collect();
+        edges.sort_unstable_by_key(|(edge, _)| *edge); // a deterministic spring order
+        for (_, corners) in &edges {
+            for (i, &o) in corners.iter().enumerate() {
+                for &o2 in &corners[i + 1..] {
+                    add(o, o2, BEND, &mut links);
+                }
+            }
+        }
+        let mut per_particle: Vec<Vec<Spring>> = vec![Vec::new(); vertices.len()];
+        for &(a, b, rest, family) in &links {
+            per_particle[a as usize].push(Spring { other: b, rest, family, _pad: 0 });
+            per_particle[b as usize].push(Spring { other: a, rest, family, _pad: 0 });
+        }
+        let mut topology = Self::of_lists(per_particle, masses);
+        (topology.vertex_triangle_offsets, topology.vertex_triangles) = vertex_triangles(vertices.len(), triangles);
+        topology
+    }
+
+    /// The springs of a grid cloth (`params`), in the order the grid kernel visits them, so
+    /// the spring-list path can be measured and checked against the grid's fast path.
+    pub fn of_grid(params: &SimParams, triangles: &[[u32; 3]]) -> Self {
+        let (rows, cols) = (params.rows, params.cols);
+        let mut per_particle = Vec::with_capacity((rows * cols) as usize);
+        for row in 0..rows {
+            for col in 0..cols {
+                let mut springs = Vec::with_capacity(SPRINGS.len());
+                for s in SPRINGS {
+                    if let Some(other) = drape_kernels::cloth::neighbour(params, row, col, s) {
+                        let rest = drape_kernels::cloth::rest_length(params, s);
+                        springs.push(Spring { other, rest, family: s.family, _pad: 0 });
+                    }
+                }
+                per_particle.push(springs);
+            }
+        }
+        let masses = vec![params.particle_mass; per_particle.len()];
+        let mut topology = Self::of_lists(per_particle, &masses);
+        let n = (rows * cols) as usize;
+        (topology.vertex_triangle_offsets, topology.vertex_triangles) = vertex_triangles(n, triangles);
+        topology
+    }
+
+    fn of_lists(per_particle: Vec<Vec<Spring>>, masses: &[f32]) -> Self {
+        let mut particles = Vec::with_capacity(per_particle.len());
+        let mut springs = Vec::with_capacity(per_particle.iter().map(Vec::len).sum());
+        for (list, &mass) in per_particle.into_iter().zip(masses) {
+            let inverse_mass = if mass > 0.0 { 1.0 / mass } else { 0.0 };
+            particles.push(ParticleSprings {
+                first: springs.len() as u32,
+                count: list.len() as u32,
+                inverse_mass,
+                _pad: 0,
+            });
+            springs.extend(list);
+        }
+        SpringTopology { particles, springs, vertex_triangle_offsets: Vec::new(), vertex_triangles: Vec::new() }
+    }
+
+    /// The largest over particles of their summed spring stiffness over their mass, and of
+    /// their summed spring count over their mass (what the stability bound needs).
+    pub fn stiffest(&self, params: &SimParams) -> (f32, f32) {
+        let mut k_per_mass: f32 = 0.0;
+        let mut springs_per_mass: f32 = 0.0;
+        for p in &self.particles {
+            let list = &self.springs[p.first as usize..(p.first + p.count) as usize];
+            let k: f32 = list.iter().map(|s| drape_kernels::cloth::stiffness(params, s.family)).sum();
+            k_per_mass = k_per_mass.max(k * p.inverse_mass);
+            springs_per_mass = springs_per_mass.max(p.count as f32 * p.inverse_mass);
+        }
+        (k_per_mass, springs_per_mass)
+    }
+
+    /// Each structural spring once (i < j): (i, j, rest).
+    pub fn structural_springs(&self) -> Vec<(u32, u32, f32)> {
+        let mut out = Vec::new();
+        for (i, p) in self.particles.iter().enumerate() {
+            for s in &self.springs[p.first as usize..(p.first + p.count) as usize] {
+                if s.family == STRUCTURAL && (i as u32) < s.other {
+                    out.push((i as u32, s.other, s.rest));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Each vertex's triangles, as offsets and a flat list (in triangle order).
+fn vertex_triangles(vertex_count: usize, triangles: &[[u32; 3]]) -> (Vec<u32>, Vec<u32>) {
+    let mut counts = vec![0u32; vertex_count + 1];
+    for t in triangles {
+        for &v in t {
+            counts[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..vertex_count {
+        counts[i + 1] += counts[i];
+    }
+    let offsets = counts.clone();
+    let mut next = counts;
+    let mut list = vec![0u32; offsets[vertex_count] as usize];
+    for (t, tri) in triangles.iter().enumerate() {
+        for &v in tri {
+            list[next[v as usize] as usize] = t as u32;
+            next[v as usize] += 1;
+        }
+    }
+    (offsets, list)
+}
+
+/// Lumped masses: each triangle's share `total / area` spread evenly over its corners. A
+/// vertex of only collapsed triangles gets the smallest mass of the others (it still moves);
+/// a vertex of no triangle gets 0 (the builder pins it).
+pub fn lumped_masses(vertices: &[Vec3], triangles: &[[u32; 3]], total: f32) -> Vec<f32> {
+    let area: f32 = triangles.iter().map(|&t| triangle_area(vertices, t)).sum();
+    let density = if area > 0.0 { total / area } else { 0.0 };
+    let mut masses = vec![0.0f32; vertices.len()];
+    let mut used = vec![false; vertices.len()];
+    for &t in triangles {
+        let share = triangle_area(vertices, t) * density / 3.0;
+        for v in t {
+            masses[v as usize] += share;
+            used[v as usize] = true;
+        }
+    }
+    let lightest = masses.iter().copied().filter(|&m| m > 0.0).fold(f32::INFINITY, f32::min);
+    let fallback = if lightest.is_finite() { lightest } else { total / vertices.len().max(1) as f32 };
+    for (m, used) in masses.iter_mut().zip(used) {
+        if used && *m <= 0.0 {
+            *m = fallback;
+        }
+    }
+    masses
+}
+
+/// The cloth in an OBJ text that `mesh::read_obj_text` has checked (numbers parse, indices are
+/// in range): positions in file order, faces fanned, texture coordinates per corner.
+fn parse_obj(text: &str) -> std::result::Result<ClothMesh, String> {
+    let (mut vertices, mut coords) = (Vec::new(), Vec::new());
+    let (mut triangles, mut uv_triangles) = (Vec::new(), Vec::new());
+    let mut every_face_has_uvs = true;
+    for (n, line) in text.lines().enumerate() {
+        let at = |problem: &str| format!("line {}: {problem}: `{}`", n + 1, line.trim());
+        let mut words = line.split_whitespace();
+        let numbers = |words: std::str::SplitWhitespace| -> Vec<f32> { words.filter_map(|w| w.parse().ok()).collect() };
+        match words.next() {
+            Some("v") => {
+                let v = numbers(words);
+                let w = if v.len() == 4 { v[3] } else { 1.0 };
+                let p = Vec3::new(v[0], v[1], v[2]) / w;
+                vertices.push(p);
+            }
+            Some("vt") => {
+                let t = numbers(words);
+                coords.push(Vec2::new(t.first().copied().unwrap_or(0.0), t.get(1).copied().unwrap_or(0.0)));
+            }
+            Some("f") => {
+                let mut corners = Vec::new();
+                for word in words {
+                    let mut parts = word.split('/');
+                    let v = resolve(parts.next(), vertices.len()).ok_or_else(|| at("bad vertex index"))?;
+                    let t = resolve(parts.next(), coords.len());
+                    corners.push((v, t));
+                }
+                let face_has_uvs = corners.iter().all(|c| c.1.is_some());
+                every_face_has_uvs &= face_has_uvs;
+                for k in 1..corners.len().saturating_sub(1) {
+                    let (a, b, c) = (corners[0], corners[k], corners[k + 1]);
+                    triangles.push([a.0, b.0, c.0]);
+                    if let (Some(ta), Some(tb), Some(tc)) = (a.1, b.1, c.1) {
+                        uv_triangles.push([ta, tb, tc]);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    let uvs = (every_face_has_uvs && !uv_triangles.is_empty()).then_some(ClothUvs { coords, triangles: uv_triangles });
+    Ok(ClothMesh { vertices, triangles, uvs })
+}
+
+/// A 1-based (or negative, relative) OBJ index among `count` elements defined so far, as a
+/// 0-based index; `None` when absent or out of range.
+fn resolve(word: Option<&str>, count: usize) -> Option<u32> {
+    let i: i64 = word.filter(|w| !w.is_empty())?.parse().ok()?;
+    let index = if i < 0 { count as i64 + i } else { i - 1 };
+    (0..count as i64).contains(&index).then_some(index as u32)
+}

@@ -1,0 +1,355 @@
+//! Cloths built from triangle meshes (issue 8, item 1): the spring list (structural springs on
+//! edges, bend springs across shared edges, rest lengths and area masses from the mesh), its
+//! kernels against the CPU twin and against the grid's fast path, pins, normals, OBJ input and
+//! output with texture coordinates, and the CLI's `--cloth-mesh`.
+
+mod common;
+
+use common::{assert_validation_clean, context, max_distance};
+use drape::cloth_mesh::SpringTopology;
+use drape::reference::ReferenceCloth;
+use drape::stability::{SpringProfile, spectral_bounds};
+use drape::{
+    Cloth, ClothBuilder, ClothId, ClothMesh, ClothTopology, Collider, CpuSolver, Error, Mesh, Model, SimSettings,
+    Solver,
+};
+use drape_kernels::cloth::{BEND, STRUCTURAL, acceleration_springs};
+use glam::{Mat4, Vec3, Vec4};
+
+const CLOTH: ClothId = ClothId::new(0);
+
+/// A disc of `rings` rings of `around` vertices around a centre, each ring turned half a step
+/// from the last, so triangles differ in shape and size and the centre has `around` neighbours.
+fn disc(rings: u32, around: u32, radius: f32) -> ClothMesh {
+    let mut vertices = vec![Vec3::ZERO];
+    for i in 1..=rings {
+        let r = radius * i as f32 / rings as f32;
+        for j in 0..around {
+            let a = std::f32::consts::TAU * (j as f32 + 0.5 * i as f32) / around as f32;
+            vertices.push(Vec3::new(r * a.cos(), 0.0, r * a.sin()));
+        }
+    }
+    let index = |i: u32, j: u32| 1 + (i - 1) * around + j % around;
+    let mut triangles = Vec::new();
+    for j in 0..around {
+        triangles.push([0, index(1, j + 1), index(1, j)]);
+    }
+    for i in 1..rings {
+        for j in 0..around {
+            let (a, b, c, d) = (index(i, j), index(i, j + 1), index(i + 1, j + 1), index(i + 1, j));
+            triangles.push([a, b, d]);
+            triangles.push([b, c, d]);
+        }
+    }
+    ClothMesh::from_parts(vertices, triangles).unwrap()
+}
+
+fn springs_of(cloth: &Cloth) -> &SpringTopology {
+    match &cloth.topology {
+        ClothTopology::Springs(s) => s,
+        ClothTopology::Grid => panic!("expected a spring-list cloth"),
+    }
+}
+
+/// A unit square of two triangles: 5 edges (structural), 1 bend spring joining the corners
+/// opposite the diagonal, each stored at both ends; the mass splits by area.
+#[test]
+fn a_mesh_cloth_has_springs_on_its_edges_and_across_them() {
+    let vertices = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, 1.0), Vec3::Z];
+    let mesh = ClothMesh::from_parts(vertices, vec![[0, 2, 1], [0, 3, 2]]).unwrap();
+    let cloth = ClothBuilder::from_mesh(mesh).mass(0.6).build().unwrap();
+    let s = springs_of(&cloth);
+    let count = |family| s.springs.iter().filter(|x| x.family == family).count();
+    assert_eq!((count(STRUCTURAL), count(BEND)), (10, 2));
+    let bend: Vec<_> = s.springs.iter().filter(|x| x.family == BEND).map(|x| (x.other, x.rest)).collect();
+    assert_eq!(bend, vec![(3, 2f32.sqrt()), (1, 2f32.sqrt())], "1 and 3 face each other across the diagonal");
+    let diagonal = s.springs.iter().find(|x| x.family == STRUCTURAL && x.rest > 1.1).unwrap();
+    assert!((diagonal.rest - 2f32.sqrt()).abs() < 1e-6);
+    // Corners 0 and 2 belong to both triangles: a third of 0.3 kg from each.
+    let masses: Vec<f32> = s.particles.iter().map(|p| 1.0 / p.inverse_mass).collect();
+    for (m, expected) in masses.iter().zip([0.2, 0.1, 0.2, 0.1]) {
+        assert!((m - expected).abs() < 1e-6, "{masses:?}");
+    }
+    assert_eq!(cloth.structural_springs().len(), 5);
+}
+
+/// Rest lengths come from the mesh as placed: a cloth at rest without gravity feels no force,
+/// at any particle of an irregular mesh, under any transform.
+#[test]
+fn a_mesh_cloth_at_rest_feels_no_force() {
+    let transform = Mat4::from_scale_rotation_translation(
+        Vec3::splat(1.7),
+        glam::Quat::from_rotation_x(0.9),
+        Vec3::new(0.3, 2.0, -1.0),
+    );
+    let cloth = ClothBuilder::from_mesh(disc(6, 24, 0.5)).gravity(Vec3::ZERO).transform(transform).build().unwrap();
+    let s = springs_of(&cloth);
+    let mut params = cloth.params;
+    params.spring_damping = 0.1;
+    for i in 0..cloth.particle_count() as u32 {
+        let a = acceleration_springs(&params, i, &cloth.positions, &cloth.velocities, &s.particles, &s.springs);
+        assert!(a.length() < 1e-4, "particle {i}: {a}");
+    }
+}
+
+/// The grid built with listed springs (the mesh cloths' kernel) gets the grid's own springs
+/// and stability bound, and moves as the grid's fast path does (to rounding: the two sum the
+/// forces over the mass in a different order).
+#[test]
+fn the_grid_as_a_spring_list_moves_like_the_grid() {
+    let grid = |listed: bool| {
+        ClothBuilder::new(16, 16)
+            .external_force(Vec3::new(0.3, 0.0, 0.5))
+            .pin_top_corners()
+            .listed_springs(listed)
+            .build()
+            .unwrap()
+    };
+    let (fast, listed) = (grid(false), grid(true));
+    assert_eq!(springs_of(&listed).springs.len(), 2 * (15 * 16 * 2 + 15 * 15 * 2 + 14 * 16 * 2));
+    let (a, b) = (
+        spectral_bounds(&fast.params, &SpringProfile::of(&fast)),
+        spectral_bounds(&listed.params, &SpringProfile::of(&listed)),
+    );
+    assert!((a.0 - b.0).abs() <= 1e-3 * a.0 && (a.1 - b.1).abs() <= 1e-3 * a.1, "{a:?} vs {b:?}");
+    let ctx = context();
+    let settings = SimSettings::default().with_timestamps(false);
+    let run = |cloth: &Cloth| {
+        let mut sim = Solver::new(&ctx, &Model::single(cloth, &[], settings).unwrap()).unwrap();
+        for _ in 0..60 {
+            sim.step().unwrap();
+        }
+        (sim.positions(CLOTH).unwrap(), sim.normals(CLOTH).unwrap())
+    };
+    let ((x_fast, n_fast), (x_listed, n_listed)) = (run(&fast), run(&listed));
+    let moved = max_distance(&x_fast, &fast.positions);
+    assert!(moved > 0.3, "the cloth must swing ({moved} m)");
+    let apart = max_distance(&x_fast, &x_listed);
+    assert!(apart < 1e-4, "listed springs drifted {apart} m from the grid in 60 frames");
+    // Mesh normals (area-weighted triangle normals) and grid normals (quad cross products)
+    // differ in weighting only: a little where the cloth folds, hardly elsewhere.
+    let cosines: Vec<f32> = n_fast.iter().zip(&n_listed).map(|(a, b)| a.truncate().dot(b.truncate())).collect();
+    let (worst, mean) =
+        (cosines.iter().copied().fold(1.0, f32::min), cosines.iter().sum::<f32>() / cosines.len() as f32);
+    assert!(worst > 0.9 && mean > 0.995, "normals disagree: worst cos {worst}, mean {mean}");
+    assert_validation_clean(&ctx);
+}
+
+/// A mesh cloth's RK4 (automatic substeps, then four times as many) against the f64 reference
+/// (its own spring list and masses, 1/24000 s steps): an irregular disc pinned along one side
+/// swings down for 0.5 s; the error stays within 0.1% of its size (measured 1.8e-5 m) and falls
+/// by more than 8x with 4x the substeps (measured 12x: 4th order down to f32 round-off, ~1e-6 m).
+#[test]
+fn mesh_cloth_rk4_matches_the_f64_reference() {
+    let cloth = ClothBuilder::from_mesh(disc(5, 16, 0.5))
+        .pin_within(Vec3::new(0.4, -1.0, -1.0), Vec3::ONE)
+        .external_force(Vec3::new(0.0, 0.0, 0.2))
+        .build()
+        .unwrap();
+    let frames = 30;
+    let ctx = context();
+    let run = |settings: SimSettings| {
+        let mut sim = Solver::new(&ctx, &Model::single(&cloth, &[], settings).unwrap()).unwrap();
+        for _ in 0..frames {
+            sim.step().unwrap();
+        }
+        sim.positions(CLOTH).unwrap()
+    };
+    let mut reference = ReferenceCloth::new(&cloth);
+    reference.run(frames as f64 / 60.0, frames * 400);
+    let error = |x: &[Vec4]| {
+        x.iter().zip(&reference.x).map(|(p, q)| (p.truncate().as_dvec3() - *q).length()).fold(0.0, f64::max)
+    };
+    let auto = SimSettings::default().stability(&cloth).unwrap().substeps;
+    let coarse = error(&run(SimSettings::default()));
+    let fine = error(&run(SimSettings::default().with_substeps(Some(4 * auto))));
+    let moved = reference.x.iter().zip(&cloth.positions).map(|(q, p)| (*q - p.truncate().as_dvec3()).length());
+    assert!(moved.fold(0.0, f64::max) > 0.3, "the disc must swing");
+    println!("mesh cloth RK4 vs f64: {coarse:e} m ({auto} substeps), {fine:e} m ({} substeps)", 4 * auto);
+    assert!(coarse < 1e-3, "RK4 error {coarse} m");
+    assert!(fine < coarse / 8.0, "error {coarse} -> {fine} with 4x substeps");
+    assert_validation_clean(&ctx);
+}
+
+/// A pinned disc (pinned by a box around its centre) draped over a triangle collider: every
+/// frame on the GPU equals the CPU twin bit for bit (positions, velocities, normals), and the
+/// pinned particles stay put.
+#[test]
+fn mesh_cloth_frames_on_the_gpu_equal_the_cpu_twin() {
+    let ctx = context();
+    let cloth = ClothBuilder::from_mesh(disc(8, 32, 0.6))
+        .pin_within(Vec3::splat(-0.1), Vec3::splat(0.1))
+        .pin_vertex(40)
+        .transform(Mat4::from_translation(Vec3::new(0.2, 0.65, 0.0)))
+        .build()
+        .unwrap();
+    let pinned: Vec<usize> = (0..cloth.particle_count()).filter(|&i| cloth.positions[i].w == 0.0).collect();
+    assert!(pinned.len() > 30 && pinned.contains(&0) && pinned.contains(&40), "{} pinned", pinned.len());
+    let collider = Collider::mesh(&Mesh::icosphere(0.5, 3), 0.01).with_friction(0.3);
+    let model = Model::single(&cloth, std::slice::from_ref(&collider), SimSettings::default()).unwrap();
+    let mut gpu = Solver::new(&ctx, &model).unwrap();
+    let mut cpu = CpuSolver::new(&model).unwrap();
+    let mut contact_frames = 0;
+    for frame in 1..=25 {
+        let report = gpu.step_report().unwrap();
+        cpu.step().unwrap();
+        contact_frames += (report.collision_ran > 0) as u32;
+        let x = gpu.positions(CLOTH).unwrap();
+        assert_eq!(x, cpu.positions(CLOTH).unwrap(), "frame {frame}: positions");
+        assert_eq!(gpu.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {frame}: velocities");
+        // Normals are for drawing: llvmpipe may fuse their cross products' multiply-adds.
+        let normals = max_distance(&gpu.normals(CLOTH).unwrap(), &cpu.normals(CLOTH).unwrap());
+        assert!(normals < 1e-6, "frame {frame}: normals differ by {normals}");
+        for &i in &pinned {
+            assert_eq!(x[i], cloth.positions[i], "frame {frame}: pinned particle {i} moved");
+        }
+    }
+    assert!(contact_frames > 5, "the cloth must reach the collider");
+    assert_validation_clean(&ctx);
+}
+
+/// A flat disc wound counter-clockwise seen from +Y has normals +Y, the other winding -Y; a
+/// mirroring transform mirrors them (the builder flips the triangles so they stay outward).
+#[test]
+fn mesh_normals_follow_the_winding() {
+    let up = disc(3, 12, 0.4);
+    let down = ClothMesh { triangles: up.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect(), ..up.clone() };
+    for (mesh, transform, expected) in [
+        (up.clone(), Mat4::IDENTITY, Vec3::Y),
+        (down, Mat4::IDENTITY, Vec3::NEG_Y),
+        (up, Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0)), Vec3::NEG_Y),
+    ] {
+        let cloth = ClothBuilder::from_mesh(mesh).gravity(Vec3::ZERO).transform(transform).build().unwrap();
+        let mut sim = CpuSolver::new(&Model::single(&cloth, &[], SimSettings::default()).unwrap()).unwrap();
+        sim.step().unwrap();
+        for n in sim.normals(CLOTH).unwrap() {
+            assert!((n.truncate() - expected).length() < 1e-5, "{n} vs {expected}");
+        }
+    }
+}
+
+/// Bad mesh cloths are refused with the cause: a pin past the last vertex, a mesh without
+/// triangles, an index out of range. A vertex of no triangle is pinned where it is.
+#[test]
+fn bad_mesh_cloths_are_refused_and_loose_vertices_pinned() {
+    let mesh = disc(2, 6, 0.3);
+    let n = mesh.vertices.len() as u32;
+    let error = ClothBuilder::from_mesh(mesh.clone()).pin_vertex(n).build().unwrap_err();
+    assert!(matches!(error, Error::InvalidParameter { name: "pins", .. }), "{error}");
+    assert!(error.to_string().contains(&format!("particle {n}")), "{error}");
+    assert!(ClothMesh::from_parts(mesh.vertices.clone(), vec![]).is_err());
+    assert!(ClothMesh::from_parts(mesh.vertices.clone(), vec![[0, 1, n]]).is_err());
+    let bad_box = ClothBuilder::from_mesh(mesh.clone()).pin_within(Vec3::ONE, Vec3::ZERO).build().unwrap_err();
+    assert!(bad_box.to_string().contains("min <= max"), "{bad_box}");
+    let mut loose = mesh;
+    loose.vertices.push(Vec3::new(5.0, 5.0, 5.0));
+    let cloth = ClothBuilder::from_mesh(loose).build().unwrap();
+    assert_eq!(cloth.positions.last().unwrap().w, 0.0, "a vertex of no triangle is pinned");
+    let mut sim = CpuSolver::new(&Model::single(&cloth, &[], SimSettings::default()).unwrap()).unwrap();
+    sim.step().unwrap();
+    assert_eq!(sim.positions(CLOTH).unwrap().last(), cloth.positions.last());
+}
+
+/// Runtime stiffness changes reach a mesh cloth's bound: ten times stiffer needs more substeps.
+#[test]
+fn stiffening_a_mesh_cloth_raises_its_substeps() {
+    let cloth = ClothBuilder::from_mesh(disc(4, 16, 0.5)).build().unwrap();
+    let model = Model::single(&cloth, &[], SimSettings::default()).unwrap();
+    let mut sim = CpuSolver::new(&model).unwrap();
+    let before = sim.stability(CLOTH).unwrap().substeps;
+    sim.set_stiffness(CLOTH, 400.0, 10.0, 20.0).unwrap();
+    let after = sim.stability(CLOTH).unwrap().substeps;
+    assert!(after as f32 > 2.5 * before as f32, "{before} -> {after} substeps");
+    sim.step().unwrap();
+}
+
+fn temp_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("drape-cloth-mesh-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// An OBJ quad whose UV seam gives vertex 1 two texture coordinates: the cloth keeps the four
+/// `v` in order (one particle per vertex, no split at the seam), the UVs per corner, and an
+/// exported frame carries them back (`f v/vt/vn`).
+#[test]
+fn an_obj_cloth_keeps_its_vertex_order_and_uvs() {
+    let dir = temp_dir("uvs");
+    let path = dir.join("quad.obj");
+    let text = "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.5 0\n\
+                f 1/1 3/3 2/2\nf 1/1 4/4 3/3\nf 2/5 3/3 4/4\n";
+    std::fs::write(&path, text).unwrap();
+    let mesh = ClothMesh::load_obj(&path).unwrap();
+    assert_eq!(mesh.vertices, vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, 1.0), Vec3::Z]);
+    assert_eq!(mesh.triangles, vec![[0, 2, 1], [0, 3, 2], [1, 2, 3]]);
+    let uvs = mesh.uvs.clone().expect("UVs");
+    assert_eq!(uvs.triangles, vec![[0, 2, 1], [0, 3, 2], [4, 2, 3]]);
+    assert_eq!(uvs.coords[4], glam::Vec2::new(0.5, 0.0));
+    let cloth = ClothBuilder::from_mesh(mesh).build().unwrap();
+    let out = dir.join("frame.obj");
+    let normals = vec![Vec4::Y; 4];
+    drape::obj::write_cloth_obj(&out, &cloth, &cloth.positions, &normals).unwrap();
+    let written = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(written.lines().filter(|l| l.starts_with("vt ")).count(), 5);
+    assert!(written.contains("f 2/5/2 3/3/3 4/4/4"), "{written}");
+    let again = ClothMesh::load_obj(&out).unwrap();
+    assert_eq!(again.uvs.unwrap().triangles, uvs.triangles);
+    // A grid cloth's frames carry UVs across the grid.
+    let grid = ClothBuilder::new(3, 3).build().unwrap();
+    drape::obj::write_cloth_obj(&out, &grid, &grid.positions, &[Vec4::Y; 9]).unwrap();
+    let written = std::fs::read_to_string(&out).unwrap();
+    assert!(written.contains("vt 0.5 0.5") && written.contains("f 1/1/1 4/4/4 2/2/2"), "{written}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// `drape --cloth-mesh FILE` drapes a mesh cloth over the collider (nothing inside, resting at
+/// the thickness) with pins from `--pin-vertices`, and writes its frames with UVs; a bad box
+/// or a grid size beside a mesh cloth is a usage error.
+#[test]
+fn cli_cloth_mesh_drapes_a_mesh_cloth() {
+    let dir = temp_dir("cli");
+    let (path, frames) = (dir.join("disc.obj"), dir.join("frames"));
+    let mesh = disc(10, 32, 0.7);
+    let mut text = String::new();
+    for v in &mesh.vertices {
+        text += &format!("v {} {} {}\nvt {} {}\n", v.x, v.y, v.z, 0.5 + v.x, 0.5 + v.z);
+    }
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| i + 1);
+        text += &format!("f {a}/{a} {b}/{b} {c}/{c}\n");
+    }
+    std::fs::write(&path, text).unwrap();
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+        .args(["--cloth-mesh", path.to_str().unwrap(), "--pin-vertices", "0", "--frames", "90", "--no-timestamps"])
+        .arg("--obj-dir")
+        .arg(&frames)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
+    assert!(
+        stdout.contains(&format!("cloth: mesh {} (321 particles, 608 triangles, UVs)", path.display())),
+        "{stdout}"
+    );
+    assert!(stdout.contains("particles inside the mesh   0.000 %"), "{stdout}");
+    let gap: f32 = stdout
+        .split("gap to true surface mean ")
+        .nth(1)
+        .and_then(|r| r.split(" mm").next())
+        .and_then(|g| g.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no gap in\n{stdout}"));
+    assert!((2.5..=7.5).contains(&gap), "resting gap {gap} mm for a 5 mm thickness\n{stdout}");
+    let frame = std::fs::read_to_string(frames.join("frame_00090.obj")).unwrap();
+    assert_eq!(frame.lines().filter(|l| l.starts_with("vt ")).count(), 321);
+    for bad in [&["--pin-box", "1,1,1,0,0,0"][..], &["--grid", "8"]] {
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+            .args(["--cloth-mesh", path.to_str().unwrap()])
+            .args(bad)
+            .output()
+            .unwrap();
+        assert_eq!(output.status.code(), Some(2), "{bad:?} must be a usage error");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(stderr.contains("--pin-box") || stderr.contains("--grid"), "{bad:?}: {stderr}");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
