@@ -16,8 +16,11 @@ pub struct ClothBuilder {
     /// Grid particles per column and row (unused for a mesh cloth).
     pub rows: u32,
     pub cols: u32,
-    /// Grid side length (m) along X and Z (unused for a mesh cloth).
+    /// Grid side length (m) along X, and along Z unless `length` is set (unused for a mesh
+    /// cloth).
     pub size: f32,
+    /// Grid side length (m) along Z (the rows' direction), for a rectangular cloth.
+    pub length: Option<f32>,
     /// Total mass (kg): split evenly over a grid's particles, by area over a mesh's.
     pub mass: f32,
     /// The mesh of a mesh cloth (`None`: the grid).
@@ -56,6 +59,7 @@ impl ClothBuilder {
             rows,
             cols,
             size: 1.0,
+            length: None,
             mass: 0.2,
             mesh: None,
             listed_springs: false,
@@ -90,6 +94,11 @@ impl ClothBuilder {
 
     pub fn size(mut self, size: f32) -> Self {
         self.size = size;
+        self
+    }
+    /// A rectangular grid: `width` (m) along X (columns), `length` along Z (rows).
+    pub fn dimensions(mut self, width: f32, length: f32) -> Self {
+        (self.size, self.length) = (width, Some(length));
         self
     }
     pub fn mass(mut self, mass: f32) -> Self {
@@ -149,7 +158,7 @@ impl ClothBuilder {
     /// Validates the parameters and lays out the particles.
     pub fn build(&self) -> Result<Cloth> {
         let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
-        let positive = [("size", self.size), ("mass", self.mass)];
+        let positive = [("size", self.size), ("length", self.length.unwrap_or(self.size)), ("mass", self.mass)];
         for (name, value) in positive {
             if !(value.is_finite() && value > 0.0) {
                 return bad(name, format!("must be finite and > 0, got {value}"));
@@ -235,9 +244,10 @@ impl ClothBuilder {
                 return bad("pins", format!("({r}, {c}) is outside the {} x {} grid", self.rows, self.cols));
             }
         }
+        let length = self.length.unwrap_or(self.size);
         let dx = self.size / (self.cols - 1) as f32;
-        let dz = self.size / (self.rows - 1) as f32;
-        let origin = Vec3::new(-0.5 * self.size, 0.0, -0.5 * self.size);
+        let dz = length / (self.rows - 1) as f32;
+        let origin = Vec3::new(-0.5 * self.size, 0.0, -0.5 * length);
         let mut local = Vec::with_capacity(count as usize);
         for r in 0..self.rows {
             for c in 0..self.cols {

@@ -3,6 +3,7 @@
 
 use clap::{Parser, ValueEnum};
 use drape::mesh::Mesh;
+use drape::metrics::intersections::count_intersections;
 use drape::metrics::{Accuracy, TriangleBvh, accuracy_of_cloth};
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, shared_model};
 use drape::timing::TimingReport;
@@ -21,6 +22,9 @@ enum SceneArg {
     Drape,
     /// A cloth pinned at two corners swings under gravity and wind (no collider).
     Swing,
+    /// A long strip falls upright onto the ground and folds onto itself (`--grid` particles
+    /// along it, a quarter of that across).
+    Pile,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -127,8 +131,8 @@ struct Args {
     #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [0.3, 0.0, 0.5])]
     wind: Vec<f32>,
     /// The cloth's initial velocity (m/s) as X,Y,Z, e.g. `--velocity=0,-10,0` (a throw).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0,0,0")]
-    velocity: Vec3,
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    velocity: Option<Vec3>,
     /// Skip vertex normals.
     #[arg(long)]
     no_normals: bool,
@@ -245,6 +249,13 @@ fn run(args: &Args) -> drape::Result<()> {
     let mut scene = None;
     let builder = match args.scene {
         SceneArg::Swing => drape::scenes::swinging_cloth(args.grid).external_force(Vec3::from_slice(&args.wind)),
+        SceneArg::Pile => {
+            let s = drape::scenes::pile(args.grid);
+            println!("ground: a 6 m square plane of 2 triangles (open)");
+            let builder = s.cloth.clone();
+            scene = Some(s);
+            builder
+        }
         SceneArg::Drape => {
             let mut s = DrapeScene::standard(&load_mesh(&args.mesh)?, args.grid);
             let topology = match args.holes {
@@ -287,8 +298,11 @@ fn run(args: &Args) -> drape::Result<()> {
         None => builder,
     };
     let cloth_description = cloth_description(args, &builder);
+    let builder = match args.velocity {
+        Some(v) => builder.velocity(v),
+        None => builder,
+    };
     let built = builder
-        .velocity(args.velocity)
         .stiffness(args.stiffness[0], args.stiffness[1], args.stiffness[2])
         .spring_damping(args.spring_damping)
         .build()?;
@@ -320,7 +334,7 @@ fn run(args: &Args) -> drape::Result<()> {
             };
             println!(
                 "collider: {} ({} vertices, {} triangles), {leaves} in {:.1} ms (CPU)",
-                args.mesh,
+                if args.scene == SceneArg::Pile { "ground" } else { &args.mesh },
                 s.mesh.vertices.len(),
                 s.mesh.triangles.len(),
                 start.elapsed().as_secs_f64() * 1e3,
@@ -399,6 +413,17 @@ fn run(args: &Args) -> drape::Result<()> {
         let lowest = x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
         println!("final: lowest particle at y = {lowest:.3} m after {} frames", sim.frames_done());
     }
+    let start = Instant::now();
+    let solid = scene.as_ref().map(|s| (s.mesh.vertices.as_slice(), s.mesh.triangles.as_slice()));
+    let found = count_intersections(&x, &built.triangles, solid.unwrap_or((&[], &[])));
+    println!(
+        "intersections (exact, final frame, {:.2} s on the CPU): cloth-cloth {}, cloth edges through the collider {}, \
+         collider edges through the cloth {}",
+        start.elapsed().as_secs_f64(),
+        found.cloth_cloth,
+        found.cloth_edges_through_collider,
+        found.collider_edges_through_cloth
+    );
     ctx.check_validation()
 }
 
@@ -412,8 +437,12 @@ fn cloth_description(args: &Args, builder: &ClothBuilder) -> String {
             mesh.triangles.len(),
             if mesh.uvs.is_some() { ", UVs" } else { "" }
         ),
-        _ if args.listed_springs => format!("{g} x {g} particles (listed springs)", g = args.grid),
-        _ => format!("{g} x {g} particles", g = args.grid),
+        _ => format!(
+            "{} x {} particles{}",
+            builder.rows,
+            builder.cols,
+            if args.listed_springs { " (listed springs)" } else { "" }
+        ),
     }
 }
 

@@ -3,6 +3,7 @@
 //! holds the cloth off the surface, and spring stretch. CPU only.
 
 mod bvh;
+pub mod intersections;
 
 use crate::mesh::Mesh;
 use bvh::{Bvh, Node};

@@ -15,6 +15,29 @@ pub fn swinging_cloth(grid: u32) -> ClothBuilder {
         .pin_top_corners()
 }
 
+/// The pile scene (issue 8): a long strip, `grid` particles along its 3 m and a quarter of that
+/// across its 0.5 m, hanging nearly upright with its lower edge 5 cm above a ground plane,
+/// tilted a little and pushed sideways so it folds over onto itself as it falls, rather than
+/// buckling straight down. The collider is the ground, a 6 m square of two triangles (open).
+pub fn pile(grid: u32) -> DrapeScene {
+    let (length, width) = (3.0, 0.5);
+    let across = (grid / 4).max(2);
+    // Rows run along the strip (local Z); stand it up: local Z -> world Y, tilted 0.15 rad.
+    let stand = Mat4::from_rotation_z(0.15) * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    let lift = Mat4::from_translation(Vec3::new(0.0, 0.05 + 0.5 * length, 0.0));
+    let cloth = ClothBuilder::new(grid.max(2), across)
+        .dimensions(width, length)
+        .mass(0.2 * width * length)
+        .velocity(Vec3::new(0.4, 0.0, 0.0))
+        .transform(lift * stand);
+    let h = 3.0;
+    let ground = crate::mesh::Mesh {
+        vertices: vec![Vec3::new(-h, 0.0, -h), Vec3::new(h, 0.0, -h), Vec3::new(h, 0.0, h), Vec3::new(-h, 0.0, h)],
+        triangles: vec![[0, 2, 1], [0, 3, 2]],
+    };
+    DrapeScene { mesh: ground, cloth, thickness: DEFAULT_THICKNESS, friction: DEFAULT_FRICTION }
+}
+
 /// Contact thickness of the drape scenes (m).
 pub const DEFAULT_THICKNESS: f32 = 0.005;
 

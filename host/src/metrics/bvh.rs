@@ -36,6 +36,33 @@ pub(super) struct Bvh {
     pub order: Vec<u32>,
 }
 
+impl Bvh {
+    /// Calls `visit` with every primitive whose box meets the closed box `lo..=hi`.
+    pub fn for_each_overlapping(&self, lo: Vec3, hi: Vec3, boxes: &[(Vec3, Vec3)], mut visit: impl FnMut(u32)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let meets = |min: Vec3, max: Vec3| min.cmple(hi).all() && max.cmpge(lo).all();
+        let mut stack = vec![0usize];
+        while let Some(n) = stack.pop() {
+            let node = self.nodes[n];
+            if !meets(node.min, node.max) {
+                continue;
+            }
+            if node.count == 0 {
+                stack.extend([node.first as usize, node.first as usize + 1]);
+                continue;
+            }
+            for &i in &self.order[node.first as usize..(node.first + node.count) as usize] {
+                let (min, max) = boxes[i as usize];
+                if meets(min, max) {
+                    visit(i);
+                }
+            }
+        }
+    }
+}
+
 /// Builds the tree over the boxes `(min, max)` of the primitives.
 pub(super) fn build(boxes: &[(Vec3, Vec3)]) -> Bvh {
     let mut order: Vec<u32> = (0..boxes.len() as u32).collect();
