@@ -7,6 +7,10 @@ use crate::error::{Error, Result};
 use drape_types::{SimParams, integrator};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
+/// The most particles a cloth may have: a kernel runs one thread per particle in workgroups of
+/// 256, and a 1-D dispatch reaches at most 65,535 workgroups on every Vulkan device.
+pub const MAX_PARTICLES: u32 = 65_535 * drape_kernels::WORKGROUP_SIZE;
+
 /// Builder for a cloth: a rectangular grid (`new`), the fast path whose springs the kernels
 /// derive from the grid, or a triangle mesh (`from_mesh`), whose springs are listed. The grid
 /// lies in the local XZ plane (columns along +X, rows along +Z, normal +Y), centred on the
@@ -236,8 +240,8 @@ impl ClothBuilder {
             return bad("rows/cols", format!("need at least 2 x 2 particles, got {} x {}", self.rows, self.cols));
         }
         let count = self.rows as u64 * self.cols as u64;
-        if count > 1 << 24 {
-            return bad("rows/cols", format!("{count} particles is more than the supported 16,777,216"));
+        if count > MAX_PARTICLES as u64 {
+            return bad("rows/cols", format!("{count} particles is more than the supported {MAX_PARTICLES}"));
         }
         for &(r, c) in &self.pins {
             if r >= self.rows || c >= self.cols {
@@ -291,10 +295,10 @@ impl ClothBuilder {
     fn build_mesh(&self, mesh: &ClothMesh) -> Result<(Cloth, Vec<Vec3>)> {
         crate::Mesh::from_parts(mesh.vertices.clone(), mesh.triangles.clone())?;
         let count = mesh.vertices.len();
-        if count > 1 << 24 {
+        if count > MAX_PARTICLES as usize {
             return Err(Error::InvalidParameter {
                 name: "cloth mesh",
-                problem: format!("{count} vertices is more than the supported 16,777,216"),
+                problem: format!("{count} vertices is more than the supported {MAX_PARTICLES}"),
             });
         }
         let world: Vec<Vec3> = mesh.vertices.iter().map(|&v| self.transform.transform_point3(v)).collect();

@@ -1,11 +1,12 @@
 //! `drape`: runs a built-in scene on the GPU, prints per-kernel GPU timings, the LBVH build time,
 //! the stability figures and the accuracy against the true mesh, and can write OBJ frames.
 
-use clap::{Parser, ValueEnum};
+use clap::parser::ValueSource;
+use clap::{ArgMatches, CommandFactory, FromArgMatches, Parser, ValueEnum};
 use drape::mesh::Mesh;
 use drape::metrics::intersections::count_intersections;
 use drape::metrics::{Accuracy, TriangleBvh, accuracy_of_cloth};
-use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, shared_model};
+use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, find_model};
 use drape::timing::TimingReport;
 use drape::{
     ClothBuilder, ClothId, ClothMesh, ContactSearch, Context, Integrator, Model, SimSettings, Solver, Validation,
@@ -79,11 +80,12 @@ struct Args {
     /// Collider voxels per axis (one sphere per non-empty voxel; `--contact spheres`).
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=256))]
     voxels: u32,
-    /// Contact thickness (m).
-    #[arg(long, default_value_t = drape::scenes::DEFAULT_THICKNESS)]
+    /// Contact thickness (m), in (0, 0.5].
+    #[arg(long, default_value_t = drape::scenes::DEFAULT_THICKNESS, value_parser = parse_thickness, allow_hyphen_values = true)]
     thickness: f32,
-    /// Coulomb friction coefficient of the contact (0 = the paper's frictionless response).
-    #[arg(long, default_value_t = drape::scenes::DEFAULT_FRICTION)]
+    /// Coulomb friction coefficient of the contact, in [0, 10] (0 = the paper's frictionless
+    /// response).
+    #[arg(long, default_value_t = drape::scenes::DEFAULT_FRICTION, value_parser = parse_friction, allow_hyphen_values = true)]
     friction: f32,
     /// How contact finds the leaves each particle touches (same contacts, different cost).
     #[arg(long, value_enum, default_value = "lists")]
@@ -92,8 +94,8 @@ struct Args {
     /// as `--search brute-force`).
     #[arg(long, conflicts_with = "search")]
     brute_force: bool,
-    /// Particles per side (rows = cols).
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(2..=4096))]
+    /// Particles per side (rows = cols), 2..=2048.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(2..=2048))]
     grid: u32,
     /// The cloth from a triangle mesh (OBJ): one particle per vertex in the file's order, springs
     /// on its edges and across them, UVs kept. In the drape scene it is centred over the
@@ -115,21 +117,23 @@ struct Args {
     /// Frames to simulate (1/60 s each).
     #[arg(long, default_value_t = SETTLE_FRAMES, value_parser = clap::value_parser!(u32).range(1..))]
     frames: u32,
-    /// Substeps per frame; default: automatic from the stability bound.
-    #[arg(long)]
+    /// Substeps per frame, 1..=100000; default: automatic from the stability bound.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000))]
     substeps: Option<u32>,
     /// Time integrator.
     #[arg(long, value_enum, default_value = "rk4")]
     integrator: IntegratorArg,
-    /// Structural, shear and bend stiffness (N/m), comma separated.
-    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [40.0, 10.0, 2.0])]
-    stiffness: Vec<f32>,
-    /// Damping along spring axes (N s/m).
-    #[arg(long, default_value_t = 0.002)]
+    /// Structural, shear and bend stiffness (N/m) as K_STRUCT,K_SHEAR,K_BEND, each in
+    /// [0, 1e6].
+    #[arg(long, value_parser = parse_stiffness, default_value = "40,10,2")]
+    stiffness: Vec3,
+    /// Damping along spring axes (N s/m), in [0, 100].
+    #[arg(long, default_value_t = 0.002, value_parser = parse_spring_damping, allow_hyphen_values = true)]
     spring_damping: f32,
-    /// Wind: constant force on the whole cloth (N), x,y,z (swing scene).
-    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [0.3, 0.0, 0.5])]
-    wind: Vec<f32>,
+    /// Wind: constant force on the whole cloth (N) as X,Y,Z, e.g. `--wind -1,0,0` (swing
+    /// scene).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0.3,0,0.5")]
+    wind: Vec3,
     /// The cloth's initial velocity (m/s) as X,Y,Z, e.g. `--velocity=0,-10,0` (a throw).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     velocity: Option<Vec3>,
@@ -177,7 +181,11 @@ fn init_logging() {
 
 fn main() -> ExitCode {
     init_logging();
-    let args = Args::parse();
+    let matches = Args::command().get_matches();
+    let args = Args::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    if let Err(problem) = check_flags(&args, &matches) {
+        Args::command().error(clap::error::ErrorKind::ArgumentConflict, problem).exit();
+    }
     match run(&args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -192,10 +200,89 @@ fn load_mesh(name: &str) -> drape::Result<Mesh> {
     match name {
         "icosphere" => Ok(default_mesh()),
         "torus" => Ok(Mesh::torus(0.35, 0.12, 48, 24)),
-        "bunny" => Mesh::load_obj(&shared_model("stanford-bunny.obj")),
-        "dragon" => Mesh::load_obj(&shared_model("stanford-dragon-res2.obj")),
+        "bunny" => Mesh::load_obj(&find_model("stanford-bunny.obj")?),
+        "dragon" => Mesh::load_obj(&find_model("stanford-dragon-res2.obj")?),
         path => Mesh::load_obj(std::path::Path::new(path)),
     }
+}
+
+/// Whether the user typed `id` (not its default).
+fn given(matches: &ArgMatches, id: &str) -> bool {
+    matches.value_source(id) == Some(ValueSource::CommandLine)
+}
+
+/// Flags a scene or mode would silently ignore are usage errors naming both.
+fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), String> {
+    let collider_flags = ["mesh", "contact", "holes", "voxels", "thickness", "friction", "search", "brute_force"];
+    let flag = |id: &str| format!("--{}", id.replace('_', "-"));
+    for id in collider_flags {
+        if args.scene == SceneArg::Swing && given(matches, id) {
+            return Err(format!(
+                "{} does nothing in the swing scene, which has no collider: drop it, or use --scene drape or pile",
+                flag(id)
+            ));
+        }
+    }
+    for id in ["mesh", "holes"] {
+        if args.scene == SceneArg::Pile && given(matches, id) {
+            return Err(format!("{} does nothing in the pile scene, whose collider is the ground plane", flag(id)));
+        }
+    }
+    if args.scene != SceneArg::Swing && given(matches, "wind") {
+        return Err(format!("--wind only applies to the swing scene, not the {:?} scene", args.scene).to_lowercase());
+    }
+    if args.contact == ContactArg::Triangles && given(matches, "voxels") {
+        return Err("--voxels only applies with --contact spheres (triangle contact has no voxels)".into());
+    }
+    if args.obj_every.is_some() && args.obj_dir.is_none() {
+        return Err("--obj-every needs --obj-dir (the directory to write the frames into)".into());
+    }
+    Ok(())
+}
+
+/// A finite number in `lo..=hi` (`lo` excluded when `open_low`), or a message with the range.
+fn number_in(text: &str, lo: f32, hi: f32, open_low: bool) -> Result<f32, String> {
+    let value: f32 = text.trim().parse().map_err(|e| format!("`{text}`: {e}"))?;
+    let low_ok = if open_low { value > lo } else { value >= lo };
+    if value.is_finite() && low_ok && value <= hi {
+        Ok(value)
+    } else {
+        Err(format!("must be in {}{lo}, {hi}], got {text}", if open_low { "(" } else { "[" }))
+    }
+}
+
+fn parse_thickness(text: &str) -> Result<f32, String> {
+    number_in(text, 0.0, 0.5, true)
+}
+
+fn parse_friction(text: &str) -> Result<f32, String> {
+    number_in(text, 0.0, 10.0, false)
+}
+
+fn parse_spring_damping(text: &str) -> Result<f32, String> {
+    number_in(text, 0.0, 100.0, false)
+}
+
+/// "K_STRUCT,K_SHEAR,K_BEND", each in [0, 1e6] N/m.
+fn parse_stiffness(text: &str) -> Result<Vec3, String> {
+    let values: Vec<&str> = text.split(',').collect();
+    match values[..] {
+        [a, b, c] => Ok(Vec3::new(
+            number_in(a, 0.0, 1e6, false)?,
+            number_in(b, 0.0, 1e6, false)?,
+            number_in(c, 0.0, 1e6, false)?,
+        )),
+        _ => Err(format!("expected three stiffnesses K_STRUCT,K_SHEAR,K_BEND, got `{text}`")),
+    }
+}
+
+/// The output directory exists (created if needed) and takes files, checked before any setup.
+fn check_output_dir(dir: &std::path::Path) -> drape::Result<()> {
+    let io = |source| drape::Error::Io { path: dir.to_path_buf(), source };
+    std::fs::create_dir_all(dir).map_err(io)?;
+    let probe = dir.join(".drape-write-test");
+    std::fs::write(&probe, b"").map_err(io)?;
+    std::fs::remove_file(&probe).map_err(io)
 }
 
 /// "X,Y,Z" (three finite numbers, negatives allowed) as a vector.
@@ -241,6 +328,12 @@ fn mesh_cloth(path: &std::path::Path, scene: Option<&DrapeScene>) -> drape::Resu
 }
 
 fn run(args: &Args) -> drape::Result<()> {
+    if let Some(dir) = &args.obj_dir {
+        check_output_dir(dir).map_err(|e| drape::Error::InvalidParameter {
+            name: "--obj-dir",
+            problem: format!("cannot write the OBJ frames there: {e}"),
+        })?;
+    }
     let validation = if args.validate { Validation::Required } else { Validation::from_env() };
     let ctx = Context::new(validation)?;
     let info = ctx.info();
@@ -248,7 +341,7 @@ fn run(args: &Args) -> drape::Result<()> {
 
     let mut scene = None;
     let builder = match args.scene {
-        SceneArg::Swing => drape::scenes::swinging_cloth(args.grid).external_force(Vec3::from_slice(&args.wind)),
+        SceneArg::Swing => drape::scenes::swinging_cloth(args.grid).external_force(args.wind),
         SceneArg::Pile => {
             let s = drape::scenes::pile(args.grid);
             println!("ground: a 6 m square plane of 2 triangles (open)");
@@ -287,7 +380,7 @@ fn run(args: &Args) -> drape::Result<()> {
     };
     let builder = match &args.cloth_mesh {
         Some(path) => {
-            let wind = if args.scene == SceneArg::Swing { Vec3::from_slice(&args.wind) } else { Vec3::ZERO };
+            let wind = if args.scene == SceneArg::Swing { args.wind } else { Vec3::ZERO };
             mesh_cloth(path, scene.as_ref())?.external_force(wind)
         }
         None => builder.listed_springs(args.listed_springs),
@@ -303,7 +396,7 @@ fn run(args: &Args) -> drape::Result<()> {
         None => builder,
     };
     let built = builder
-        .stiffness(args.stiffness[0], args.stiffness[1], args.stiffness[2])
+        .stiffness(args.stiffness.x, args.stiffness.y, args.stiffness.z)
         .spring_damping(args.spring_damping)
         .build()?;
     let settings = SimSettings::default()

@@ -99,3 +99,26 @@ pub fn default_mesh() -> crate::mesh::Mesh {
 pub fn shared_model(file: &str) -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models").join(file)
 }
+
+/// Where a model `file` is found at run time, in this order: `$DRAPE_MODELS/<file>`,
+/// `../shared/models/<file>` beside the working directory, then beside the workspace this was
+/// built in (`shared_model`). A moved binary finds its models through the first two. The
+/// error lists every place looked.
+pub fn find_model(file: &str) -> crate::Result<std::path::PathBuf> {
+    let mut places = Vec::new();
+    if let Some(dir) = std::env::var_os("DRAPE_MODELS") {
+        places.push(std::path::PathBuf::from(dir).join(file));
+    }
+    places.push(std::path::Path::new("../shared/models").join(file));
+    places.push(shared_model(file));
+    match places.iter().find(|p| p.is_file()) {
+        Some(found) => Ok(found.clone()),
+        None => Err(crate::Error::Mesh {
+            path: std::path::PathBuf::from(file),
+            problem: format!(
+                "not found; looked in {} (set DRAPE_MODELS to the folder that holds it)",
+                places.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+            ),
+        }),
+    }
+}
