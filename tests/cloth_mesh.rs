@@ -354,25 +354,33 @@ fn cli_cloth_mesh_drapes_a_mesh_cloth() {
     std::fs::remove_dir_all(dir).ok();
 }
 
-/// `drape --scene pile`: a 64 x 16 strip falls upright onto the ground plane and piles up; the
-/// run ends with the exact intersection counts of the final frame (cloth-cloth, and both ways
-/// between cloth and collider). Without self-collision the strip passes through itself, and
-/// the count says so; it never passes through the ground.
+/// `drape --scene pile`: a 64 x 16 strip falls upright onto the ground plane and piles up,
+/// with self-collision on by default; the run ends with the exact intersection counts of the
+/// final frame (cloth-cloth, and both ways between cloth and collider). `--self-collision off`
+/// lets the strip pass through itself, and the count says so; it never passes the ground.
 #[test]
 fn cli_pile_scene_reports_exact_intersections() {
-    let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
-        .args(["--scene", "pile", "--frames", "120", "--no-timestamps"])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(output.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
-    assert!(stdout.contains("cloth: 64 x 16 particles"), "{stdout}");
-    let count = |label: &str| -> usize {
-        let after = stdout.split(label).nth(1).unwrap_or_else(|| panic!("no `{label}` in\n{stdout}"));
-        after.split(|c: char| !c.is_ascii_digit()).find(|w| !w.is_empty()).unwrap().parse().unwrap()
+    let run = |extra: &[&str]| {
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+            .args(["--scene", "pile", "--frames", "120", "--no-timestamps"])
+            .args(extra)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&output.stdout).to_string();
+        assert!(output.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
+        let count = |label: &str| -> usize {
+            let after = stdout.split(label).nth(1).unwrap_or_else(|| panic!("no `{label}` in\n{stdout}"));
+            after.split(|c: char| !c.is_ascii_digit()).find(|w| !w.is_empty()).unwrap().parse().unwrap()
+        };
+        assert_eq!(count("cloth edges through the collider "), 0, "{stdout}");
+        assert_eq!(count("collider edges through the cloth "), 0, "{stdout}");
+        assert!(stdout.contains("particles inside the mesh   n/a (open mesh: no inside)"), "{stdout}");
+        (count("cloth-cloth "), stdout)
     };
-    assert!(count("cloth-cloth ") > 0, "the strip folds onto itself: without self-collision it must cross itself");
-    assert_eq!(count("cloth edges through the collider "), 0, "{stdout}");
-    assert_eq!(count("collider edges through the cloth "), 0, "{stdout}");
-    assert!(stdout.contains("particles inside the mesh   n/a (open mesh: no inside)"), "{stdout}");
+    let (with, stdout) = run(&[]);
+    assert!(stdout.contains("cloth: 64 x 16 particles, self-collision on (5.0 mm)"), "{stdout}");
+    let (without, stdout) = run(&["--self-collision", "off"]);
+    assert!(stdout.contains("self-collision off"), "{stdout}");
+    assert!(without > 500, "without self-collision the strip crosses itself ({without})");
+    assert!(with * 3 < without, "self-collision must remove most crossings: {without} -> {with}");
 }

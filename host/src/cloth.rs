@@ -29,6 +29,9 @@ pub struct ClothBuilder {
     pub mass: f32,
     /// The mesh of a mesh cloth (`None`: the grid).
     pub mesh: Option<ClothMesh>,
+    /// Self-collision thickness (m): the cloth keeps its particles this far from its own
+    /// triangles (`None`: off).
+    pub self_collision: Option<f32>,
     /// Build a grid with listed springs (the mesh cloths' kernels) instead of its fast path:
     /// the same springs, for measuring and checking one path against the other.
     pub listed_springs: bool,
@@ -66,6 +69,7 @@ impl ClothBuilder {
             length: None,
             mass: 0.2,
             mesh: None,
+            self_collision: None,
             listed_springs: false,
             k_struct: 40.0,
             k_shear: 10.0,
@@ -88,6 +92,12 @@ impl ClothBuilder {
         let mut builder = ClothBuilder::new(2, 2).mass(0.2 * area);
         builder.mesh = Some(mesh);
         builder
+    }
+
+    /// Self-collision at `thickness` (m), or `None` for off (the default: off costs nothing).
+    pub fn self_collision(mut self, thickness: Option<f32>) -> Self {
+        self.self_collision = thickness;
+        self
     }
 
     /// Builds the grid with listed springs (`listed_springs`).
@@ -186,6 +196,11 @@ impl ClothBuilder {
         if !self.transform.is_finite() || self.transform.determinant().abs() < 1e-12 {
             return bad("transform", "must be finite and invertible".into());
         }
+        if let Some(t) = self.self_collision
+            && !(t.is_finite() && t > 0.0)
+        {
+            return bad("self_collision", format!("the thickness must be finite and > 0, got {t}"));
+        }
         for &(lo, hi) in &self.pin_boxes {
             if !(lo.is_finite() && hi.is_finite() && lo.cmple(hi).all()) {
                 return bad("pin box", format!("needs finite corners with min <= max, got {lo} and {hi}"));
@@ -207,6 +222,7 @@ impl ClothBuilder {
                 p.w = 0.0;
             }
         }
+        cloth.self_collision = self.self_collision;
         // Pinned particles (w = 0) stay at rest.
         cloth.velocities = cloth.positions.iter().map(|p| (self.velocity * p.w).extend(0.0)).collect();
         Ok(cloth)
@@ -288,7 +304,16 @@ impl ClothBuilder {
         } else {
             ClothTopology::Grid
         };
-        Ok((Cloth { params, positions, velocities: Vec::new(), triangles, uvs: Some(uvs), topology }, local))
+        let cloth = Cloth {
+            params,
+            positions,
+            velocities: Vec::new(),
+            triangles,
+            uvs: Some(uvs),
+            topology,
+            self_collision: None,
+        };
+        Ok((cloth, local))
     }
 
     /// A mesh cloth (positions in the world, and in the mesh's own coordinates for pin boxes).
@@ -331,7 +356,8 @@ impl ClothBuilder {
             }
             uvs
         });
-        Ok((Cloth { params, positions, velocities: Vec::new(), triangles, uvs, topology }, mesh.vertices.clone()))
+        let cloth = Cloth { params, positions, velocities: Vec::new(), triangles, uvs, topology, self_collision: None };
+        Ok((cloth, mesh.vertices.clone()))
     }
 }
 
@@ -358,6 +384,8 @@ pub struct Cloth {
     /// Texture coordinates per triangle corner, when the cloth has them.
     pub uvs: Option<ClothUvs>,
     pub topology: ClothTopology,
+    /// Self-collision thickness (m), `None` when off.
+    pub self_collision: Option<f32>,
 }
 
 impl Cloth {

@@ -56,6 +56,12 @@ enum HolesArg {
     Keep,
 }
 
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+enum OnOff {
+    On,
+    Off,
+}
+
 #[derive(Copy, Clone, Debug, ValueEnum)]
 enum IntegratorArg {
     Rk4,
@@ -110,6 +116,10 @@ struct Args {
     /// cloth's own coordinates (a mesh's file coordinates), e.g. `--pin-box=-1,0.9,-1,1,1,1`.
     #[arg(long, value_parser = parse_box, allow_hyphen_values = true)]
     pin_box: Option<(Vec3, Vec3)>,
+    /// Self-collision: the cloth's particles keep `--thickness` from its own triangles (vertex
+    /// against triangle). Default: on in the pile scene, off elsewhere.
+    #[arg(long, value_enum)]
+    self_collision: Option<OnOff>,
     /// Build the grid with listed springs (the kernels of mesh cloths) instead of its fast path:
     /// the same cloth, to measure one path against the other.
     #[arg(long, conflicts_with = "cloth_mesh")]
@@ -146,6 +156,10 @@ struct Args {
     /// Write every n-th frame (with --obj-dir).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     obj_every: Option<u32>,
+    /// Count the exact intersections after every frame (not only the last) and report the
+    /// worst frame of each kind.
+    #[arg(long)]
+    check_every_frame: bool,
     /// Skip GPU timestamp queries (they cost tens of µs per pass on lavapipe).
     #[arg(long)]
     no_timestamps: bool,
@@ -390,6 +404,9 @@ fn run(args: &Args) -> drape::Result<()> {
         Some((lo, hi)) => builder.pin_within(lo, hi),
         None => builder,
     };
+    let self_collision =
+        args.self_collision.unwrap_or(if args.scene == SceneArg::Pile { OnOff::On } else { OnOff::Off });
+    let builder = builder.self_collision((self_collision == OnOff::On).then_some(args.thickness));
     let cloth_description = cloth_description(args, &builder);
     let builder = match args.velocity {
         Some(v) => builder.velocity(v),
@@ -454,6 +471,7 @@ fn run(args: &Args) -> drape::Result<()> {
         }
     }
 
+    let mut worst = WorstIntersections::default();
     let mut report = TimingReport::default();
     let (mut ran, mut skipped, mut fallbacks) = (0, 0, 0u64);
     for frame in 1..=args.frames {
@@ -471,6 +489,10 @@ fn run(args: &Args) -> drape::Result<()> {
         if let (Some(dir), true) = (&args.obj_dir, write_this) {
             let path = dir.join(format!("frame_{frame:05}.obj"));
             drape::obj::write_cloth_obj(&path, &built, &sim.positions(cloth)?, &sim.normals(cloth)?)?;
+        }
+        if args.check_every_frame {
+            let found = count_intersections(&sim.positions(cloth)?, &built.triangles, solid_of(&scene));
+            worst.record(frame, found);
         }
     }
     end_progress_line();
@@ -506,9 +528,22 @@ fn run(args: &Args) -> drape::Result<()> {
         let lowest = x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
         println!("final: lowest particle at y = {lowest:.3} m after {} frames", sim.frames_done());
     }
+    if args.check_every_frame {
+        println!(
+            "intersections (exact, every frame): frames with any {} of {}; worst frames: cloth-cloth {} (frame {}), \
+             cloth edges through the collider {} (frame {}), collider edges through the cloth {} (frame {})",
+            worst.frames_with_any,
+            args.frames,
+            worst.cloth_cloth.0,
+            worst.cloth_cloth.1,
+            worst.cloth_edges.0,
+            worst.cloth_edges.1,
+            worst.collider_edges.0,
+            worst.collider_edges.1
+        );
+    }
     let start = Instant::now();
-    let solid = scene.as_ref().map(|s| (s.mesh.vertices.as_slice(), s.mesh.triangles.as_slice()));
-    let found = count_intersections(&x, &built.triangles, solid.unwrap_or((&[], &[])));
+    let found = count_intersections(&x, &built.triangles, solid_of(&scene));
     println!(
         "intersections (exact, final frame, {:.2} s on the CPU): cloth-cloth {}, cloth edges through the collider {}, \
          collider edges through the cloth {}",
@@ -520,9 +555,41 @@ fn run(args: &Args) -> drape::Result<()> {
     ctx.check_validation()
 }
 
+/// The collider mesh of a scene, for the intersection counts (none: empty).
+fn solid_of(scene: &Option<DrapeScene>) -> (&[Vec3], &[[u32; 3]]) {
+    match scene {
+        Some(s) => (s.mesh.vertices.as_slice(), s.mesh.triangles.as_slice()),
+        None => (&[], &[]),
+    }
+}
+
+/// The largest count of each kind of intersection over the frames, and the frame it came at.
+#[derive(Default)]
+struct WorstIntersections {
+    frames_with_any: u32,
+    cloth_cloth: (usize, u32),
+    cloth_edges: (usize, u32),
+    collider_edges: (usize, u32),
+}
+
+impl WorstIntersections {
+    fn record(&mut self, frame: u32, found: drape::metrics::intersections::Intersections) {
+        self.frames_with_any += (found.total() > 0) as u32;
+        for (worst, count) in [
+            (&mut self.cloth_cloth, found.cloth_cloth),
+            (&mut self.cloth_edges, found.cloth_edges_through_collider),
+            (&mut self.collider_edges, found.collider_edges_through_cloth),
+        ] {
+            if count > worst.0 {
+                *worst = (count, frame);
+            }
+        }
+    }
+}
+
 /// What the setup line says the cloth is.
 fn cloth_description(args: &Args, builder: &ClothBuilder) -> String {
-    match (&args.cloth_mesh, &builder.mesh) {
+    let shape = match (&args.cloth_mesh, &builder.mesh) {
         (Some(path), Some(mesh)) => format!(
             "mesh {} ({} particles, {} triangles{})",
             path.display(),
@@ -536,6 +603,10 @@ fn cloth_description(args: &Args, builder: &ClothBuilder) -> String {
             builder.cols,
             if args.listed_springs { " (listed springs)" } else { "" }
         ),
+    };
+    match builder.self_collision {
+        Some(t) => format!("{shape}, self-collision on ({:.1} mm)", t * 1e3),
+        None => format!("{shape}, self-collision off"),
     }
 }
 

@@ -9,6 +9,7 @@ use crate::graph::{BufferId, Resources, Step};
 use crate::model::{ColliderShape, ContactSearch, Model};
 use crate::programs::cloth::{ClothBuffers, FramePlan, frame_steps};
 use crate::programs::contact::{ColliderBuffers, ColliderLeaves, ContactBuffers, ContactMode};
+use crate::programs::self_contact::SelfContactBuffers;
 use crate::programs::spheres::SphereBvh;
 use crate::programs::triangles::TriangleBvh;
 use crate::stability::SpringProfile;
@@ -73,6 +74,10 @@ impl SolverProgram {
             }
             initial.push((b.v.id(), bytes(&cloth.velocities)));
             initial.push((b.indices.id(), bytemuck::cast_slice::<_, u8>(triangles).to_vec()));
+            if let (Some(s), Some(thickness)) = (&b.self_contact, cloth.self_collision) {
+                let params = SelfContactBuffers::initial_params(triangles.len() as u32, thickness);
+                initial.push((s.tree.collider.id(), bytemuck::bytes_of(&params).to_vec()));
+            }
             cloths.push(b);
         }
         let mut colliders = Vec::new();

@@ -7,6 +7,7 @@ pub mod contact;
 pub mod integrate;
 pub mod lbvh;
 pub mod normals;
+pub mod self_contact;
 pub mod sort;
 pub mod spheres;
 pub mod triangles;
@@ -14,13 +15,18 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 28] = [
+pub const ALL: [&Kernel; 33] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::VERTEX_NORMALS,
     &normals::MESH_VERTEX_NORMALS,
     &normals::CHECK_HEALTH,
     &normals::CHECK_HEALTH_SPRINGS,
+    &self_contact::SELF_SCENE_BOUNDS,
+    &self_contact::CLOTH_TRIANGLE_BOUNDS,
+    &self_contact::GATHER_CLOTH_TRIANGLES,
+    &self_contact::SELF_CONTACT,
+    &self_contact::APPLY_SELF_CONTACT,
     &sort::RADIX_COUNT,
     &sort::RADIX_SCATTER,
     &sort::SCAN_BLOCKS,

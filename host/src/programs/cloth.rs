@@ -2,6 +2,7 @@
 //! vertex normals and the blow-up check.
 
 use super::contact::{CONTACT_LABEL, ColliderBuffers, ContactBuffers};
+use super::self_contact::{SelfContactBuffers, SelfContactCloth};
 use crate::cloth::{Cloth, ClothTopology};
 use crate::graph::{Dispatch, Handle, Kernel, Resources, Step};
 use crate::kernels::integrate::{INTEGRATE_STAGE, INTEGRATE_STAGE_SPRINGS};
@@ -41,6 +42,8 @@ pub struct ClothBuffers {
     pub health: Handle<Health>,
     /// The spring list (`None`: a grid, whose kernels derive its springs).
     pub springs: Option<SpringBuffers>,
+    /// Self-collision (`None`: off, nothing declared or run).
+    pub self_contact: Option<SelfContactBuffers>,
 }
 
 impl ClothBuffers {
@@ -76,7 +79,15 @@ impl ClothBuffers {
             indices: resources.device(format!("{name}: triangle indices"), 3 * triangles),
             health: resources.readback(format!("{name}: health")),
             springs,
+            self_contact: cloth
+                .self_collision
+                .map(|_| SelfContactBuffers::declare(resources, name, particles, triangles)),
         }
+    }
+
+    /// What the self-collision passes bind of this cloth.
+    fn self_contact_cloth(&self) -> SelfContactCloth {
+        SelfContactCloth { params: self.params, x: self.x, v: self.v, x_prev: self.x_prev, indices: self.indices }
     }
 
     fn stage(
@@ -166,6 +177,9 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
         steps.push(Step::fill(contact.status, 0));
         contact.frame_start_steps(cloth, collider, plan.substeps, &mut steps);
     }
+    if let Some(s) = &cloth.self_contact {
+        s.frame_start_steps(&cloth.self_contact_cloth(), &mut steps);
+    }
     for substep in 0..plan.substeps {
         if plan.integrator == integrator::SEMI_IMPLICIT_EULER {
             steps.push(cloth.stage("euler: evaluate", 0, b, a));
@@ -179,6 +193,9 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
         }
         for (collider, contact) in colliders {
             contact.substep_steps(cloth, collider, (substep, plan.substeps), &mut steps);
+        }
+        if let Some(s) = &cloth.self_contact {
+            s.substep_steps(&cloth.self_contact_cloth(), &mut steps);
         }
         // A skipped pass is listed once, not once per substep.
         if colliders.is_empty() && substep == 0 {

@@ -6,6 +6,7 @@ pub mod cloth;
 pub mod contact;
 pub mod lbvh;
 pub mod scan;
+pub mod self_contact;
 pub mod sort;
 pub mod spheres;
 pub mod triangles;

@@ -18,6 +18,7 @@ pub mod lbvh;
 pub mod normals;
 pub mod pose;
 pub mod render;
+pub mod self_contact;
 pub mod sort;
 pub mod spheres;
 pub mod triangles;

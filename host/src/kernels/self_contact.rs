@@ -1,0 +1,134 @@
+//! Self-collision kernels (`drape_kernels::self_contact`): the cloth's bounds for the tree's
+//! Morton box, its triangles' boxes and their tree order, the vertex-triangle pass and the
+//! application of its summed corrections.
+
+use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use drape_kernels::WORKGROUP_SIZE;
+use drape_kernels::contact::CONTACT_THREADS;
+use drape_kernels::self_contact::{
+    SCENE_THREADS, apply_self_contact_at, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
+    self_contact_at, write_scene,
+};
+use drape_types::{Aabb, BvhNode, ColliderParams, SimParams};
+use glam::{UVec4, Vec4};
+
+const fn read(name: &'static str) -> BindingSpec {
+    BindingSpec::read(name)
+}
+const fn write(name: &'static str) -> BindingSpec {
+    BindingSpec::write(name)
+}
+const fn spec(entry: &'static str, bindings: &'static [BindingSpec], workgroup_size: u32) -> KernelSpec {
+    KernelSpec { entry, bindings, push_constant_size: 0, workgroup_size }
+}
+
+/// One workgroup: the cloth's bounds grown by the thickness, as the tree's Morton box.
+pub static SELF_SCENE_BOUNDS: Kernel = Kernel {
+    spec: spec("self_contact::self_scene_bounds", &[read("params"), read("x"), write("self_params")], SCENE_THREADS),
+    cpu: scene_cpu,
+};
+
+pub static CLOTH_TRIANGLE_BOUNDS: Kernel = Kernel {
+    spec: spec(
+        "self_contact::cloth_triangle_bounds",
+        &[read("self_params"), read("x"), read("x_prev"), read("indices"), write("bounds")],
+        WORKGROUP_SIZE,
+    ),
+    cpu: triangle_bounds_cpu,
+};
+
+pub static GATHER_CLOTH_TRIANGLES: Kernel = Kernel {
+    spec: spec(
+        "self_contact::gather_cloth_triangles",
+        &[read("self_params"), read("indices"), read("order"), write("sorted")],
+        WORKGROUP_SIZE,
+    ),
+    cpu: gather_cpu,
+};
+
+pub static SELF_CONTACT: Kernel = Kernel {
+    spec: spec(
+        "self_contact::self_contact",
+        &[
+            read("params"),
+            read("self_params"),
+            read("nodes"),
+            read("aabbs"),
+            read("leaf_bounds"),
+            read("sorted"),
+            read("x"),
+            read("x_prev"),
+            write("delta"),
+        ],
+        CONTACT_THREADS,
+    ),
+    cpu: self_contact_cpu,
+};
+
+pub static APPLY_SELF_CONTACT: Kernel = Kernel {
+    spec: spec(
+        "self_contact::apply_self_contact",
+        &[read("params"), write("x"), write("v"), read("delta")],
+        WORKGROUP_SIZE,
+    ),
+    cpu: apply_cpu,
+};
+
+/// The lanes' bounds reduced (min/max is exact in any order), as the kernel does.
+fn scene_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let [params, x, self_params] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let bounds = (0..SCENE_THREADS)
+        .map(|lane| particle_bounds(x.slice(), p.particle_count, lane, SCENE_THREADS))
+        .reduce(|a, b| Aabb { min: a.min.min(b.min), max: a.max.max(b.max) })
+        .ok_or("self scene bounds: no lanes")?;
+    write_scene(self_params.first_mut::<ColliderParams>()?, &bounds);
+    Ok(())
+}
+
+fn triangle_bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, x, x_prev, indices, bounds] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let (x, x_prev) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>());
+    let (indices, bounds) = (indices.slice::<u32>(), bounds.slice_mut::<Aabb>());
+    for t in 0..threads.min(c.leaf_count) {
+        bounds[t as usize] = cloth_triangle_bounds_at(t, (x, x_prev), indices);
+    }
+    Ok(())
+}
+
+fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, indices, order, sorted] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let (indices, order, sorted) = (indices.slice::<u32>(), order.slice::<u32>(), sorted.slice_mut::<UVec4>());
+    for s in 0..threads.min(c.leaf_count) {
+        sorted[s as usize] = gather_cloth_triangle_at(s, indices, order);
+    }
+    Ok(())
+}
+
+fn self_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [params, self_params, nodes, aabbs, leaf_bounds, sorted, x, x_prev, delta] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let c: ColliderParams = self_params.first()?;
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
+    let (x, x_prev, delta) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), delta.slice_mut::<u32>());
+    for i in 0..threads.min(p.particle_count) {
+        self_contact_at(i, &c, tree, (x, x_prev), delta);
+    }
+    Ok(())
+}
+
+fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [params, x, v, delta] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let (x, v, delta) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>(), delta.slice::<u32>());
+    for i in 0..threads.min(p.particle_count) {
+        apply_self_contact_at(i, x, v, delta);
+    }
+    Ok(())
+}

@@ -1,0 +1,464 @@
+//! Self-collision of a cloth (issue 8), vertex against triangle: an LBVH over the cloth's own
+//! triangles (built by the generic builder once per frame, refit every substep), and per
+//! substep, after the collider's response, every particle finds the triangles (not its own)
+//! within the thickness, or that it crossed since the substep began, and each such pair is
+//! pushed apart along the triangle's normal, to the side the particle was on at the substep's
+//! start, split between the particle and the triangle's corners by their weights (position-
+//! based dynamics). The corrections are summed as fixed-point integers, so the order in which
+//! threads add them does not change the result: a run repeats bit for bit. (The CPU twin
+//! follows the GPU to rounding: a pair's f32 math occasionally rounds differently on
+//! llvmpipe.) Each particle then moves by the mean of its corrections and loses the velocity
+//! that drove it into the contact (inelastic; no velocity is added).
+//!
+//! Not yet: edge-edge pairs and continuous collision of moving triangles (the side test only
+//! catches a vertex that crossed a face).
+
+use crate::atomics;
+use crate::contact::STACK_SIZE;
+use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
+use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT, SimParams};
+#[cfg(target_arch = "spirv")]
+use spirv_std::num_traits::Float;
+use spirv_std::spirv;
+
+/// Fixed-point scale of the summed corrections: 2^24 units per metre (resolution 6e-8 m,
+/// range +-128 m per particle and substep).
+pub const FIXED_SCALE: f32 = 16_777_216.0;
+
+/// One workgroup: the box around the cloth's particles, grown by the thickness, normalises the
+/// self-collision tree's Morton codes (written into `self_params`).
+pub const SCENE_THREADS: u32 = 256;
+
+/// Bounds of particles `lane, lane + stride, ...`.
+pub fn particle_bounds(x: &[Vec4], count: u32, lane: u32, stride: u32) -> Aabb {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    let mut i = lane;
+    while i < count {
+        let p = x[i as usize].xyz();
+        lo = lo.min(p);
+        hi = hi.max(p);
+        i += stride;
+    }
+    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
+}
+
+#[spirv(compute(threads(256)))]
+pub fn self_scene_bounds(
+    #[spirv(local_invocation_id)] lid: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] self_params: &mut ColliderParams,
+    #[spirv(workgroup)] lows: &mut [Vec4; 256],
+    #[spirv(workgroup)] highs: &mut [Vec4; 256],
+) {
+    let lane = lid.x;
+    let own = particle_bounds(x, params.particle_count, lane, SCENE_THREADS);
+    lows[lane as usize] = own.min;
+    highs[lane as usize] = own.max;
+    let mut stride = SCENE_THREADS / 2;
+    while stride > 0 {
+        #[cfg(target_arch = "spirv")]
+        spirv_std::arch::workgroup_memory_barrier_with_group_sync();
+        if lane < stride {
+            let other = (lane + stride) as usize;
+            lows[lane as usize] = lows[lane as usize].min(lows[other]);
+            highs[lane as usize] = highs[lane as usize].max(highs[other]);
+        }
+        stride /= 2;
+    }
+    if lane == 0 {
+        write_scene(self_params, &Aabb { min: lows[0], max: highs[0] });
+    }
+}
+
+/// Stores the cloth's bounds, grown by the thickness, as the tree's Morton box.
+#[inline]
+pub fn write_scene(self_params: &mut ColliderParams, bounds: &Aabb) {
+    let grow = Vec3::splat(self_params.thickness);
+    self_params.scene_min = (bounds.min.xyz() - grow).extend(0.0);
+    self_params.scene_max = (bounds.max.xyz() + grow).extend(0.0);
+}
+
+/// The box of cloth triangle `t` (corners `indices[3t..3t + 3]`) over the substep: at the
+/// positions `x_prev` and `x`, so a particle the triangle swept through finds it.
+#[inline]
+pub fn cloth_triangle_bounds_at(t: u32, (x, x_prev): (&[Vec4], &[Vec4]), indices: &[u32]) -> Aabb {
+    let i = 3 * t as usize;
+    let (ia, ib, ic) = (indices[i] as usize, indices[i + 1] as usize, indices[i + 2] as usize);
+    let (a, b, c) = (x[ia].xyz(), x[ib].xyz(), x[ic].xyz());
+    let (a0, b0, c0) = (x_prev[ia].xyz(), x_prev[ib].xyz(), x_prev[ic].xyz());
+    let lo = a.min(b).min(c).min(a0).min(b0).min(c0);
+    let hi = a.max(b).max(c).max(a0).max(b0).max(c0);
+    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
+}
+
+#[spirv(compute(threads(256)))]
+pub fn cloth_triangle_bounds(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] bounds: &mut [Aabb],
+) {
+    if id.x >= self_params.leaf_count {
+        return;
+    }
+    bounds[id.x as usize] = cloth_triangle_bounds_at(id.x, (x, x_prev), indices);
+}
+
+/// Sorted leaf `s`'s corners (xyz) and its triangle index (w), in the tree's order.
+#[inline]
+pub fn gather_cloth_triangle_at(s: u32, indices: &[u32], order: &[u32]) -> UVec4 {
+    let t = order[s as usize];
+    let i = 3 * t as usize;
+    UVec4::new(indices[i], indices[i + 1], indices[i + 2], t)
+}
+
+#[spirv(compute(threads(256)))]
+pub fn gather_cloth_triangles(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] order: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] sorted: &mut [UVec4],
+) {
+    if id.x >= self_params.leaf_count {
+        return;
+    }
+    sorted[id.x as usize] = gather_cloth_triangle_at(id.x, indices, order);
+}
+
+/// The point of triangle (`a`, `b`, `c`) closest to `p` and its barycentric weights (Ericson,
+/// Real-Time Collision Detection 5.1.5). Only for triangles with area (the caller skips the
+/// degenerate ones).
+pub fn closest_with_weights(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Vec3) {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, Vec3::X);
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, Vec3::Y);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 * (1.0 / (d1 - d3));
+        return (a + ab * v, Vec3::new(1.0 - v, v, 0.0));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, Vec3::Z);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 * (1.0 / (d2 - d6));
+        return (a + ac * w, Vec3::new(1.0 - w, 0.0, w));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) * (1.0 / ((d4 - d3) + (d5 - d6)));
+        return (b + (c - b) * w, Vec3::new(0.0, 1.0 - w, w));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    (a + ab * v + ac * w, Vec3::new(1.0 - v - w, v, w))
+}
+
+/// A vertex-triangle pair's correction: the displacement of the vertex and of each corner
+/// (zero when the pair does not touch). `wp` and `w` (the corners') are the pin weights.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct PairCorrection {
+    pub vertex: Vec3,
+    pub corners: [Vec3; 3],
+}
+
+/// The correction of particle `p` (at `p1` now, `p0` at the substep's start) against triangle
+/// corners `now` and `then` (the same instants): none unless `p` is within `thickness` of the
+/// triangle or has crossed it (its side changed while it stayed over the face); then the pair
+/// is pushed apart along the face normal to `thickness` on `p`'s starting side.
+pub fn pair_correction(
+    (p0, p1): (Vec3, Vec3),
+    then: [Vec3; 3],
+    now: [Vec3; 3],
+    (wp, w): (f32, Vec3),
+    thickness: f32,
+) -> Option<PairCorrection> {
+    let [a, b, c] = now;
+    let normal = (b - a).cross(c - a);
+    let area2 = normal.length_squared();
+    let longest = (b - a).length_squared().max((c - a).length_squared()).max((c - b).length_squared());
+    if area2 <= 1e-8 * longest * longest {
+        return None; // a collapsed triangle has no side to keep
+    }
+    // Written with the unnormalised normal (length L = sqrt(area2)) and no reciprocal of a
+    // square root: llvmpipe computes 1/sqrt as an approximate rsqrt, which would part the GPU
+    // from the CPU. Heights below are scaled by L.
+    let length = area2.sqrt();
+    let (q, weights) = closest_with_weights(p1, a, b, c);
+    let distance = (p1 - q).length();
+    // The side at the start: of the same material point of the triangle then.
+    let [a0, b0, c0] = then;
+    let q0 = a0 * weights.x + b0 * weights.y + c0 * weights.z;
+    let n0 = (b0 - a0).cross(c0 - a0);
+    let start = (p0 - q0).dot(n0);
+    let side = if start > 0.0 {
+        1.0
+    } else if start < 0.0 {
+        -1.0
+    } else if (p1 - q).dot(normal) >= 0.0 {
+        1.0
+    } else {
+        -1.0
+    };
+    let dir = normal * side; // length L
+    let height_l = (p1 - q).dot(dir); // height x L
+    let target_l = thickness * length; // thickness x L
+    let interior = weights.x > 0.0 && weights.y > 0.0 && weights.z > 0.0;
+    let crossed = height_l < 0.0 && interior && start != 0.0;
+    if !(distance < thickness || crossed) || height_l >= target_l {
+        return None;
+    }
+    let denom = wp + w.x * weights.x * weights.x + w.y * weights.y * weights.y + w.z * weights.z * weights.z;
+    if denom <= 0.0 {
+        return None;
+    }
+    // Unit normal x (thickness - height) / denom = dir x (target_l - height_l) / (L^2 denom).
+    let s = (target_l - height_l) * (1.0 / (area2 * denom));
+    Some(PairCorrection {
+        vertex: dir * (wp * s),
+        corners: [dir * (-w.x * weights.x * s), dir * (-w.y * weights.y * s), dir * (-w.z * weights.z * s)],
+    })
+}
+
+/// Adds `d` (m) to particle `i`'s fixed-point sum and counts one correction.
+#[inline]
+pub fn accumulate(delta: &mut [u32], i: u32, d: Vec3) {
+    let base = 4 * i as usize;
+    atomics::add(&mut delta[base], ((d.x * FIXED_SCALE) as i32) as u32);
+    atomics::add(&mut delta[base + 1], ((d.y * FIXED_SCALE) as i32) as u32);
+    atomics::add(&mut delta[base + 2], ((d.z * FIXED_SCALE) as i32) as u32);
+    atomics::add(&mut delta[base + 3], 1);
+}
+
+/// The buffers self-contact reads: the tree (nodes, node boxes, leaf boxes in tree order, the
+/// sorted triangles' corners) and the positions now and at the substep's start.
+pub type SelfTree<'a> = (&'a [BvhNode], &'a [Aabb], &'a [Aabb], &'a [UVec4]);
+
+/// Whether box `b` comes within `r` of `p`'s box.
+#[inline]
+fn near(b: &Aabb, p: Vec3, r: f32) -> bool {
+    (p - Vec3::splat(r)).cmple(b.max.xyz()).all() && (p + Vec3::splat(r)).cmpge(b.min.xyz()).all()
+}
+
+/// Particle `index`'s pairs: every triangle not its own whose box comes within the reach of
+/// its current position (the thickness, or its substep motion when longer, so a crossed face
+/// is found), each pair's correction added to its particles' sums. Returns whether the walk's
+/// stack overflowed (pairs may be missed).
+pub fn self_contact_at(
+    index: u32,
+    self_params: &ColliderParams,
+    (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    delta: &mut [u32],
+) -> bool {
+    let i = index as usize;
+    let (p0, p1) = (x_prev[i].xyz(), x[i].xyz());
+    let thickness = self_params.thickness;
+    let reach = thickness.max((p1 - p0).length());
+    let mut stack = [0u32; STACK_SIZE];
+    let mut top = 1; // stack[0] = root
+    let single = self_params.leaf_count == 1;
+    let mut overflowed = false;
+    while top > 0 {
+        top -= 1;
+        let node =
+            if single { BvhNode { left: LEAF_BIT, right: LEAF_BIT, _pad: [0; 2] } } else { nodes[stack[top] as usize] };
+        let mut side = 0;
+        while side < 2 {
+            let child = if side == 0 { node.left } else { node.right };
+            if child & LEAF_BIT != 0 {
+                let leaf = child & !LEAF_BIT;
+                if (!single || side == 0) && near(&leaf_bounds[leaf as usize], p1, reach) {
+                    pair_at(index, sorted[leaf as usize], (x, x_prev), thickness, delta);
+                }
+            } else if near(&aabbs[child as usize], p1, reach) {
+                if top == STACK_SIZE {
+                    overflowed = true;
+                } else {
+                    stack[top] = child;
+                    top += 1;
+                }
+            }
+            side += 1;
+        }
+    }
+    overflowed
+}
+
+/// `self_contact_at` without the tree: every leaf whose box passes the same test (the
+/// baseline the tree must equal).
+pub fn self_contact_brute_force_at(
+    index: u32,
+    self_params: &ColliderParams,
+    (leaf_bounds, sorted): (&[Aabb], &[UVec4]),
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    delta: &mut [u32],
+) {
+    let i = index as usize;
+    let (p0, p1) = (x_prev[i].xyz(), x[i].xyz());
+    let reach = self_params.thickness.max((p1 - p0).length());
+    let mut leaf = 0;
+    while leaf < self_params.leaf_count {
+        if near(&leaf_bounds[leaf as usize], p1, reach) {
+            pair_at(index, sorted[leaf as usize], (x, x_prev), self_params.thickness, delta);
+        }
+        leaf += 1;
+    }
+}
+
+/// Particle `index` against the triangle with corners `corners.xyz` (skipped when it is one).
+#[inline]
+pub fn pair_at(index: u32, corners: UVec4, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32, delta: &mut [u32]) {
+    if corners.x == index || corners.y == index || corners.z == index {
+        return;
+    }
+    let (ia, ib, ic) = (corners.x as usize, corners.y as usize, corners.z as usize);
+    let i = index as usize;
+    let now = [x[ia].xyz(), x[ib].xyz(), x[ic].xyz()];
+    let then = [x_prev[ia].xyz(), x_prev[ib].xyz(), x_prev[ic].xyz()];
+    let weights = (x[i].w, Vec3::new(x[ia].w, x[ib].w, x[ic].w));
+    if let Some(c) = pair_correction((x_prev[i].xyz(), x[i].xyz()), then, now, weights, thickness) {
+        accumulate(delta, index, c.vertex);
+        accumulate(delta, corners.x, c.corners[0]);
+        accumulate(delta, corners.y, c.corners[1]);
+        accumulate(delta, corners.z, c.corners[2]);
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn self_contact(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] delta: &mut [u32],
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    self_contact_at(id.x, self_params, (nodes, aabbs, leaf_bounds, sorted), (x, x_prev), delta);
+}
+
+/// Moves particle `index` by the mean of its corrections and removes the velocity that points
+/// against that displacement (inelastic: the contact stops the approach, adds no speed).
+pub fn apply_self_contact_at(index: u32, x: &mut [Vec4], v: &mut [Vec4], delta: &[u32]) {
+    let i = index as usize;
+    let base = 4 * i;
+    let count = delta[base + 3];
+    if count == 0 || x[i].w == 0.0 {
+        return;
+    }
+    // The mean in integers (exact on both sides), then scaled by a power of two (exact).
+    let mean = |word: u32| ((word as i32) / count as i32) as f32;
+    let d = Vec3::new(mean(delta[base]), mean(delta[base + 1]), mean(delta[base + 2])) * (1.0 / FIXED_SCALE);
+    let length2 = d.length_squared();
+    if length2 <= 0.0 {
+        return;
+    }
+    x[i] = (x[i].xyz() + d).extend(x[i].w);
+    // v minus its component against d, without normalising d (no square root: a reciprocal
+    // of one rounds differently on the GPU).
+    let vi = v[i].xyz();
+    let approach = vi.dot(d);
+    if approach < 0.0 {
+        v[i] = (vi - d * (approach * (1.0 / length2))).extend(v[i].w);
+    }
+}
+
+#[spirv(compute(threads(256)))]
+pub fn apply_self_contact(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] delta: &[u32],
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    apply_self_contact_at(id.x, x, v, delta);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const FLAT: [Vec3; 3] = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0)];
+
+    #[test]
+    fn closest_point_weights_rebuild_the_point() {
+        for p in
+            [Vec3::new(0.2, 0.5, 0.3), Vec3::new(-1.0, 0.0, -1.0), Vec3::new(2.0, 1.0, 0.1), Vec3::new(0.6, -1.0, 0.6)]
+        {
+            let (q, w) = closest_with_weights(p, FLAT[0], FLAT[1], FLAT[2]);
+            let rebuilt = FLAT[0] * w.x + FLAT[1] * w.y + FLAT[2] * w.z;
+            assert!((q - rebuilt).length() < 1e-6 && (w.x + w.y + w.z - 1.0).abs() < 1e-6, "{p}: {q} {w}");
+        }
+    }
+
+    #[test]
+    fn a_vertex_within_the_thickness_is_pushed_out_and_the_face_back() {
+        let p = Vec3::new(0.2, 0.001, 0.2);
+        let c = pair_correction((p, p), FLAT, FLAT, (1.0, Vec3::ONE), 0.005).unwrap();
+        let total_gap =
+            (p + c.vertex).y - (FLAT[0].y + c.corners[0].y * 0.6 + c.corners[1].y * 0.2 + c.corners[2].y * 0.2);
+        assert!(c.vertex.y > 0.0 && c.corners.iter().all(|d| d.y <= 0.0));
+        assert!((total_gap - 0.005).abs() < 1e-6, "gap after {total_gap}");
+        // Momentum-like balance: the vertex's push equals the corners' weighted pushes.
+        let corners: f32 = c.corners.iter().map(|d| d.y).sum();
+        assert!((c.vertex.y + corners).abs() < 1e-6);
+        // Far away, or a pinned pair: nothing.
+        assert!(pair_correction((p + Vec3::Y, p + Vec3::Y), FLAT, FLAT, (1.0, Vec3::ONE), 0.005).is_none());
+        assert!(pair_correction((p, p), FLAT, FLAT, (0.0, Vec3::ZERO), 0.005).is_none());
+    }
+
+    #[test]
+    fn a_vertex_that_crossed_the_face_goes_back_to_its_side() {
+        let (p0, p1) = (Vec3::new(0.2, 0.01, 0.2), Vec3::new(0.2, -0.03, 0.2));
+        let c = pair_correction((p0, p1), FLAT, FLAT, (1.0, Vec3::ZERO), 0.005).unwrap();
+        assert!(((p1 + c.vertex).y - 0.005).abs() < 1e-6, "{:?}", c);
+        // Beside the face it crossed nothing.
+        let (p0, p1) = (Vec3::new(2.0, 0.01, 2.0), Vec3::new(2.0, -0.03, 2.0));
+        assert!(pair_correction((p0, p1), FLAT, FLAT, (1.0, Vec3::ZERO), 0.005).is_none());
+    }
+
+    #[test]
+    fn fixed_point_sums_are_order_independent_and_the_mean_is_applied() {
+        let (mut a, mut b) = (vec![0u32; 4], vec![0u32; 4]);
+        let ds = [Vec3::new(1e-3, -2e-3, 3e-7), Vec3::new(-4e-4, 5e-3, 0.0), Vec3::new(7e-6, 0.0, -1e-3)];
+        for d in ds {
+            accumulate(&mut a, 0, d);
+        }
+        for d in ds.iter().rev() {
+            accumulate(&mut b, 0, *d);
+        }
+        assert_eq!(a, b);
+        let mut x = vec![Vec4::new(0.0, 0.0, 0.0, 1.0)];
+        let mut v = vec![Vec4::new(0.0, -1.0, 0.0, 0.0)];
+        apply_self_contact_at(0, &mut x, &mut v, &a);
+        let mean = (ds[0] + ds[1] + ds[2]) / 3.0;
+        assert!((x[0].truncate() - mean).length() < 1e-7);
+        assert!(v[0].truncate().dot(mean.normalize()) >= -1e-6, "approach velocity removed: {}", v[0]);
+    }
+}
