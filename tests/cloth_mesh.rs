@@ -382,5 +382,5 @@ fn cli_pile_scene_reports_exact_intersections() {
     let (without, stdout) = run(&["--self-collision", "off"]);
     assert!(stdout.contains("self-collision off"), "{stdout}");
     assert!(without > 500, "without self-collision the strip crosses itself ({without})");
-    assert!(with * 3 < without, "self-collision must remove most crossings: {without} -> {with}");
+    assert!(with * 20 < without, "self-collision must remove nearly all crossings: {without} -> {with}");
 }

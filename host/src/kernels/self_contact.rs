@@ -7,7 +7,7 @@ use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::{
     SCENE_THREADS, apply_self_contact_at, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
-    self_contact_at, write_scene,
+    self_contact_at, self_edge_contact_at, write_scene,
 };
 use drape_types::{Aabb, BvhNode, ColliderParams, SimParams};
 use glam::{UVec4, Vec4};
@@ -63,6 +63,27 @@ pub static SELF_CONTACT: Kernel = Kernel {
         CONTACT_THREADS,
     ),
     cpu: self_contact_cpu,
+};
+
+/// Every cloth edge against the edges of the triangles near it (each pair once).
+pub static SELF_EDGE_CONTACT: Kernel = Kernel {
+    spec: spec(
+        "self_contact::self_edge_contact",
+        &[
+            read("self_params"),
+            read("nodes"),
+            read("aabbs"),
+            read("leaf_bounds"),
+            read("sorted"),
+            read("edges"),
+            read("triangle_edges"),
+            read("x"),
+            read("x_prev"),
+            write("delta"),
+        ],
+        CONTACT_THREADS,
+    ),
+    cpu: self_edge_contact_cpu,
 };
 
 pub static APPLY_SELF_CONTACT: Kernel = Kernel {
@@ -129,6 +150,19 @@ fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (x, v, delta) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>(), delta.slice::<u32>());
     for i in 0..threads.min(p.particle_count) {
         apply_self_contact_at(i, x, v, delta);
+    }
+    Ok(())
+}
+
+fn self_edge_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, nodes, aabbs, leaf_bounds, sorted, edges, triangle_edges, x, x_prev, delta] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
+    let (edges, triangle_edges) = (edges.slice::<UVec4>(), triangle_edges.slice::<UVec4>());
+    let (x, x_prev, delta) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), delta.slice_mut::<u32>());
+    for e in 0..threads.min(edges.len() as u32) {
+        self_edge_contact_at(e, &c, tree, (edges, triangle_edges), (x, x_prev), delta);
     }
     Ok(())
 }

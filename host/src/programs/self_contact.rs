@@ -6,8 +6,10 @@
 use super::lbvh::LbvhBuffers;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_contact::{
-    APPLY_SELF_CONTACT, CLOTH_TRIANGLE_BOUNDS, GATHER_CLOTH_TRIANGLES, SELF_CONTACT, SELF_SCENE_BOUNDS,
+    APPLY_SELF_CONTACT, CLOTH_TRIANGLE_BOUNDS, GATHER_CLOTH_TRIANGLES, SELF_CONTACT, SELF_EDGE_CONTACT,
+    SELF_SCENE_BOUNDS,
 };
+use std::collections::HashMap;
 use drape_types::{ColliderParams, SimParams};
 use glam::{UVec4, Vec4};
 
@@ -18,7 +20,37 @@ pub struct SelfContactBuffers {
     pub sorted: Handle<UVec4>,
     /// Per particle: the summed corrections (3 fixed-point words) and their count.
     pub delta: Handle<u32>,
+    /// The cloth's edges (ends in xy), and per triangle its three edges (xyz) with a bit per
+    /// edge set when this triangle owns it (w), so each pair of edges is handled once.
+    pub edges: Handle<UVec4>,
+    pub triangle_edges: Handle<UVec4>,
+    edge_count: u32,
     particles: u32,
+}
+
+/// The edge tables of `triangles`: each edge once (`(i, j, 0, 0)`, i < j, in first-seen order)
+/// and per triangle its edges `(a, b)`, `(b, c)`, `(c, a)` with bit k of w set when the triangle
+/// is the first to have edge k.
+pub fn edge_tables(triangles: &[[u32; 3]]) -> (Vec<UVec4>, Vec<UVec4>) {
+    let mut ids: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut edges = Vec::new();
+    let mut owned = Vec::with_capacity(triangles.len());
+    for &[a, b, c] in triangles {
+        let mut row = [0u32; 3];
+        let mut bits = 0;
+        for (k, (p, q)) in [(a, b), (b, c), (c, a)].into_iter().enumerate() {
+            let key = (p.min(q), p.max(q));
+            let next = edges.len() as u32;
+            let id = *ids.entry(key).or_insert_with(|| {
+                edges.push(UVec4::new(key.0, key.1, 0, 0));
+                bits |= 1 << k;
+                next
+            });
+            row[k] = id;
+        }
+        owned.push(UVec4::new(row[0], row[1], row[2], bits));
+    }
+    (edges, owned)
 }
 
 /// What the self-collision passes of one cloth read and write.
@@ -31,12 +63,15 @@ pub struct SelfContactCloth {
 }
 
 impl SelfContactBuffers {
-    pub fn declare(resources: &mut Resources, name: &str, particles: u32, triangles: u32) -> Self {
+    pub fn declare(resources: &mut Resources, name: &str, particles: u32, triangles: u32, edges: u32) -> Self {
         let name = format!("{name} self-collision");
         SelfContactBuffers {
             tree: LbvhBuffers::declare(resources, &name, triangles),
             sorted: resources.device(format!("{name}: sorted triangles"), triangles),
             delta: resources.device(format!("{name}: corrections"), 4 * particles),
+            edges: resources.device(format!("{name}: edges"), edges),
+            triangle_edges: resources.device(format!("{name}: triangle edges"), triangles),
+            edge_count: edges,
             particles,
         }
     }
@@ -97,6 +132,23 @@ impl SelfContactBuffers {
                 self.delta.id(),
             ],
             Dispatch::Threads(self.particles),
+        ));
+        steps.push(Step::run(
+            "self: edge-edge",
+            &SELF_EDGE_CONTACT,
+            vec![
+                t.collider.id(),
+                t.nodes.id(),
+                t.aabbs.id(),
+                t.sorted_bounds.id(),
+                self.sorted.id(),
+                self.edges.id(),
+                self.triangle_edges.id(),
+                cloth.x.id(),
+                cloth.x_prev.id(),
+                self.delta.id(),
+            ],
+            Dispatch::Threads(self.edge_count),
         ));
         steps.push(Step::run(
             "self: apply",

@@ -1,17 +1,22 @@
-//! Self-collision of a cloth (issue 8), vertex against triangle: an LBVH over the cloth's own
-//! triangles (built by the generic builder once per frame, refit every substep), and per
-//! substep, after the collider's response, every particle finds the triangles (not its own)
-//! within the thickness, or that it crossed since the substep began, and each such pair is
-//! pushed apart along the triangle's normal, to the side the particle was on at the substep's
-//! start, split between the particle and the triangle's corners by their weights (position-
-//! based dynamics). The corrections are summed as fixed-point integers, so the order in which
-//! threads add them does not change the result: a run repeats bit for bit. (The CPU twin
-//! follows the GPU to rounding: a pair's f32 math occasionally rounds differently on
-//! llvmpipe.) Each particle then moves by the mean of its corrections and loses the velocity
-//! that drove it into the contact (inelastic; no velocity is added).
+//! Self-collision of a cloth (issue 8): an LBVH over the cloth's own triangles (built by the
+//! generic builder once per frame, refit every substep to the triangles swept over it), and per
+//! substep, after the collider's response:
+//! - **vertex against triangle**: every particle finds the triangles (not its own) within the
+//!   thickness, or that it crossed since the substep began;
+//! - **edge against edge**: every edge finds the edges (sharing no particle) of the triangles
+//!   near it, each pair once, within the thickness or crossed;
 //!
-//! Not yet: edge-edge pairs and continuous collision of moving triangles (the side test only
-//! catches a vertex that crossed a face).
+//! and each pair is pushed apart to the thickness along the direction it was apart at the
+//! substep's start (the face normal, to the particle's starting side, for vertex-triangle),
+//! split by pin weight (position-based dynamics). The corrections are summed as fixed-point
+//! integers, so the order in which threads add them does not change the result: a run repeats
+//! bit for bit. (The CPU twin follows the GPU to rounding: a pair's f32 math occasionally
+//! rounds differently on llvmpipe.) Each particle then moves by the mean of its corrections and
+//! loses the velocity that drove it into the contact (inelastic; no velocity is added).
+//!
+//! Not yet: continuous collision of moving triangles beyond this start-side test (a pair that
+//! passes through each other within one substep and ends farther apart than the search reach
+//! is missed).
 
 use crate::atomics;
 use crate::contact::STACK_SIZE;
@@ -249,44 +254,46 @@ pub fn accumulate(delta: &mut [u32], i: u32, d: Vec3) {
 /// sorted triangles' corners) and the positions now and at the substep's start.
 pub type SelfTree<'a> = (&'a [BvhNode], &'a [Aabb], &'a [Aabb], &'a [UVec4]);
 
-/// Whether box `b` comes within `r` of `p`'s box.
+/// Whether box `b` meets the box `lo..=hi`.
 #[inline]
-fn near(b: &Aabb, p: Vec3, r: f32) -> bool {
-    (p - Vec3::splat(r)).cmple(b.max.xyz()).all() && (p + Vec3::splat(r)).cmpge(b.min.xyz()).all()
+fn meets(b: &Aabb, lo: Vec3, hi: Vec3) -> bool {
+    lo.cmple(b.max.xyz()).all() && hi.cmpge(b.min.xyz()).all()
 }
 
-/// Particle `index`'s pairs: every triangle not its own whose box comes within the reach of
-/// its current position (the thickness, or its substep motion when longer, so a crossed face
-/// is found), each pair's correction added to its particles' sums. Returns whether the walk's
-/// stack overflowed (pairs may be missed).
-pub fn self_contact_at(
-    index: u32,
-    self_params: &ColliderParams,
-    (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
-    (x, x_prev): (&[Vec4], &[Vec4]),
-    delta: &mut [u32],
+/// What a tree walk does with each leaf whose box meets the query box.
+pub trait LeafVisitor {
+    fn visit(&mut self, leaf: u32);
+}
+
+/// Visits, in tree order, every leaf of a tree of `leaf_count` leaves whose box meets `lo..=hi`.
+/// Returns whether the walk's stack overflowed (leaves may be missed).
+pub fn walk_overlapping<V: LeafVisitor>(
+    (nodes, aabbs, leaf_bounds): (&[BvhNode], &[Aabb], &[Aabb]),
+    leaf_count: u32,
+    (lo, hi): (Vec3, Vec3),
+    visitor: &mut V,
 ) -> bool {
-    let i = index as usize;
-    let (p0, p1) = (x_prev[i].xyz(), x[i].xyz());
-    let thickness = self_params.thickness;
-    let reach = thickness.max((p1 - p0).length());
+    if leaf_count == 1 {
+        if meets(&leaf_bounds[0], lo, hi) {
+            visitor.visit(0);
+        }
+        return false;
+    }
     let mut stack = [0u32; STACK_SIZE];
     let mut top = 1; // stack[0] = root
-    let single = self_params.leaf_count == 1;
     let mut overflowed = false;
     while top > 0 {
         top -= 1;
-        let node =
-            if single { BvhNode { left: LEAF_BIT, right: LEAF_BIT, _pad: [0; 2] } } else { nodes[stack[top] as usize] };
+        let node = nodes[stack[top] as usize];
         let mut side = 0;
         while side < 2 {
             let child = if side == 0 { node.left } else { node.right };
             if child & LEAF_BIT != 0 {
                 let leaf = child & !LEAF_BIT;
-                if (!single || side == 0) && near(&leaf_bounds[leaf as usize], p1, reach) {
-                    pair_at(index, sorted[leaf as usize], (x, x_prev), thickness, delta);
+                if meets(&leaf_bounds[leaf as usize], lo, hi) {
+                    visitor.visit(leaf);
                 }
-            } else if near(&aabbs[child as usize], p1, reach) {
+            } else if meets(&aabbs[child as usize], lo, hi) {
                 if top == STACK_SIZE {
                     overflowed = true;
                 } else {
@@ -300,6 +307,254 @@ pub fn self_contact_at(
     overflowed
 }
 
+/// A particle's pairs with the triangles the walk reaches.
+struct VertexPairs<'a> {
+    index: u32,
+    sorted: &'a [UVec4],
+    x: &'a [Vec4],
+    x_prev: &'a [Vec4],
+    thickness: f32,
+    delta: &'a mut [u32],
+}
+
+impl LeafVisitor for VertexPairs<'_> {
+    #[inline]
+    fn visit(&mut self, leaf: u32) {
+        pair_at(self.index, self.sorted[leaf as usize], (self.x, self.x_prev), self.thickness, self.delta);
+    }
+}
+
+/// The box a particle's pairs are searched in: around its current position, as far as the
+/// thickness or its substep motion when longer (so a face it crossed is found).
+#[inline]
+fn vertex_query(index: u32, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32) -> (Vec3, Vec3) {
+    let i = index as usize;
+    let (p0, p1) = (x_prev[i].xyz(), x[i].xyz());
+    let reach = Vec3::splat(thickness.max((p1 - p0).length()));
+    (p1 - reach, p1 + reach)
+}
+
+/// Particle `index`'s pairs: every triangle not its own whose box meets its query box, each
+/// pair's correction added to its particles' sums. Returns whether the walk's stack overflowed
+/// (pairs may be missed).
+pub fn self_contact_at(
+    index: u32,
+    self_params: &ColliderParams,
+    (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    delta: &mut [u32],
+) -> bool {
+    let thickness = self_params.thickness;
+    let query = vertex_query(index, (x, x_prev), thickness);
+    let mut pairs = VertexPairs { index, sorted, x, x_prev, thickness, delta };
+    walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, query, &mut pairs)
+}
+
+/// The parameters (`s` on `a`-`b`, `t` on `c`-`d`, both in [0, 1]) of the closest points of
+/// two segments (Ericson, Real-Time Collision Detection 5.1.9); degenerate segments count as
+/// points.
+pub fn closest_between_segments(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> (f32, f32) {
+    let (d1, d2, r) = (b - a, d - c, a - c);
+    let (aa, ee, f) = (d1.dot(d1), d2.dot(d2), d2.dot(r));
+    let tiny = 1e-20;
+    if aa <= tiny && ee <= tiny {
+        return (0.0, 0.0);
+    }
+    if aa <= tiny {
+        return (0.0, (f * (1.0 / ee)).clamp(0.0, 1.0));
+    }
+    let cc = d1.dot(r);
+    if ee <= tiny {
+        return ((-cc * (1.0 / aa)).clamp(0.0, 1.0), 0.0);
+    }
+    let bb = d1.dot(d2);
+    let denom = aa * ee - bb * bb;
+    let mut s = if denom > 0.0 { ((bb * f - cc * ee) * (1.0 / denom)).clamp(0.0, 1.0) } else { 0.0 };
+    let mut t = (bb * s + f) * (1.0 / ee);
+    if t < 0.0 {
+        t = 0.0;
+        s = (-cc * (1.0 / aa)).clamp(0.0, 1.0);
+    } else if t > 1.0 {
+        t = 1.0;
+        s = ((bb - cc) * (1.0 / aa)).clamp(0.0, 1.0);
+    }
+    (s, t)
+}
+
+/// The correction of edge `a`-`b` against edge `c`-`d` (their ends `then`, at the substep's
+/// start, and `now`; `w` their pin weights): none unless the edges come within `thickness`, or
+/// crossed (the vector between their closest points reversed while both stayed inside their
+/// edges); then they are pushed apart along the direction they were apart at the start, to
+/// `thickness`, split by weight. Returns the four ends' displacements.
+pub fn edge_pair_correction(then: [Vec3; 4], now: [Vec3; 4], w: Vec4, thickness: f32) -> Option<[Vec3; 4]> {
+    let [a, b, c, d] = now;
+    let (s, t) = closest_between_segments(a, b, c, d);
+    let gap = (a + (b - a) * s) - (c + (d - c) * t);
+    let distance = gap.length();
+    let [a0, b0, c0, d0] = then;
+    let gap0 = (a0 + (b0 - a0) * s) - (c0 + (d0 - c0) * t);
+    // The direction to keep: how the edges were apart at the start; if they touched then, the
+    // normal of the two edges (oriented by the gap now), or the gap now.
+    let cross = (b - a).cross(d - c);
+    let scale = (b - a).length_squared().max((d - c).length_squared());
+    let dir = if gap0.length_squared() > 1e-12 * scale {
+        gap0
+    } else if cross.length_squared() > 1e-12 * scale * scale {
+        if cross.dot(gap) >= 0.0 { cross } else { -cross }
+    } else {
+        gap
+    };
+    let dir2 = dir.length_squared();
+    if dir2 <= 0.0 {
+        return None;
+    }
+    let length = dir2.sqrt();
+    let height_l = gap.dot(dir); // height x |dir|
+    let target_l = thickness * length;
+    let inside = s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0;
+    let crossed = height_l < 0.0 && inside;
+    if !(distance < thickness || crossed) || height_l >= target_l {
+        return None;
+    }
+    let (ga, gb, gc, gd) = (1.0 - s, s, -(1.0 - t), -t);
+    let denom = w.x * ga * ga + w.y * gb * gb + w.z * gc * gc + w.w * gd * gd;
+    if denom <= 0.0 {
+        return None;
+    }
+    let k = (target_l - height_l) * (1.0 / (dir2 * denom));
+    Some([dir * (w.x * ga * k), dir * (w.y * gb * k), dir * (w.z * gc * k), dir * (w.w * gd * k)])
+}
+
+/// An edge's pairs with the edges of the triangles the walk reaches: each pair of edges once
+/// (from the lower edge, through the triangle that owns the higher one), none sharing a
+/// particle.
+struct EdgePairs<'a> {
+    edge: u32,
+    ends: UVec4,
+    sorted: &'a [UVec4],
+    triangle_edges: &'a [UVec4],
+    edges: &'a [UVec4],
+    x: &'a [Vec4],
+    x_prev: &'a [Vec4],
+    thickness: f32,
+    delta: &'a mut [u32],
+}
+
+impl LeafVisitor for EdgePairs<'_> {
+    fn visit(&mut self, leaf: u32) {
+        let owned = self.triangle_edges[self.sorted[leaf as usize].w as usize];
+        let mut k = 0;
+        while k < 3 {
+            let other = if k == 0 {
+                owned.x
+            } else if k == 1 {
+                owned.y
+            } else {
+                owned.z
+            };
+            if owned.w & (1 << k) != 0 && other > self.edge {
+                edge_pair_at(self.ends, self.edges[other as usize], (self.x, self.x_prev), self.thickness, self.delta);
+            }
+            k += 1;
+        }
+    }
+}
+
+/// Edges `e` (ends `e.xy`) and `f` against each other (skipped when they share a particle).
+#[inline]
+pub fn edge_pair_at(e: UVec4, f: UVec4, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32, delta: &mut [u32]) {
+    if e.x == f.x || e.x == f.y || e.y == f.x || e.y == f.y {
+        return;
+    }
+    let ids = [e.x as usize, e.y as usize, f.x as usize, f.y as usize];
+    let now = [x[ids[0]].xyz(), x[ids[1]].xyz(), x[ids[2]].xyz(), x[ids[3]].xyz()];
+    let then = [x_prev[ids[0]].xyz(), x_prev[ids[1]].xyz(), x_prev[ids[2]].xyz(), x_prev[ids[3]].xyz()];
+    let w = Vec4::new(x[ids[0]].w, x[ids[1]].w, x[ids[2]].w, x[ids[3]].w);
+    if let Some(d) = edge_pair_correction(then, now, w, thickness) {
+        accumulate(delta, e.x, d[0]);
+        accumulate(delta, e.y, d[1]);
+        accumulate(delta, f.x, d[2]);
+        accumulate(delta, f.y, d[3]);
+    }
+}
+
+/// The box an edge's pairs are searched in: its ends now and at the substep's start, grown by
+/// the thickness.
+#[inline]
+fn edge_query(e: UVec4, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32) -> (Vec3, Vec3) {
+    let (i, j) = (e.x as usize, e.y as usize);
+    let lo = x[i].xyz().min(x[j].xyz()).min(x_prev[i].xyz()).min(x_prev[j].xyz());
+    let hi = x[i].xyz().max(x[j].xyz()).max(x_prev[i].xyz()).max(x_prev[j].xyz());
+    (lo - Vec3::splat(thickness), hi + Vec3::splat(thickness))
+}
+
+/// Edge `edge`'s pairs through the tree. Returns whether the walk's stack overflowed.
+#[allow(clippy::too_many_arguments)]
+pub fn self_edge_contact_at(
+    edge: u32,
+    self_params: &ColliderParams,
+    (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
+    (edges, triangle_edges): (&[UVec4], &[UVec4]),
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    delta: &mut [u32],
+) -> bool {
+    let ends = edges[edge as usize];
+    if ends.x == ends.y {
+        return false;
+    }
+    let thickness = self_params.thickness;
+    let query = edge_query(ends, (x, x_prev), thickness);
+    let mut pairs = EdgePairs { edge, ends, sorted, triangle_edges, edges, x, x_prev, thickness, delta };
+    walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, query, &mut pairs)
+}
+
+/// `self_edge_contact_at` without the tree: every leaf whose box meets the same query box.
+pub fn self_edge_contact_brute_force_at(
+    edge: u32,
+    self_params: &ColliderParams,
+    (leaf_bounds, sorted): (&[Aabb], &[UVec4]),
+    (edges, triangle_edges): (&[UVec4], &[UVec4]),
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    delta: &mut [u32],
+) {
+    let ends = edges[edge as usize];
+    if ends.x == ends.y {
+        return;
+    }
+    let thickness = self_params.thickness;
+    let (lo, hi) = edge_query(ends, (x, x_prev), thickness);
+    let mut pairs = EdgePairs { edge, ends, sorted, triangle_edges, edges, x, x_prev, thickness, delta };
+    let mut leaf = 0;
+    while leaf < self_params.leaf_count {
+        if meets(&leaf_bounds[leaf as usize], lo, hi) {
+            pairs.visit(leaf);
+        }
+        leaf += 1;
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn self_edge_contact(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] edges: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] triangle_edges: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] delta: &mut [u32],
+) {
+    if id.x as usize >= edges.len() {
+        return;
+    }
+    let tree = (nodes, aabbs, leaf_bounds, sorted);
+    self_edge_contact_at(id.x, self_params, tree, (edges, triangle_edges), (x, x_prev), delta);
+}
+
 /// `self_contact_at` without the tree: every leaf whose box passes the same test (the
 /// baseline the tree must equal).
 pub fn self_contact_brute_force_at(
@@ -309,12 +564,10 @@ pub fn self_contact_brute_force_at(
     (x, x_prev): (&[Vec4], &[Vec4]),
     delta: &mut [u32],
 ) {
-    let i = index as usize;
-    let (p0, p1) = (x_prev[i].xyz(), x[i].xyz());
-    let reach = self_params.thickness.max((p1 - p0).length());
+    let (lo, hi) = vertex_query(index, (x, x_prev), self_params.thickness);
     let mut leaf = 0;
     while leaf < self_params.leaf_count {
-        if near(&leaf_bounds[leaf as usize], p1, reach) {
+        if meets(&leaf_bounds[leaf as usize], lo, hi) {
             pair_at(index, sorted[leaf as usize], (x, x_prev), self_params.thickness, delta);
         }
         leaf += 1;
