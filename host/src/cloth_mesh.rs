@@ -67,6 +67,41 @@ impl ClothMesh {
         ClothMesh { vertices, uvs: Some(ClothUvs { coords, triangles: triangles.clone() }), triangles }
     }
 
+    /// An open tube (no caps) around the Y axis: `radius` (m), `height` (m) from y = 0 up,
+    /// `around` vertices per ring and `rings` rings; UVs unrolled (u around, with a seam column
+    /// of its own, v up).
+    pub fn tube(radius: f32, height: f32, around: u32, rings: u32) -> Self {
+        let (around, rings) = (around.max(3), rings.max(2));
+        let mut vertices = Vec::with_capacity((around * rings) as usize);
+        let mut coords = Vec::with_capacity(((around + 1) * rings) as usize);
+        for r in 0..rings {
+            let v = r as f32 / (rings - 1) as f32;
+            for k in 0..=around {
+                let u = k as f32 / around as f32;
+                if k < around {
+                    let angle = std::f32::consts::TAU * u;
+                    vertices.push(Vec3::new(radius * angle.cos(), height * v, radius * angle.sin()));
+                }
+                coords.push(Vec2::new(u, v));
+            }
+        }
+        let (mut triangles, mut uv_triangles) = (Vec::new(), Vec::new());
+        for r in 0..rings - 1 {
+            for k in 0..around {
+                let (a, b) = (r * around + k, r * around + (k + 1) % around);
+                let (c, d) = (a + around, b + around);
+                let (ta, tb) = (r * (around + 1) + k, r * (around + 1) + k + 1);
+                let (tc, td) = (ta + around + 1, tb + around + 1);
+                // Outward normals: (b - a) x (c - a) points away from the axis.
+                triangles.push([a, c, b]);
+                triangles.push([b, c, d]);
+                uv_triangles.push([ta, tc, tb]);
+                uv_triangles.push([tb, tc, td]);
+            }
+        }
+        ClothMesh { vertices, triangles, uvs: Some(ClothUvs { coords, triangles: uv_triangles }) }
+    }
+
     /// Total area (m^2).
     pub fn area(&self) -> f32 {
         self.triangles.iter().map(|&t| triangle_area(&self.vertices, t)).sum()

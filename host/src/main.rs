@@ -26,6 +26,9 @@ enum SceneArg {
     /// A long strip falls upright onto the ground and folds onto itself (`--grid` particles
     /// along it, a quarter of that across).
     Pile,
+    /// An open tube of cloth (a skirt, `--grid` particles around) falls over a body that turns
+    /// about its vertical axis.
+    Garment,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -241,6 +244,9 @@ fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), String> {
         if args.scene == SceneArg::Pile && given(matches, id) {
             return Err(format!("{} does nothing in the pile scene, whose collider is the ground plane", flag(id)));
         }
+        if args.scene == SceneArg::Garment && given(matches, id) {
+            return Err(format!("{} does nothing in the garment scene, whose collider is its body", flag(id)));
+        }
     }
     if args.scene != SceneArg::Swing && given(matches, "wind") {
         return Err(format!("--wind only applies to the swing scene, not the {:?} scene", args.scene).to_lowercase());
@@ -356,6 +362,17 @@ fn run(args: &Args) -> drape::Result<()> {
     let mut scene = None;
     let builder = match args.scene {
         SceneArg::Swing => drape::scenes::swinging_cloth(args.grid).external_force(args.wind),
+        SceneArg::Garment => {
+            let s = drape::scenes::garment(args.grid);
+            println!(
+                "body: an ellipsoid of {} triangles, turning at {} rad/s",
+                s.mesh.triangles.len(),
+                drape::scenes::GARMENT_TURN_RATE
+            );
+            let builder = s.cloth.clone();
+            scene = Some(s);
+            builder
+        }
         SceneArg::Pile => {
             let s = drape::scenes::pile(args.grid);
             println!("ground: a 6 m square plane of 2 triangles (open)");
@@ -404,8 +421,8 @@ fn run(args: &Args) -> drape::Result<()> {
         Some((lo, hi)) => builder.pin_within(lo, hi),
         None => builder,
     };
-    let self_collision =
-        args.self_collision.unwrap_or(if args.scene == SceneArg::Pile { OnOff::On } else { OnOff::Off });
+    let on_by_default = matches!(args.scene, SceneArg::Pile | SceneArg::Garment);
+    let self_collision = args.self_collision.unwrap_or(if on_by_default { OnOff::On } else { OnOff::Off });
     let builder = builder.self_collision((self_collision == OnOff::On).then_some(args.thickness));
     let cloth_description = cloth_description(args, &builder);
     let builder = match args.velocity {
@@ -444,7 +461,11 @@ fn run(args: &Args) -> drape::Result<()> {
             };
             println!(
                 "collider: {} ({} vertices, {} triangles), {leaves} in {:.1} ms (CPU)",
-                if args.scene == SceneArg::Pile { "ground" } else { &args.mesh },
+                match args.scene {
+                    SceneArg::Pile => "ground",
+                    SceneArg::Garment => "body",
+                    _ => &args.mesh,
+                },
                 s.mesh.vertices.len(),
                 s.mesh.triangles.len(),
                 start.elapsed().as_secs_f64() * 1e3,
@@ -474,7 +495,11 @@ fn run(args: &Args) -> drape::Result<()> {
     let mut worst = WorstIntersections::default();
     let mut report = TimingReport::default();
     let (mut ran, mut skipped, mut fallbacks) = (0, 0, 0u64);
+    let body = model.collider_ids().next();
     for frame in 1..=args.frames {
+        if let (SceneArg::Garment, Some(body)) = (args.scene, body) {
+            sim.set_collider_pose(body, drape::scenes::garment_rotation(frame as f32 / 60.0), Vec3::ZERO)?;
+        }
         let start = Instant::now();
         let r = sim.step_report()?;
         report.add(&r.timings, start.elapsed());
@@ -491,8 +516,14 @@ fn run(args: &Args) -> drape::Result<()> {
             drape::obj::write_cloth_obj(&path, &built, &sim.positions(cloth)?, &sim.normals(cloth)?)?;
         }
         if args.check_every_frame {
-            let found = count_intersections(&sim.positions(cloth)?, &built.triangles, solid_of(&scene));
-            worst.record(frame, found);
+            let posed = scene.as_ref().filter(|_| args.scene == SceneArg::Garment).map(|s| {
+                s.mesh.transformed(glam::Mat4::from_quat(drape::scenes::garment_rotation(frame as f32 / 60.0)))
+            });
+            let solid = match &posed {
+                Some(m) => (m.vertices.as_slice(), m.triangles.as_slice()),
+                None => solid_of(&scene),
+            };
+            worst.record(frame, count_intersections(&sim.positions(cloth)?, &built.triangles, solid));
         }
     }
     end_progress_line();
@@ -518,6 +549,11 @@ fn run(args: &Args) -> drape::Result<()> {
         }
     }
     let x = sim.positions(cloth)?;
+    // The metrics see the collider where it stands now (the garment's body has turned).
+    if let (SceneArg::Garment, Some(s)) = (args.scene, &mut scene) {
+        let turn = drape::scenes::garment_rotation(args.frames as f32 / 60.0);
+        s.mesh = s.mesh.transformed(glam::Mat4::from_quat(turn));
+    }
     if let (Some(s), Some(c)) = (&scene, &collider) {
         let start = Instant::now();
         let bvh = TriangleBvh::new(&s.mesh);
@@ -590,9 +626,9 @@ impl WorstIntersections {
 /// What the setup line says the cloth is.
 fn cloth_description(args: &Args, builder: &ClothBuilder) -> String {
     let shape = match (&args.cloth_mesh, &builder.mesh) {
-        (Some(path), Some(mesh)) => format!(
+        (path, Some(mesh)) => format!(
             "mesh {} ({} particles, {} triangles{})",
-            path.display(),
+            path.as_ref().map_or("of the scene".to_string(), |p| p.display().to_string()),
             mesh.vertices.len(),
             mesh.triangles.len(),
             if mesh.uvs.is_some() { ", UVs" } else { "" }

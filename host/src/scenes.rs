@@ -38,6 +38,33 @@ pub fn pile(grid: u32) -> DrapeScene {
     DrapeScene { mesh: ground, cloth, thickness: DEFAULT_THICKNESS, friction: DEFAULT_FRICTION }
 }
 
+/// How fast the garment scene's body turns about its vertical axis (rad/s).
+pub const GARMENT_TURN_RATE: f32 = 1.5;
+
+/// The garment scene (issue 8): an open tube of cloth (a skirt, 0.2 m radius, 0.5 m long,
+/// `around` particles around it), held level 5 cm above a body (an ellipsoid, 0.32 x 0.5 x
+/// 0.2 m semi-axes, standing on y = 0), falls over it, catches on its wider sides, and is
+/// carried round as the body turns (`garment_rotation`). Self-collision on at the contact
+/// thickness.
+pub fn garment(around: u32) -> DrapeScene {
+    let around = around.max(8);
+    let body = crate::mesh::Mesh::icosphere(1.0, 3)
+        .transformed(Mat4::from_translation(Vec3::new(0.0, 0.5, 0.0)) * Mat4::from_scale(Vec3::new(0.32, 0.5, 0.2)));
+    let (radius, length) = (0.2, 0.5);
+    let rings = ((length / (std::f32::consts::TAU * radius / around as f32)).round() as u32 + 1).max(2);
+    let tube = crate::cloth_mesh::ClothMesh::tube(radius, length, around, rings);
+    let cloth = ClothBuilder::from_mesh(tube)
+        .transform(Mat4::from_translation(Vec3::new(0.0, 1.05, 0.0)))
+        .self_collision(Some(DEFAULT_THICKNESS));
+    DrapeScene { mesh: body, cloth, thickness: DEFAULT_THICKNESS, friction: DEFAULT_FRICTION }
+}
+
+/// The garment scene's body rotation at time `t` (s): turned about +Y by
+/// `GARMENT_TURN_RATE * t` (it does not translate).
+pub fn garment_rotation(t: f32) -> glam::Quat {
+    glam::Quat::from_rotation_y(GARMENT_TURN_RATE * t)
+}
+
 /// Contact thickness of the drape scenes (m).
 pub const DEFAULT_THICKNESS: f32 = 0.005;
 
