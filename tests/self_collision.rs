@@ -156,3 +156,56 @@ fn cli_garment_scene_has_no_intersection_in_any_frame() {
         .unwrap_or_else(|| panic!("no resting count in\n{stdout}"));
     assert!(resting > 50, "the skirt must rest on the body ({resting} particles)\n{stdout}");
 }
+
+/// A spike's tip against the cloth's faces: a 16 x 16 cloth falls on a platform with a thin
+/// spike at its middle, whose tip meets the middle of a cloth cell, where no particle is.
+/// Particle contact alone lets the tip through the cell (the spike's edges cross the cloth);
+/// with the collider's vertices tested against the cloth's faces (on with self-collision) the
+/// cloth tents over the tip, and no spike edge crosses it in any frame.
+#[test]
+fn a_spike_does_not_pierce_a_cloth_cell() {
+    let ctx = context();
+    let mut mesh = common::slab(Vec3::new(1.0, 0.1, 1.0));
+    mesh.vertices.iter_mut().for_each(|v| v.y += 0.05); // top at y = 0.1
+    let (h, top, base) = (0.01, 0.25, 0.1);
+    let first = mesh.vertices.len() as u32;
+    mesh.vertices.extend([
+        Vec3::new(-h, base, -h),
+        Vec3::new(h, base, -h),
+        Vec3::new(h, base, h),
+        Vec3::new(-h, base, h),
+        Vec3::new(0.0, top, 0.0),
+    ]);
+    let spike = [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4], [0, 2, 1], [0, 3, 2]];
+    mesh.triangles.extend(spike.iter().map(|t| t.map(|i| i + first)));
+    // Cells of 0.8 / 15 m; shifted by half a cell so the tip is under a cell's middle.
+    let cell = 0.8 / 15.0;
+    let run = |self_collision: Option<f32>| {
+        let cloth = drape::ClothBuilder::new(16, 16)
+            .size(0.8)
+            .transform(glam::Mat4::from_translation(Vec3::new(0.5 * cell, top + 0.03, 0.5 * cell)))
+            .self_collision(self_collision)
+            .build()
+            .unwrap();
+        let collider = Collider::mesh(&mesh, 0.005).with_friction(0.5);
+        let settings = SimSettings::default().with_timestamps(false);
+        let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap();
+        let mut sim = Solver::new(&ctx, &model).unwrap();
+        let mut worst = 0;
+        for _ in 0..90 {
+            sim.step().unwrap();
+            let x = sim.positions(CLOTH).unwrap();
+            let found = count_intersections(&x, &cloth.triangles, (&mesh.vertices, &mesh.triangles));
+            worst = worst.max(found.collider_edges_through_cloth + found.cloth_edges_through_collider);
+        }
+        let highest = sim.positions(CLOTH).unwrap().iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max);
+        (worst, highest)
+    };
+    let (pierced, flat) = run(None);
+    let (tented, tent) = run(Some(0.005));
+    println!("without face contact: {pierced} crossings, cloth up to {flat} m; with: {tented}, up to {tent} m");
+    assert!(pierced > 0, "the tip must pierce the cell without face contact (the scene must test it)");
+    assert_eq!(tented, 0, "the tip pierced the cloth with the collider's vertices against its faces");
+    assert!(tent > top, "the cloth must tent over the tip (highest particle {tent} m)");
+    assert_validation_clean(&ctx);
+}

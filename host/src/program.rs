@@ -103,7 +103,15 @@ impl SolverProgram {
                     ColliderLeaves::Triangles(b)
                 }
             };
-            let b = ColliderBuffers::declare(&mut resources, &name, leaves);
+            let mut b = ColliderBuffers::declare(&mut resources, &name, leaves);
+            if let ColliderShape::Triangles { triangles, .. } = &c.shape {
+                let mut used: Vec<u32> = triangles.iter().flatten().copied().collect();
+                used.sort_unstable();
+                used.dedup();
+                let handle = resources.device(format!("{name}: surface vertices"), used.len() as u32);
+                initial.push((handle.id(), bytemuck::cast_slice::<_, u8>(&used).to_vec()));
+                b.surface_vertices = Some((handle, used.len() as u32));
+            }
             initial.push((b.tree().collider.id(), bytemuck::bytes_of(&params).to_vec()));
             let pose = ColliderPose { previous: c.pose, current: c.pose };
             initial.push((b.pose.id(), bytemuck::bytes_of(&pose).to_vec()));

@@ -7,9 +7,10 @@ use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::{
     SCENE_THREADS, apply_self_contact_at, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
-    self_contact_at, self_edge_contact_at, write_scene,
+    collider_vertex_contact_at, self_contact_at, self_edge_contact_at, write_scene,
 };
-use drape_types::{Aabb, BvhNode, ColliderParams, SimParams};
+use drape_kernels::contact::substep_motion;
+use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, SimParams};
 use glam::{UVec4, Vec4};
 
 const fn read(name: &'static str) -> BindingSpec {
@@ -84,6 +85,32 @@ pub static SELF_EDGE_CONTACT: Kernel = Kernel {
         CONTACT_THREADS,
     ),
     cpu: self_edge_contact_cpu,
+};
+
+/// A triangle collider's surface vertices against the cloth's faces; push constants:
+/// `ContactPush` (the substep's span of the frame).
+pub static COLLIDER_VERTEX_CONTACT: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_contact::collider_vertex_contact",
+        bindings: &[
+            read("params"),
+            read("self_params"),
+            read("collider"),
+            read("pose"),
+            read("vertices"),
+            read("surface_vertices"),
+            read("nodes"),
+            read("aabbs"),
+            read("leaf_bounds"),
+            read("sorted"),
+            read("x"),
+            read("x_prev"),
+            write("delta"),
+        ],
+        push_constant_size: size_of::<ContactPush>() as u32,
+        workgroup_size: CONTACT_THREADS,
+    },
+    cpu: collider_vertex_contact_cpu,
 };
 
 pub static APPLY_SELF_CONTACT: Kernel = Kernel {
@@ -163,6 +190,25 @@ fn self_edge_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (x, x_prev, delta) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), delta.slice_mut::<u32>());
     for e in 0..threads.min(edges.len() as u32) {
         self_edge_contact_at(e, &c, tree, (edges, triangle_edges), (x, x_prev), delta);
+    }
+    Ok(())
+}
+
+fn collider_vertex_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: ContactPush = d.push_as();
+    let threads = d.invocations();
+    let [params, self_params, collider, pose, vertices, surface, nodes, aabbs, leaf_bounds, sorted, x, x_prev, delta] =
+        d.bindings()?;
+    let p: SimParams = params.first()?;
+    let c: ColliderParams = self_params.first()?;
+    let thickness = collider.first::<ColliderParams>()?.thickness;
+    let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
+    let (vertices, surface) = (vertices.slice::<Vec4>(), surface.slice::<u32>());
+    let (x, x_prev, delta) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), delta.slice_mut::<u32>());
+    for v in 0..threads.min(surface.len() as u32) {
+        let local = vertices[surface[v as usize] as usize].truncate();
+        collider_vertex_contact_at(local, &motion, (&c, thickness), tree, (x, x_prev), delta);
     }
     Ok(())
 }

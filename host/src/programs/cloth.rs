@@ -196,7 +196,12 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
             contact.substep_steps(cloth, collider, (substep, plan.substeps), &mut steps);
         }
         if let Some(s) = &cloth.self_contact {
-            s.substep_steps(&cloth.self_contact_cloth(), &mut steps);
+            let own = cloth.self_contact_cloth();
+            let features = colliders
+                .iter()
+                .filter_map(|(collider, _)| s.collider_vertex_step(&own, collider, (substep, plan.substeps)))
+                .collect();
+            s.substep_steps(&own, features, &mut steps);
         }
         // A skipped pass is listed once, not once per substep.
         if colliders.is_empty() && substep == 0 {

@@ -95,13 +95,16 @@ impl ColliderLeaves {
 pub struct ColliderBuffers {
     pub leaves: ColliderLeaves,
     pub pose: Handle<ColliderPose>,
+    /// A triangle collider's vertices that triangles use, and how many (what a self-colliding
+    /// cloth tests against its faces; a scan's stray points are left out).
+    pub surface_vertices: Option<(Handle<u32>, u32)>,
 }
 
 impl ColliderBuffers {
     /// Buffers of a collider with `leaves` (declared by its leaf kind); `name` prefixes their
     /// debug names.
     pub fn declare(resources: &mut Resources, name: &str, leaves: ColliderLeaves) -> Self {
-        ColliderBuffers { leaves, pose: resources.device(format!("{name}: pose"), 1) }
+        ColliderBuffers { leaves, pose: resources.device(format!("{name}: pose"), 1), surface_vertices: None }
     }
 
     pub fn tree(&self) -> &LbvhBuffers {

@@ -3,14 +3,15 @@
 //! refit every substep) and, each substep after the collider's response, the vertex-triangle
 //! pass and the application of its summed corrections (`drape_kernels::self_contact`).
 
+use super::contact::{ColliderBuffers, ColliderLeaves};
 use super::lbvh::LbvhBuffers;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_contact::{
-    APPLY_SELF_CONTACT, CLOTH_TRIANGLE_BOUNDS, GATHER_CLOTH_TRIANGLES, SELF_CONTACT, SELF_EDGE_CONTACT,
-    SELF_SCENE_BOUNDS,
+    APPLY_SELF_CONTACT, CLOTH_TRIANGLE_BOUNDS, COLLIDER_VERTEX_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_CONTACT,
+    SELF_EDGE_CONTACT, SELF_SCENE_BOUNDS,
 };
 use std::collections::HashMap;
-use drape_types::{ColliderParams, SimParams};
+use drape_types::{ColliderParams, ContactPush, SimParams};
 use glam::{UVec4, Vec4};
 
 /// The buffers of one cloth's self-collision.
@@ -110,9 +111,51 @@ impl SelfContactBuffers {
         steps.extend(t.build_around(self.triangle_bounds(cloth), gather));
     }
 
+    /// Substep `substep` of `substeps`: triangle collider `collider`'s surface vertices against
+    /// the cloth's faces (`None` for a sphere collider, whose spheres are smooth).
+    pub fn collider_vertex_step(
+        &self,
+        cloth: &SelfContactCloth,
+        collider: &ColliderBuffers,
+        (substep, substeps): (u32, u32),
+    ) -> Option<Step> {
+        let (ColliderLeaves::Triangles(mesh), Some((surface, count))) = (&collider.leaves, collider.surface_vertices)
+        else {
+            return None;
+        };
+        let span = ContactPush {
+            from: substep as f32 / substeps as f32,
+            to: (substep + 1) as f32 / substeps as f32,
+            _pad: [0; 2],
+        };
+        let t = &self.tree;
+        Some(Step::run_with(
+            "self: collider vertices",
+            &COLLIDER_VERTEX_CONTACT,
+            vec![
+                cloth.params.id(),
+                t.collider.id(),
+                mesh.tree.collider.id(),
+                collider.pose.id(),
+                mesh.vertices.id(),
+                surface.id(),
+                t.nodes.id(),
+                t.aabbs.id(),
+                t.sorted_bounds.id(),
+                self.sorted.id(),
+                cloth.x.id(),
+                cloth.x_prev.id(),
+                self.delta.id(),
+            ],
+            bytemuck::cast(span),
+            Dispatch::Threads(count),
+        ))
+    }
+
     /// Every substep, after the collider's response: refit to where the triangles are now, find
-    /// the pairs, apply the corrections.
-    pub fn substep_steps(&self, cloth: &SelfContactCloth, steps: &mut Vec<Step>) {
+    /// the pairs (and run `features`, the colliders' vertices against the faces, into the same
+    /// sums), apply the corrections.
+    pub fn substep_steps(&self, cloth: &SelfContactCloth, features: Vec<Step>, steps: &mut Vec<Step>) {
         let t = &self.tree;
         steps.push(self.triangle_bounds(cloth));
         steps.extend(t.refit_steps());
@@ -150,6 +193,7 @@ impl SelfContactBuffers {
             ],
             Dispatch::Threads(self.edge_count),
         ));
+        steps.extend(features);
         steps.push(Step::run(
             "self: apply",
             &APPLY_SELF_CONTACT,

@@ -5,6 +5,10 @@
 //!   thickness, or that it crossed since the substep began;
 //! - **edge against edge**: every edge finds the edges (sharing no particle) of the triangles
 //!   near it, each pair once, within the thickness or crossed;
+//! - **collider vertices against cloth faces**: every vertex a triangle collider's surface
+//!   uses, moving with the collider, finds the cloth triangles near it (the vertex does not
+//!   move; the cloth takes the whole correction), so a spike's tip cannot pass through a cloth
+//!   cell between particles;
 //!
 //! and each pair is pushed apart to the thickness along the direction it was apart at the
 //! substep's start (the face normal, to the particle's starting side, for vertex-triangle),
@@ -14,14 +18,16 @@
 //! rounds differently on llvmpipe.) Each particle then moves by the mean of its corrections and
 //! loses the velocity that drove it into the contact (inelastic; no velocity is added).
 //!
-//! Not yet: continuous collision of moving triangles beyond this start-side test (a pair that
-//! passes through each other within one substep and ends farther apart than the search reach
-//! is missed).
+//! Not yet: collider edges against cloth edges (a sharp ridge can still cut a cell), and
+//! continuous collision of moving triangles beyond this start-side test (a pair that passes
+//! through each other within one substep and ends farther apart than the search reach is
+//! missed).
 
 use crate::atomics;
-use crate::contact::STACK_SIZE;
+use crate::contact::{STACK_SIZE, substep_motion};
+use crate::pose::{SubstepMotion, to_world};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT, SimParams};
+use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, LEAF_BIT, SimParams};
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
 use spirv_std::spirv;
@@ -553,6 +559,80 @@ pub fn self_edge_contact(
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     self_edge_contact_at(id.x, self_params, tree, (edges, triangle_edges), (x, x_prev), delta);
+}
+
+/// A collider vertex's pairs with the cloth triangles the walk reaches: the vertex does not
+/// move (weight 0); the triangle's corners take the whole correction.
+struct ColliderVertexPairs<'a> {
+    p0: Vec3,
+    p1: Vec3,
+    sorted: &'a [UVec4],
+    x: &'a [Vec4],
+    x_prev: &'a [Vec4],
+    thickness: f32,
+    delta: &'a mut [u32],
+}
+
+impl LeafVisitor for ColliderVertexPairs<'_> {
+    fn visit(&mut self, leaf: u32) {
+        let corners = self.sorted[leaf as usize];
+        let (ia, ib, ic) = (corners.x as usize, corners.y as usize, corners.z as usize);
+        let (x, x_prev) = (self.x, self.x_prev);
+        let now = [x[ia].xyz(), x[ib].xyz(), x[ic].xyz()];
+        let then = [x_prev[ia].xyz(), x_prev[ib].xyz(), x_prev[ic].xyz()];
+        let weights = (0.0, Vec3::new(x[ia].w, x[ib].w, x[ic].w));
+        if let Some(c) = pair_correction((self.p0, self.p1), then, now, weights, self.thickness) {
+            accumulate(self.delta, corners.x, c.corners[0]);
+            accumulate(self.delta, corners.y, c.corners[1]);
+            accumulate(self.delta, corners.z, c.corners[2]);
+        }
+    }
+}
+
+/// Collider vertex `local` (in the collider's frame, moving with it over the substep `motion`)
+/// against the cloth's faces: a spike's tip or a corner keeps the thickness from every cloth
+/// triangle, on the side it came from, so it cannot poke through a cloth cell between
+/// particles. Returns whether the walk's stack overflowed.
+pub fn collider_vertex_contact_at(
+    local: Vec3,
+    motion: &SubstepMotion,
+    (self_params, thickness): (&ColliderParams, f32),
+    (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    delta: &mut [u32],
+) -> bool {
+    let (p0, p1) = (to_world(&motion.start, local), to_world(&motion.end, local));
+    let reach = Vec3::splat(thickness.max((p1 - p0).length()));
+    let mut pairs = ColliderVertexPairs { p0, p1, sorted, x, x_prev, thickness, delta };
+    walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (p1 - reach, p1 + reach), &mut pairs)
+}
+
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn collider_vertex_contact(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &ContactPush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] vertices: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] surface_vertices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] delta: &mut [u32],
+) {
+    if id.x as usize >= surface_vertices.len() {
+        return;
+    }
+    let local = vertices[surface_vertices[id.x as usize] as usize].xyz();
+    let motion = substep_motion(params, pose, push);
+    let tree = (nodes, aabbs, leaf_bounds, sorted);
+    collider_vertex_contact_at(local, &motion, (self_params, collider.thickness), tree, (x, x_prev), delta);
 }
 
 /// `self_contact_at` without the tree: every leaf whose box passes the same test (the
