@@ -542,6 +542,28 @@ pub fn aabbs_overlap(a: &Aabb, b: &Aabb, margin: f32) -> bool {
     (a.min.xyz() - m).cmple(b.max.xyz()).all() && (a.max.xyz() + m).cmpge(b.min.xyz()).all()
 }
 
+/// The union of the 256 lanes' boxes (`own`), reduced in workgroup memory: what lane 0 gets
+/// back (the other lanes get their own box back, and must not use it as the union; only lane
+/// 0 reads the result, so no lane reads what lane 0 writes last). Min and max are exact in any
+/// order, so the CPU twins fold the lanes' boxes in a loop instead.
+#[inline]
+pub fn reduce_bounds(lane: u32, own: Aabb, lows: &mut [Vec4; 256], highs: &mut [Vec4; 256]) -> Aabb {
+    lows[lane as usize] = own.min;
+    highs[lane as usize] = own.max;
+    let mut stride = 256 / 2;
+    while stride > 0 {
+        #[cfg(target_arch = "spirv")]
+        spirv_std::arch::workgroup_memory_barrier_with_group_sync();
+        if lane < stride {
+            let other = (lane + stride) as usize;
+            lows[lane as usize] = lows[lane as usize].min(lows[other]);
+            highs[lane as usize] = highs[lane as usize].max(highs[other]);
+        }
+        stride /= 2;
+    }
+    if lane == 0 { Aabb { min: lows[0], max: highs[0] } } else { own }
+}
+
 /// Threads of the culling pass (one workgroup).
 pub const CULL_THREADS: u32 = 256;
 
@@ -568,21 +590,8 @@ pub fn cull_contact(
     let lane = lid.x;
     let motion = substep_motion(params, pose, push);
     let own = swept_bounds(&motion, x, x_prev, params.particle_count, lane, CULL_THREADS);
-    lows[lane as usize] = own.min;
-    highs[lane as usize] = own.max;
-    let mut stride = CULL_THREADS / 2;
-    while stride > 0 {
-        #[cfg(target_arch = "spirv")]
-        spirv_std::arch::workgroup_memory_barrier_with_group_sync();
-        if lane < stride {
-            let other = (lane + stride) as usize;
-            lows[lane as usize] = lows[lane as usize].min(lows[other]);
-            highs[lane as usize] = highs[lane as usize].max(highs[other]);
-        }
-        stride /= 2;
-    }
+    let cloth = reduce_bounds(lane, own, lows, highs);
     if lane == 0 {
-        let cloth = Aabb { min: lows[0], max: highs[0] };
         let root = root_aabb(collider, aabbs, leaf_bounds);
         let run = aabbs_overlap(&cloth, &root, collider.thickness);
         *args = DispatchArgs {

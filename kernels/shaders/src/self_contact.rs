@@ -24,7 +24,7 @@
 //! missed).
 
 use crate::atomics;
-use crate::contact::{STACK_SIZE, substep_motion};
+use crate::contact::{STACK_SIZE, reduce_bounds, substep_motion};
 use crate::pose::{SubstepMotion, to_world};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, LEAF_BIT, SimParams};
@@ -65,21 +65,9 @@ pub fn self_scene_bounds(
 ) {
     let lane = lid.x;
     let own = particle_bounds(x, params.particle_count, lane, SCENE_THREADS);
-    lows[lane as usize] = own.min;
-    highs[lane as usize] = own.max;
-    let mut stride = SCENE_THREADS / 2;
-    while stride > 0 {
-        #[cfg(target_arch = "spirv")]
-        spirv_std::arch::workgroup_memory_barrier_with_group_sync();
-        if lane < stride {
-            let other = (lane + stride) as usize;
-            lows[lane as usize] = lows[lane as usize].min(lows[other]);
-            highs[lane as usize] = highs[lane as usize].max(highs[other]);
-        }
-        stride /= 2;
-    }
+    let bounds = reduce_bounds(lane, own, lows, highs);
     if lane == 0 {
-        write_scene(self_params, &Aabb { min: lows[0], max: highs[0] });
+        write_scene(self_params, &bounds);
     }
 }
 
