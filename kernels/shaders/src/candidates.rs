@@ -13,14 +13,15 @@
 //! gives the same earliest contact as the tree or the brute-force loop.
 
 use crate::contact::{
-    Candidate, LeafKind, Left, NO_CANDIDATE, STACK_SIZE, blocks_relative, consider, detect_at, hit_relative,
-    local_motion, path_blocked, point_in_aabb, substep_motion, target_of,
+    Candidate, LeafKind, Left, NO_CANDIDATE, blocks_relative, consider, detect_at, hit_relative, local_motion,
+    path_blocked, point_in_aabb, substep_motion, target_of,
 };
+use crate::lbvh::{TreeQuery, walk};
 use crate::pose::{SubstepMotion, to_local};
 use drape_types::glam::{Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BroadPhasePush, BvhNode, CANDIDATES_OVERFLOWED, ColliderParams, ColliderPose, CollisionStatus, Contact,
-    ContactPush, ContactQuery, LEAF_BIT, MAX_CANDIDATES, SimParams,
+    ContactPush, ContactQuery, MAX_CANDIDATES, SimParams,
 };
 
 /// What the broad phase walks: the LBVH's nodes and boxes, the leaves' boxes and the leaves,
@@ -54,47 +55,46 @@ pub fn gather_candidates<K: LeafKind>(
     list: &mut [u32],
     base: usize,
 ) -> u32 {
-    let thickness = collider.thickness;
-    if collider.leaf_count == 1 {
-        if K::may_touch_region(&leaf_bounds[0], region, thickness)
-            && K::may_touch_leaf_region(leaves[0], region, thickness)
+    let bounds = (leaf_bounds, region, collider.thickness);
+    let mut query = GatherQuery::<K> { bounds, leaves, list, base, count: 0, full: false };
+    let overflowed = walk(nodes, aabbs, collider.leaf_count, &mut query);
+    if query.full || overflowed { CANDIDATES_OVERFLOWED } else { query.count }
+}
+
+/// The leaves a motion inside a region can touch, listed as a walk reaches them (the walk stops
+/// when the list is full).
+struct GatherQuery<'a, K: LeafKind> {
+    /// The leaves' boxes, the region and the thickness.
+    bounds: (&'a [Aabb], &'a Aabb, f32),
+    leaves: &'a [K::Leaf],
+    list: &'a mut [u32],
+    base: usize,
+    count: u32,
+    full: bool,
+}
+
+impl<K: LeafKind> TreeQuery for GatherQuery<'_, K> {
+    #[inline]
+    fn enters(&self, b: &Aabb) -> bool {
+        K::may_touch_region(b, self.bounds.1, self.bounds.2)
+    }
+
+    #[inline]
+    fn leaf(&mut self, leaf: u32) -> bool {
+        let (leaf_bounds, region, thickness) = self.bounds;
+        if !(K::may_touch_region(&leaf_bounds[leaf as usize], region, thickness)
+            && K::may_touch_leaf_region(self.leaves[leaf as usize], region, thickness))
         {
-            list[base] = 0;
-            return 1;
+            return false;
         }
-        return 0;
-    }
-    let mut count = 0u32;
-    let mut stack = [0u32; STACK_SIZE];
-    let mut top = 1; // stack[0] = root
-    while top > 0 {
-        top -= 1;
-        let node = nodes[stack[top] as usize];
-        let mut side = 0;
-        while side < 2 {
-            let child = if side == 0 { node.left } else { node.right };
-            if child & LEAF_BIT != 0 {
-                let leaf = child & !LEAF_BIT;
-                if K::may_touch_region(&leaf_bounds[leaf as usize], region, thickness)
-                    && K::may_touch_leaf_region(leaves[leaf as usize], region, thickness)
-                {
-                    if count == MAX_CANDIDATES {
-                        return CANDIDATES_OVERFLOWED;
-                    }
-                    list[base + count as usize] = leaf;
-                    count += 1;
-                }
-            } else if K::may_touch_region(&aabbs[child as usize], region, thickness) {
-                if top == STACK_SIZE {
-                    return CANDIDATES_OVERFLOWED;
-                }
-                stack[top] = child;
-                top += 1;
-            }
-            side += 1;
+        if self.count == MAX_CANDIDATES {
+            self.full = true;
+            return true;
         }
+        self.list[self.base + self.count as usize] = leaf;
+        self.count += 1;
+        false
     }
-    count
 }
 
 /// Broad phase for particle `index` over the `frame` (`frame_motion`): its query box and

@@ -16,17 +16,16 @@
 //! relative to the collider: a moving collider sweeps the cloth instead of jumping through it.
 //! A static collider (identity poses) gives exactly the frame-fixed test.
 
+use crate::lbvh::{TreeQuery, walk};
 use crate::pose::{SubstepMotion, rotate, rotate_inverse, to_local, to_world};
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
-    Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, DispatchArgs, LEAF_BIT,
-    NO_LEAF, SimParams,
+    Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, DispatchArgs, NO_LEAF,
+    SimParams,
 };
 use spirv_std::spirv;
 
-/// Traversal stack entries per particle: the LBVH of 30-bit Morton codes is at most ~30 +
-/// log2(N) deep, and each level pushes at most one node.
-pub const STACK_SIZE: usize = 64;
+pub use crate::lbvh::STACK_SIZE;
 
 /// What the traversal needs to know about a kind of leaf. Implemented by zero-sized types
 /// (`spheres::Spheres`); the traversal is monomorphised per kind, on the GPU and the CPU.
@@ -151,44 +150,40 @@ pub fn traverse_with_clearance<K: LeafKind>(
     left: Left,
 ) -> (Candidate, bool, f32) {
     let thickness = collider.thickness;
-    let mut clearance = if K::checks_path() { thickness } else { 0.0 };
-    if collider.leaf_count == 1 {
-        let (t, key) = hit_relative::<K>(leaves[0], p0, p1, thickness, left);
+    let clearance = if K::checks_path() { thickness } else { 0.0 };
+    let mut query = HitQuery::<K> { leaves, p0, p1, thickness, left, best: NO_CANDIDATE, clearance };
+    let overflow = walk(nodes, aabbs, collider.leaf_count, &mut query);
+    (query.best, overflow, query.clearance)
+}
+
+/// The earliest hit of a motion among the leaves a walk reaches, and (for kinds that check
+/// paths) the least clearance of those leaves.
+struct HitQuery<'a, K: LeafKind> {
+    leaves: &'a [K::Leaf],
+    p0: Vec3,
+    p1: Vec3,
+    thickness: f32,
+    left: Left,
+    best: Candidate,
+    clearance: f32,
+}
+
+impl<K: LeafKind> TreeQuery for HitQuery<'_, K> {
+    #[inline]
+    fn enters(&self, b: &Aabb) -> bool {
+        K::may_touch(b, self.p0, self.p1, self.thickness)
+    }
+
+    #[inline]
+    fn leaf(&mut self, leaf: u32) -> bool {
+        let l = self.leaves[leaf as usize];
+        let (t, key) = hit_relative::<K>(l, self.p0, self.p1, self.thickness, self.left);
+        self.best = consider(self.best, t, key, leaf);
         if K::checks_path() {
-            clearance = clearance.min(K::clearance(leaves[0], K::relative(leaves[0], p0, left.0)));
+            self.clearance = self.clearance.min(K::clearance(l, K::relative(l, self.p0, self.left.0)));
         }
-        return (consider(NO_CANDIDATE, t, key, 0), false, clearance);
+        false
     }
-    let mut best = NO_CANDIDATE;
-    let mut stack = [0u32; STACK_SIZE];
-    let mut top = 1; // stack[0] = root
-    let mut overflow = false;
-    while top > 0 {
-        top -= 1;
-        let node = nodes[stack[top] as usize];
-        let mut side = 0;
-        while side < 2 {
-            let child = if side == 0 { node.left } else { node.right };
-            if child & LEAF_BIT != 0 {
-                let leaf = child & !LEAF_BIT;
-                let l = leaves[leaf as usize];
-                let (t, key) = hit_relative::<K>(l, p0, p1, thickness, left);
-                best = consider(best, t, key, leaf);
-                if K::checks_path() {
-                    clearance = clearance.min(K::clearance(l, K::relative(l, p0, left.0)));
-                }
-            } else if K::may_touch(&aabbs[child as usize], p0, p1, thickness) {
-                if top < STACK_SIZE {
-                    stack[top] = child;
-                    top += 1;
-                } else {
-                    overflow = true;
-                }
-            }
-            side += 1;
-        }
-    }
-    (best, overflow, clearance)
 }
 
 /// The same contact by testing every leaf (reference and benchmark baseline).
@@ -225,33 +220,32 @@ pub fn path_blocked<K: LeafKind>(
     b: Vec3,
     left: Left,
 ) -> bool {
-    let thickness = collider.thickness;
-    if collider.leaf_count == 1 {
-        return blocks_relative::<K>(leaves[0], a, b, thickness, left);
+    let mut query = PathQuery::<K> { leaves, a, b, thickness: collider.thickness, left, blocked: false };
+    let overflowed = walk(nodes, aabbs, collider.leaf_count, &mut query);
+    query.blocked || overflowed
+}
+
+/// Whether a path crosses any leaf a walk reaches (the walk stops at the first).
+struct PathQuery<'a, K: LeafKind> {
+    leaves: &'a [K::Leaf],
+    a: Vec3,
+    b: Vec3,
+    thickness: f32,
+    left: Left,
+    blocked: bool,
+}
+
+impl<K: LeafKind> TreeQuery for PathQuery<'_, K> {
+    #[inline]
+    fn enters(&self, b: &Aabb) -> bool {
+        K::may_touch(b, self.a, self.b, self.thickness)
     }
-    let mut stack = [0u32; STACK_SIZE];
-    let mut top = 1; // stack[0] = root
-    while top > 0 {
-        top -= 1;
-        let node = nodes[stack[top] as usize];
-        let mut side = 0;
-        while side < 2 {
-            let child = if side == 0 { node.left } else { node.right };
-            if child & LEAF_BIT != 0 {
-                if blocks_relative::<K>(leaves[(child & !LEAF_BIT) as usize], a, b, thickness, left) {
-                    return true;
-                }
-            } else if K::may_touch(&aabbs[child as usize], a, b, thickness) {
-                if top == STACK_SIZE {
-                    return true;
-                }
-                stack[top] = child;
-                top += 1;
-            }
-            side += 1;
-        }
+
+    #[inline]
+    fn leaf(&mut self, leaf: u32) -> bool {
+        self.blocked = blocks_relative::<K>(self.leaves[leaf as usize], self.a, self.b, self.thickness, self.left);
+        self.blocked
     }
-    false
 }
 
 /// The same question by testing every leaf.

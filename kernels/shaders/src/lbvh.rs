@@ -11,6 +11,54 @@ use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{AABB_WORDS, Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE};
 use spirv_std::spirv;
 
+/// Walk stack entries: the LBVH of 30-bit Morton codes is at most ~30 + log2(N) deep, and each
+/// level pushes at most one node.
+pub const STACK_SIZE: usize = 64;
+
+/// What a walk of the LBVH looks for: which subtrees to enter, and what to do at each leaf a
+/// walk reaches (a leaf's own box, where a query wants it, is the query's to test).
+pub trait TreeQuery {
+    /// Whether the subtree under the node box `b` can hold something the query wants.
+    fn enters(&self, b: &Aabb) -> bool;
+    /// Leaf `leaf` (tree order) is reached; true stops the walk.
+    fn leaf(&mut self, leaf: u32) -> bool;
+}
+
+/// Walks a tree of `leaf_count` leaves (nodes and their boxes; node 0 is the root) with an
+/// explicit stack, left child first, offering `query` every leaf under the subtrees it enters.
+/// Returns whether the stack overflowed (subtrees were skipped; the walk goes on without them).
+pub fn walk<Q: TreeQuery>(nodes: &[BvhNode], aabbs: &[Aabb], leaf_count: u32, query: &mut Q) -> bool {
+    if leaf_count == 1 {
+        query.leaf(0);
+        return false;
+    }
+    let mut stack = [0u32; STACK_SIZE];
+    let mut top = 1; // stack[0] = root
+    let mut overflowed = false;
+    while top > 0 {
+        top -= 1;
+        let node = nodes[stack[top] as usize];
+        let mut side = 0;
+        while side < 2 {
+            let child = if side == 0 { node.left } else { node.right };
+            if child & LEAF_BIT != 0 {
+                if query.leaf(child & !LEAF_BIT) {
+                    return overflowed;
+                }
+            } else if query.enters(&aabbs[child as usize]) {
+                if top == STACK_SIZE {
+                    overflowed = true;
+                } else {
+                    stack[top] = child;
+                    top += 1;
+                }
+            }
+            side += 1;
+        }
+    }
+    overflowed
+}
+
 /// Spreads the low 10 bits of `v` to every third bit.
 #[inline]
 pub fn expand_bits(v: u32) -> u32 {

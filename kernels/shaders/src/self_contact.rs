@@ -24,10 +24,11 @@
 //! missed).
 
 use crate::atomics;
-use crate::contact::{STACK_SIZE, reduce_bounds, substep_motion};
+use crate::contact::{reduce_bounds, substep_motion};
+use crate::lbvh::{TreeQuery, walk};
 use crate::pose::{SubstepMotion, to_world};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, LEAF_BIT, SimParams};
+use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, SimParams};
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
 use spirv_std::spirv;
@@ -267,38 +268,46 @@ pub fn walk_overlapping<V: LeafVisitor>(
     (lo, hi): (Vec3, Vec3),
     visitor: &mut V,
 ) -> bool {
-    if leaf_count == 1 {
-        if meets(&leaf_bounds[0], lo, hi) {
-            visitor.visit(0);
-        }
-        return false;
+    walk(nodes, aabbs, leaf_count, &mut Overlapping { leaf_bounds, lo, hi, visitor })
+}
+
+/// `walk_overlapping` without the tree: every leaf in turn, under the same box test (the
+/// baseline the walk must equal).
+pub fn visit_overlapping_brute_force<V: LeafVisitor>(
+    leaf_bounds: &[Aabb],
+    leaf_count: u32,
+    (lo, hi): (Vec3, Vec3),
+    visitor: &mut V,
+) {
+    let mut query = Overlapping { leaf_bounds, lo, hi, visitor };
+    let mut leaf = 0;
+    while leaf < leaf_count {
+        query.leaf(leaf);
+        leaf += 1;
     }
-    let mut stack = [0u32; STACK_SIZE];
-    let mut top = 1; // stack[0] = root
-    let mut overflowed = false;
-    while top > 0 {
-        top -= 1;
-        let node = nodes[stack[top] as usize];
-        let mut side = 0;
-        while side < 2 {
-            let child = if side == 0 { node.left } else { node.right };
-            if child & LEAF_BIT != 0 {
-                let leaf = child & !LEAF_BIT;
-                if meets(&leaf_bounds[leaf as usize], lo, hi) {
-                    visitor.visit(leaf);
-                }
-            } else if meets(&aabbs[child as usize], lo, hi) {
-                if top == STACK_SIZE {
-                    overflowed = true;
-                } else {
-                    stack[top] = child;
-                    top += 1;
-                }
-            }
-            side += 1;
-        }
+}
+
+/// The leaves whose boxes meet a box, handed to a visitor.
+struct Overlapping<'a, V: LeafVisitor> {
+    leaf_bounds: &'a [Aabb],
+    lo: Vec3,
+    hi: Vec3,
+    visitor: &'a mut V,
+}
+
+impl<V: LeafVisitor> TreeQuery for Overlapping<'_, V> {
+    #[inline]
+    fn enters(&self, b: &Aabb) -> bool {
+        meets(b, self.lo, self.hi)
     }
-    overflowed
+
+    #[inline]
+    fn leaf(&mut self, leaf: u32) -> bool {
+        if meets(&self.leaf_bounds[leaf as usize], self.lo, self.hi) {
+            self.visitor.visit(leaf);
+        }
+        false
+    }
 }
 
 /// A particle's pairs with the triangles the walk reaches.
@@ -516,15 +525,9 @@ pub fn self_edge_contact_brute_force_at(
         return;
     }
     let thickness = self_params.thickness;
-    let (lo, hi) = edge_query(ends, (x, x_prev), thickness);
+    let query = edge_query(ends, (x, x_prev), thickness);
     let mut pairs = EdgePairs { edge, ends, sorted, triangle_edges, edges, x, x_prev, thickness, delta };
-    let mut leaf = 0;
-    while leaf < self_params.leaf_count {
-        if meets(&leaf_bounds[leaf as usize], lo, hi) {
-            pairs.visit(leaf);
-        }
-        leaf += 1;
-    }
+    visit_overlapping_brute_force(leaf_bounds, self_params.leaf_count, query, &mut pairs);
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -632,14 +635,10 @@ pub fn self_contact_brute_force_at(
     (x, x_prev): (&[Vec4], &[Vec4]),
     delta: &mut [u32],
 ) {
-    let (lo, hi) = vertex_query(index, (x, x_prev), self_params.thickness);
-    let mut leaf = 0;
-    while leaf < self_params.leaf_count {
-        if meets(&leaf_bounds[leaf as usize], lo, hi) {
-            pair_at(index, sorted[leaf as usize], (x, x_prev), self_params.thickness, delta);
-        }
-        leaf += 1;
-    }
+    let thickness = self_params.thickness;
+    let query = vertex_query(index, (x, x_prev), thickness);
+    let mut pairs = VertexPairs { index, sorted, x, x_prev, thickness, delta };
+    visit_overlapping_brute_force(leaf_bounds, self_params.leaf_count, query, &mut pairs);
 }
 
 /// Particle `index` against the triangle with corners `corners.xyz` (skipped when it is one).
