@@ -7,11 +7,12 @@
 use crate::error::{Error, Result};
 use crate::graph::{Handle, Step};
 use crate::model::{ClothId, ColliderId};
+use crate::motion::ClothMotion;
 use crate::program::SolverProgram;
 use crate::programs::cloth::FramePlan;
 use crate::settings::SimSettings;
-use crate::stability::{SpringProfile, Stability};
-use drape_types::{ColliderParams, ColliderPose, RigidPose, SimParams};
+use crate::stability::{BoundInputs, Stability};
+use drape_types::{ColliderParams, ColliderPose, Health, RigidPose, SimParams};
 use glam::{Quat, Vec3, Vec4};
 
 /// A particle's pin change, applied at the start of the next frame.
@@ -57,11 +58,38 @@ struct ColliderControl {
 /// One cloth's host-side values.
 pub(crate) struct ClothControl {
     pub params: SimParams,
+    /// The substeps the frame runs: the stability bound's, raised for contact (`motion`).
     pub stability: Stability,
-    /// What the stability bound needs of the cloth's springs.
-    profile: SpringProfile,
+    /// The stability bound's choice alone.
+    base_stability: Stability,
+    /// What the stability bound needs of the cloth beyond its parameters.
+    bound: BoundInputs,
+    /// Self-collision thickness (m), if on.
+    self_collision: Option<f32>,
+    pub motion: ClothMotion,
     params_dirty: bool,
     pins: Vec<(u32, PinChange)>,
+}
+
+impl ClothControl {
+    /// Adopts new params and the bound's stability; returns whether the substep count changed.
+    fn adopt(&mut self, params: SimParams, base: Stability, settings: &SimSettings) -> bool {
+        if let Some(warning) = base.warning() {
+            log::warn!("{warning}");
+        }
+        (self.params, self.base_stability) = (params, base);
+        self.apply_contact(settings)
+    }
+
+    /// The base stability raised to what contact needs now; returns whether the count changed.
+    fn apply_contact(&mut self, settings: &SimSettings) -> bool {
+        let stability = settings.with_contact(&self.base_stability, self.motion.contact_substeps);
+        let changed = stability.substeps != self.stability.substeps;
+        self.stability = stability;
+        self.params.substep = stability.substep;
+        self.params_dirty = true;
+        changed
+    }
 }
 
 /// Host-side values of a solver and the writes that publish them.
@@ -69,6 +97,8 @@ pub(crate) struct Controls {
     pub settings: SimSettings,
     pub cloths: Vec<ClothControl>,
     colliders: Vec<ColliderControl>,
+    /// A cloth's schedule changed (substeps, sleep) since the frame was last planned.
+    replan: bool,
 }
 
 fn invalid(name: &'static str, problem: String) -> Error {
@@ -88,16 +118,19 @@ fn non_negative(name: &'static str, values: &[f32]) -> Result<()> {
 
 impl Controls {
     pub fn new(
-        cloths: Vec<(SimParams, Stability, SpringProfile)>,
+        cloths: Vec<(SimParams, Stability, BoundInputs, Option<f32>)>,
         settings: SimSettings,
         colliders: Vec<ColliderStart>,
     ) -> Self {
         let cloths = cloths
             .into_iter()
-            .map(|(params, stability, profile)| ClothControl {
+            .map(|(params, stability, bound, self_collision)| ClothControl {
                 params,
                 stability,
-                profile,
+                base_stability: stability,
+                bound,
+                self_collision,
+                motion: ClothMotion::new(),
                 params_dirty: false,
                 pins: Vec::new(),
             })
@@ -116,12 +149,56 @@ impl Controls {
                 deformed: None,
             })
             .collect();
-        Controls { settings, cloths, colliders }
+        Controls { settings, cloths, colliders, replan: false }
     }
 
     /// Each cloth's frame schedule for the current values.
     pub fn plans(&self) -> Vec<FramePlan> {
-        self.cloths.iter().map(|c| self.settings.plan(&c.params, &c.stability)).collect()
+        self.cloths.iter().map(|c| self.settings.plan(&c.params, &c.stability, c.motion.asleep)).collect()
+    }
+
+    /// Whether the frame must be planned again (a cloth's substeps or sleep changed); clears it.
+    pub fn take_replan(&mut self) -> bool {
+        std::mem::take(&mut self.replan)
+    }
+
+    /// Wakes every cloth (a change that may move them all).
+    pub fn wake_all(&mut self) {
+        for c in &mut self.cloths {
+            self.replan |= c.motion.wake();
+        }
+    }
+
+    /// Puts cloth `index`'s motion history back (a restored state): its substeps and sleep
+    /// follow.
+    pub fn restore_motion(&mut self, index: usize, motion: ClothMotion) {
+        let settings = self.settings;
+        if let Some(c) = self.cloths.get_mut(index) {
+            c.motion = motion;
+            c.apply_contact(&settings);
+            self.replan = true;
+        }
+    }
+
+    /// Wakes one cloth.
+    pub fn wake(&mut self, cloth: ClothId) -> Result<()> {
+        let woke = self.cloth_mut(cloth)?.motion.wake();
+        self.replan |= woke;
+        Ok(())
+    }
+
+    /// After a frame: cloth `index`'s health check (its speed drives contact substeps and sleep).
+    pub fn observe(&mut self, index: usize, health: &Health) {
+        let sleep = self.settings.sleep;
+        if let Some(c) = self.cloths.get_mut(index) {
+            let substep = c.stability.substep;
+            log::trace!(
+                "cloth {index}: fastest particle {} m/s, moving at {} m/s over the last substep",
+                crate::motion::max_speed(health),
+                crate::motion::max_motion(health, substep)
+            );
+            c.motion.observe(health, substep, sleep);
+        }
     }
 
     pub fn cloth(&self, id: ClothId) -> Result<&ClothControl> {
@@ -141,6 +218,7 @@ impl Controls {
             c.params.gravity = gravity.extend(0.0);
             c.params_dirty = true;
         }
+        self.wake_all();
         Ok(())
     }
 
@@ -151,6 +229,7 @@ impl Controls {
             c.params.external_force = force.extend(0.0);
             c.params_dirty = true;
         }
+        self.wake_all();
         Ok(())
     }
 
@@ -177,21 +256,24 @@ impl Controls {
     pub fn set_frame_dt(&mut self, frame_dt: f32) -> Result<bool> {
         let settings = SimSettings { frame_dt, ..self.settings };
         let resolved =
-            self.cloths.iter().map(|c| settings.resolve_params(&c.params, &c.profile)).collect::<Result<Vec<_>>>()?;
+            self.cloths.iter().map(|c| settings.resolve_params(&c.params, &c.bound)).collect::<Result<Vec<_>>>()?;
         let mut changed = false;
         for (c, (params, stability)) in self.cloths.iter_mut().zip(resolved) {
-            changed |= adopt(c, params, stability);
+            changed |= c.adopt(params, stability, &settings);
         }
         self.settings = settings;
+        self.wake_all();
         Ok(changed)
     }
 
     /// Chooses `cloth`'s substep for `params` under `settings` (automatic substeps follow the
     /// stability bound) and adopts both if valid.
     fn restabilise(&mut self, cloth: ClothId, params: SimParams, settings: SimSettings) -> Result<bool> {
-        let profile = &self.cloth(cloth)?.profile;
-        let (resolved, stability) = settings.resolve_params(&params, profile)?;
-        Ok(adopt(self.cloth_mut(cloth)?, resolved, stability))
+        let bound = &self.cloth(cloth)?.bound;
+        let (resolved, stability) = settings.resolve_params(&params, bound)?;
+        let changed = self.cloth_mut(cloth)?.adopt(resolved, stability, &settings);
+        self.wake(cloth)?;
+        Ok(changed)
     }
 
     fn collider(&mut self, id: ColliderId) -> Result<&mut ColliderControl> {
@@ -205,6 +287,7 @@ impl Controls {
         c.params.thickness = checked.thickness;
         c.params.friction = checked.friction;
         c.params_dirty = true;
+        self.wake_all();
         Ok(())
     }
 
@@ -271,12 +354,12 @@ impl Controls {
         }
         let c = self.particle_of(cloth, particle)?;
         c.pins.push((particle, at.map_or(PinChange::Here, PinChange::At)));
-        Ok(())
+        self.wake(cloth)
     }
 
     pub fn unpin(&mut self, cloth: ClothId, particle: u32) -> Result<()> {
         self.particle_of(cloth, particle)?.pins.push((particle, PinChange::Unpin));
-        Ok(())
+        self.wake(cloth)
     }
 
     fn particle_of(&mut self, cloth: ClothId, particle: u32) -> Result<&mut ClothControl> {
@@ -296,6 +379,7 @@ impl Controls {
     /// The writes (and refits) the next frame starts with; empty when nothing changed. Marks
     /// everything published.
     pub fn begin_frame(&mut self, program: &SolverProgram) -> Vec<Step> {
+        self.plan_motion();
         let mut steps = Vec::new();
         for (c, buffers) in self.cloths.iter_mut().zip(&program.cloths) {
             if std::mem::take(&mut c.params_dirty) {
@@ -333,16 +417,58 @@ impl Controls {
         }
         steps
     }
+
+    /// Each cloth's contact substeps and sleep for the frame about to run (`motion`), from the
+    /// last frame's speeds and the colliders' motion this frame.
+    fn plan_motion(&mut self) {
+        let settings = self.settings;
+        let collider_speed = self.colliders.iter().map(|c| c.surface_speed(settings.frame_dt)).fold(0.0, f32::max);
+        // Triangle contact sweeps each particle's path against the moving triangles (CCD): any
+        // substep length is safe. Sphere contact and self-collision test proximity at substep
+        // ends only.
+        let collider_thickness =
+            self.colliders.iter().filter(|c| c.deformable.0 == "spheres").map(|c| c.params.thickness).reduce(f32::min);
+        for c in &mut self.cloths {
+            let thickness = [collider_thickness, c.self_collision].into_iter().flatten().reduce(f32::min);
+            let change = c.motion.plan_frame(thickness, collider_speed, settings.frame_dt, settings.sleep);
+            if change.substeps {
+                self.replan |= c.apply_contact(&settings);
+                log::debug!(
+                    "contact needs {} substeps per frame: running {} (stability bound {})",
+                    c.motion.contact_substeps,
+                    c.stability.substeps,
+                    c.base_stability.substeps
+                );
+            }
+            if change.sleep {
+                log::debug!("cloth {}", if c.motion.asleep { "falls asleep" } else { "wakes" });
+            }
+            self.replan |= change.sleep;
+        }
+    }
 }
 
-/// Adopts a cloth's new params and stability; returns whether its substep count changed.
-fn adopt(c: &mut ClothControl, params: SimParams, stability: Stability) -> bool {
-    if let Some(warning) = stability.warning() {
-        log::warn!("{warning}");
+impl ColliderControl {
+    /// The fastest point of the collider's surface over the coming frame (m/s): its rigid
+    /// motion from the last frame's end to the target pose, plus its deformation.
+    fn surface_speed(&self, frame_dt: f32) -> f32 {
+        let (from, to) = (self.end_of_last_frame, self.target);
+        let moved = (to.translation - from.translation).truncate().length();
+        let turn = Quat::from_vec4(to.rotation) * Quat::from_vec4(from.rotation).conjugate();
+        let angle = 2.0 * turn.w.abs().min(1.0).acos();
+        let deformed = self.deformed.as_ref().map_or(0.0, |next| {
+            next.iter()
+                .zip(&self.current)
+                .map(|(a, b)| (a.truncate() - b.truncate()).length() + (a.w - b.w).abs())
+                .fold(0.0, f32::max)
+        });
+        if moved == 0.0 && angle == 0.0 && deformed == 0.0 {
+            return 0.0;
+        }
+        // Rotation moves a point at distance r from the collider's origin by r x angle.
+        let radius = self.current.iter().map(|c| c.truncate().length() + c.w.max(0.0)).fold(0.0, f32::max);
+        (moved + angle * radius + deformed) / frame_dt
     }
-    let changed = stability.substeps != c.stability.substeps;
-    (c.params, c.stability, c.params_dirty) = (params, stability, true);
-    changed
 }
 
 fn no_such(kind: &str, index: usize, count: usize) -> Error {
@@ -492,9 +618,15 @@ macro_rules! runtime_setters {
                 Ok(&self.controls.cloth(cloth)?.params)
             }
 
-            /// `cloth`'s stability bound and substeps.
+            /// `cloth`'s stability bound and substeps (the next frame's: raised while contact
+            /// needs more, `motion`).
             pub fn stability(&self, cloth: $crate::ClothId) -> $crate::Result<&$crate::Stability> {
                 Ok(&self.controls.cloth(cloth)?.stability)
+            }
+
+            /// Whether `cloth` sleeps (its frames run nothing until something wakes it).
+            pub fn asleep(&self, cloth: $crate::ClothId) -> $crate::Result<bool> {
+                Ok(self.controls.cloth(cloth)?.motion.asleep)
             }
 
             pub fn settings(&self) -> &$crate::SimSettings {

@@ -37,12 +37,18 @@ impl CpuSolver {
     /// Runs one frame; `Error::Unstable` on blow-up, like the GPU.
     pub fn step(&mut self) -> Result<()> {
         let leading = self.controls.begin_frame(&self.program);
+        let replan = self.controls.take_replan();
+        self.replan(replan)?;
         self.executor.run(&leading)?;
         self.executor.run(&self.program.frame)?;
         self.frames_done += 1;
         for (i, (cloth, contacts)) in self.program.cloths.iter().zip(&self.program.contacts).enumerate() {
+            if self.controls.cloths[i].motion.asleep {
+                continue;
+            }
             let health: Health = self.executor.read(cloth.health, 1)?[0];
             check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i].stability)?;
+            self.controls.observe(i, &health);
             for contact in contacts {
                 check_collision(&self.executor.read(contact.status, 1)?[0], self.frames_done)?;
             }
@@ -74,6 +80,7 @@ impl CpuSolver {
     /// Teleports `cloth` (see `Solver::teleport`).
     pub fn teleport(&mut self, cloth: ClothId, positions: &[glam::Vec3], velocities: &[glam::Vec3]) -> Result<()> {
         let (x, v) = teleported(&self.positions(cloth)?, positions, velocities)?;
+        self.controls.wake(cloth)?;
         let b = &self.program.cloths[cloth.index()];
         self.executor.upload(b.x, &x)?;
         self.executor.upload(b.v, &v)

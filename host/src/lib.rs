@@ -52,6 +52,7 @@ pub mod error;
 pub mod mesh;
 pub mod metrics;
 mod model;
+pub mod motion;
 pub mod obj;
 mod program;
 pub mod scenes;
@@ -71,6 +72,7 @@ pub use gpu::{AllocatorStats, Context, DeviceInfo, ExternalDevice, FrameTimings,
 pub use lbvh::Lbvh;
 pub use mesh::Mesh;
 pub use model::{ClothId, Collider, ColliderId, ColliderShape, ContactSearch, Model, ModelBuilder, rigid_pose};
+pub use motion::Sleep;
 pub use settings::{Integrator, SimSettings};
 pub use solver::{FrameReport, MemoryReport, Solver, VertexBuffers};
 pub use stability::Stability;

@@ -127,6 +127,14 @@ struct Args {
     /// the same cloth, to measure one path against the other.
     #[arg(long, conflicts_with = "cloth_mesh")]
     listed_springs: bool,
+    /// Put the cloth to sleep (its frames run nothing until something wakes it) once its fastest
+    /// particle has moved slower than this (m/s) for 30 frames, in [0, 10]; 0 = never.
+    #[arg(long, default_value_t = drape::Sleep::default().speed, value_parser = parse_sleep, allow_hyphen_values = true)]
+    sleep: f32,
+    /// Raise automatic substeps so no particle moves more than the contact thickness per
+    /// substep (from the last frame's fastest particle and the colliders' motion).
+    #[arg(long, value_enum, default_value = "on")]
+    contact_substeps: OnOff,
     /// Frames to simulate (1/60 s each).
     #[arg(long, default_value_t = SETTLE_FRAMES, value_parser = clap::value_parser!(u32).range(1..))]
     frames: u32,
@@ -273,6 +281,10 @@ fn number_in(text: &str, lo: f32, hi: f32, open_low: bool) -> Result<f32, String
 
 fn parse_thickness(text: &str) -> Result<f32, String> {
     number_in(text, 0.0, 0.5, true)
+}
+
+fn parse_sleep(text: &str) -> Result<f32, String> {
+    number_in(text, 0.0, 10.0, false)
 }
 
 fn parse_friction(text: &str) -> Result<f32, String> {
@@ -440,7 +452,9 @@ fn run(args: &Args) -> drape::Result<()> {
             IntegratorArg::Euler => Integrator::SemiImplicitEuler,
         })
         .with_normals(!args.no_normals)
-        .with_timestamps(!args.no_timestamps);
+        .with_timestamps(!args.no_timestamps)
+        .with_contact_substeps(args.contact_substeps == OnOff::On)
+        .with_sleep((args.sleep > 0.0).then(|| drape::Sleep { speed: args.sleep, ..drape::Sleep::default() }));
     let collider = match &mut scene {
         Some(s) => {
             s.thickness = args.thickness;
@@ -496,13 +510,22 @@ fn run(args: &Args) -> drape::Result<()> {
     let mut report = TimingReport::default();
     let (mut ran, mut skipped, mut fallbacks) = (0, 0, 0u64);
     let body = model.collider_ids().next();
+    let mut schedule = Schedule::default();
     for frame in 1..=args.frames {
         if let (SceneArg::Garment, Some(body)) = (args.scene, body) {
             sim.set_collider_pose(body, drape::scenes::garment_rotation(frame as f32 / 60.0), Vec3::ZERO)?;
         }
         let start = Instant::now();
         let r = sim.step_report()?;
-        report.add(&r.timings, start.elapsed());
+        let asleep = r.cloths_asleep > 0;
+        // The substeps the frame ran (its start may have raised them for contact).
+        schedule.record(sim.stability(cloth)?.substeps, asleep, frame);
+        // Sleeping frames run nothing: timed apart, so the table shows what awake frames cost.
+        if asleep {
+            schedule.asleep_wall_ms.push(start.elapsed().as_secs_f64() * 1e3);
+        } else {
+            report.add(&r.timings, start.elapsed());
+        }
         ran += r.collision_ran;
         skipped += r.collision_skipped;
         fallbacks += u64::from(r.collision_fallbacks);
@@ -538,6 +561,7 @@ fn run(args: &Args) -> drape::Result<()> {
         println!("\nGPU time per kernel (timestamp queries, median over frames):");
         print!("{}", report.table());
     }
+    schedule.print(sim.stability(cloth)?.bound_substeps, args.frames, report.median_wall_ms());
     if let Some(c) = &collider {
         println!("collision traversal: ran in {ran} substeps, culled (cloth cannot touch) in {skipped}");
         if c.search == ContactSearch::CandidateLists {
@@ -663,6 +687,7 @@ fn print_setup(
         s.ratio,
         if args.substeps.is_none() { format!(" (auto, safety {})", settings.safety) } else { String::new() }
     );
+    println!("  bound from {} (Gershgorin: omega_max {:.0} rad/s)", s.source, s.omega_gershgorin);
     if let Some(w) = s.warning() {
         eprintln!("warning: {w}");
     }
@@ -719,5 +744,49 @@ fn progress(frame: u32, total: u32) {
 fn end_progress_line() {
     if PROGRESS_ON_LINE.swap(false, std::sync::atomic::Ordering::Relaxed) {
         eprintln!();
+    }
+}
+
+/// What the frames ran: substeps per frame (raised for contact, `drape::motion`) and sleep.
+#[derive(Default)]
+struct Schedule {
+    substeps: Vec<u32>,
+    asleep: u32,
+    first_asleep: Option<u32>,
+    asleep_wall_ms: Vec<f64>,
+}
+
+impl Schedule {
+    fn record(&mut self, substeps: u32, asleep: bool, frame: u32) {
+        if asleep {
+            self.asleep += 1;
+            self.first_asleep.get_or_insert(frame);
+        } else {
+            self.substeps.push(substeps);
+        }
+    }
+
+    fn print(&self, bound: u32, frames: u32, awake_median_ms: f64) {
+        let mut sorted = self.substeps.clone();
+        sorted.sort_unstable();
+        if let (Some(lo), Some(hi)) = (sorted.first(), sorted.last()) {
+            let raised = sorted.iter().filter(|&&n| n > bound).count();
+            println!(
+                "substeps per awake frame: min {lo}, median {}, max {hi} (stability bound {bound}; raised for contact in {raised} frames)",
+                sorted[sorted.len() / 2]
+            );
+        }
+        match self.first_asleep {
+            Some(first) => {
+                let asleep_ms = drape::timing::median(&self.asleep_wall_ms);
+                println!(
+                    "sleeping: {} of {frames} frames ran nothing (first asleep at frame {first}); wall time of a \
+                     sleeping frame: median {asleep_ms:.3} ms, {:.4}x an awake frame's median",
+                    self.asleep,
+                    asleep_ms / awake_median_ms
+                )
+            }
+            None => println!("sleeping: the cloth never slept"),
+        }
     }
 }

@@ -7,6 +7,7 @@ use crate::cloth::Cloth;
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
 use crate::settings::SimSettings;
+use crate::stability::BoundInputs;
 use drape_types::{ColliderParams, RigidPose};
 use glam::{Vec3, Vec4};
 
@@ -198,13 +199,14 @@ impl ModelBuilder {
                 problem: "it has no cloth; add one with `ModelBuilder::add_cloth`".into(),
             });
         }
+        let mut bounds = Vec::new();
         for cloth in &self.cloths {
-            self.settings.resolve(cloth)?;
+            bounds.push(self.settings.resolve(cloth)?.2);
         }
         for c in &self.colliders {
             c.params()?;
         }
-        Ok(Model { cloths: self.cloths.clone(), colliders: self.colliders.clone(), settings: self.settings })
+        Ok(Model { cloths: self.cloths.clone(), colliders: self.colliders.clone(), settings: self.settings, bounds })
     }
 }
 
@@ -215,6 +217,9 @@ pub struct Model {
     cloths: Vec<Cloth>,
     colliders: Vec<Collider>,
     settings: SimSettings,
+    /// Each cloth's stability inputs, holding the spectrum estimated when the model was built
+    /// (solvers of the model start from it instead of estimating again).
+    bounds: Vec<BoundInputs>,
 }
 
 impl Model {
@@ -235,6 +240,10 @@ impl Model {
 
     pub fn cloths(&self) -> &[Cloth] {
         &self.cloths
+    }
+    /// Each cloth's stability inputs.
+    pub(crate) fn bounds(&self) -> &[BoundInputs] {
+        &self.bounds
     }
     pub fn colliders(&self) -> &[Collider] {
         &self.colliders

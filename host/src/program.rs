@@ -12,7 +12,6 @@ use crate::programs::contact::{ColliderBuffers, ColliderLeaves, ContactBuffers, 
 use crate::programs::self_contact::SelfContactBuffers;
 use crate::programs::spheres::SphereBvh;
 use crate::programs::triangles::TriangleBvh;
-use crate::stability::SpringProfile;
 use drape_types::{ColliderParams, ColliderPose, RigidPose};
 
 pub(crate) struct SolverProgram {
@@ -46,15 +45,15 @@ impl SolverProgram {
     pub fn with_controls(model: &Model) -> Result<(Self, Controls)> {
         let settings = *model.settings();
         let mut resolved = Vec::new();
-        for cloth in model.cloths() {
-            let (params, stability) = settings.resolve(cloth)?;
-            resolved.push((params, stability, SpringProfile::of(cloth)));
+        for (cloth, bound) in model.cloths().iter().zip(model.bounds()) {
+            let (params, stability) = settings.resolve_params(&cloth.params, bound)?;
+            resolved.push((params, stability, bound.clone(), cloth.self_collision));
         }
         let mut resources = Resources::new();
         let bytes = |data: &[glam::Vec4]| bytemuck::cast_slice::<_, u8>(data).to_vec();
         let mut initial = Vec::new();
         let mut cloths = Vec::new();
-        for (i, (cloth, (params, _, _))) in model.cloths().iter().zip(&resolved).enumerate() {
+        for (i, (cloth, (params, _, _, _))) in model.cloths().iter().zip(&resolved).enumerate() {
             let triangles = &cloth.triangles;
             let b = ClothBuffers::declare(&mut resources, &numbered("cloth", i), cloth);
             if let (Some(list), ClothTopology::Springs(topology)) = (&b.springs, &cloth.topology) {

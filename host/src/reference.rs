@@ -37,7 +37,7 @@ impl ReferenceCloth {
         let p = &cloth.params;
         let x: Vec<DVec3> = cloth.positions.iter().map(|q| q.truncate().as_dvec3()).collect();
         let (springs, masses) = match &cloth.topology {
-            ClothTopology::Grid => (grid_springs(cloth, &x), vec![p.particle_mass as f64; x.len()]),
+            ClothTopology::Grid => (grid_springs(cloth), vec![p.particle_mass as f64; x.len()]),
             ClothTopology::Springs(topology) => {
                 let mut springs = Vec::new();
                 for (a, particle) in topology.particles.iter().enumerate() {
@@ -128,6 +128,52 @@ impl ReferenceCloth {
         }
     }
 
+    /// The stiffest mode's angular frequency (rad/s) and the largest damping rate (1/s) of the
+    /// cloth linearised at its current state: the largest eigenvalues of M^-1/2 K M^-1/2 and
+    /// M^-1/2 C M^-1/2 over the free particles, from the exact f64 spring Hessians by a dense
+    /// Jacobi eigen-solve. O(n^3): for checking the solver's estimate on small cloths.
+    pub fn stiffest_modes(&self) -> (f64, f64) {
+        let free: Vec<usize> = (0..self.x.len()).filter(|&i| self.free[i]).collect();
+        let mut slot = vec![usize::MAX; self.x.len()];
+        for (k, &i) in free.iter().enumerate() {
+            slot[i] = k;
+        }
+        let n = 3 * free.len();
+        let (mut stiffness, mut damping) = (vec![0.0; n * n], vec![0.0; n * n]);
+        for i in &free {
+            let diagonal = self.velocity_damping / self.mean_mass;
+            for r in 0..3 {
+                damping[(3 * slot[*i] + r) * n + 3 * slot[*i] + r] += diagonal;
+            }
+        }
+        for s in &self.springs {
+            let d = self.x[s.b] - self.x[s.a];
+            let len = d.length();
+            if len < 1e-12 {
+                continue;
+            }
+            let u = d / len;
+            let along = glam::DMat3::from_cols(u * u.x, u * u.y, u * u.z);
+            let block_k = along * s.k + (glam::DMat3::IDENTITY - along) * (s.k * (1.0 - s.rest / len));
+            let block_c = along * self.spring_damping;
+            for (a, b, sign) in [(s.a, s.a, 1.0), (s.b, s.b, 1.0), (s.a, s.b, -1.0), (s.b, s.a, -1.0)] {
+                if slot[a] == usize::MAX || slot[b] == usize::MAX {
+                    continue;
+                }
+                let scale = sign / (self.masses[a] * self.masses[b]).sqrt();
+                for r in 0..3 {
+                    for c in 0..3 {
+                        let at = (3 * slot[a] + r) * n + 3 * slot[b] + c;
+                        stiffness[at] += block_k.col(c)[r] * scale;
+                        damping[at] += block_c.col(c)[r] * scale;
+                    }
+                }
+            }
+        }
+        let top = |m: Vec<f64>| symmetric_eigenvalues(m, n).into_iter().fold(0.0, f64::max);
+        (top(stiffness).sqrt(), top(damping))
+    }
+
     /// Total energy (J): kinetic + gravitational + spring potential (no external force).
     pub fn energy(&self) -> f64 {
         energy_of(self, &self.x, &self.v)
@@ -135,8 +181,9 @@ impl ReferenceCloth {
 }
 
 /// Each spring of a grid cloth once (offsets with a positive first non-zero component), rest
-/// lengths from the f64 positions `x`.
-fn grid_springs(cloth: &Cloth, x: &[DVec3]) -> Vec<Spring> {
+/// lengths from the cloth's parameters (as the kernels take them; a grid placed stretched
+/// starts under tension).
+fn grid_springs(cloth: &Cloth) -> Vec<Spring> {
     let p = &cloth.params;
     let (rows, cols) = (p.rows as i64, p.cols as i64);
     let mut springs = Vec::new();
@@ -156,7 +203,9 @@ fn grid_springs(cloth: &Cloth, x: &[DVec3]) -> Vec<Spring> {
                     continue;
                 }
                 let (a, b) = ((r * cols + c) as usize, (r2 * cols + c2) as usize);
-                springs.push(Spring { a, b, k: k as f64, rest: (x[b] - x[a]).length() });
+                let offset = drape_kernels::cloth::SpringOffset { d_row: dr as i32, d_col: dc as i32, family: 0 };
+                let rest = drape_kernels::cloth::rest_length(p, offset) as f64;
+                springs.push(Spring { a, b, k: k as f64, rest });
             }
         }
     }
@@ -183,4 +232,62 @@ pub fn energy(cloth: &Cloth, x: &[glam::Vec4], v: &[glam::Vec4]) -> f64 {
     let xs: Vec<DVec3> = x.iter().map(|q| q.truncate().as_dvec3()).collect();
     let vs: Vec<DVec3> = v.iter().map(|q| q.truncate().as_dvec3()).collect();
     energy_of(&reference, &xs, &vs)
+}
+
+/// Eigenvalues of the symmetric `n x n` matrix `a` (row-major) by cyclic Jacobi rotations.
+fn symmetric_eigenvalues(mut a: Vec<f64>, n: usize) -> Vec<f64> {
+    for _sweep in 0..100 {
+        let off: f64 = (0..n).flat_map(|r| (0..n).filter(move |&c| c != r).map(move |c| (r, c))).map(|(r, c)| a[r * n + c].powi(2)).sum();
+        let scale: f64 = (0..n).map(|i| a[i * n + i].powi(2)).sum::<f64>().max(f64::MIN_POSITIVE);
+        if off <= 1e-24 * scale {
+            break;
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                let apq = a[p * n + q];
+                if apq.abs() < 1e-300 {
+                    continue;
+                }
+                let theta = (a[q * n + q] - a[p * n + p]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let (c, s) = (1.0 / (t * t + 1.0).sqrt(), t / (t * t + 1.0).sqrt());
+                for k in 0..n {
+                    let (akp, akq) = (a[k * n + p], a[k * n + q]);
+                    a[k * n + p] = c * akp - s * akq;
+                    a[k * n + q] = s * akp + c * akq;
+                }
+                for k in 0..n {
+                    let (apk, aqk) = (a[p * n + k], a[q * n + k]);
+                    a[p * n + k] = c * apk - s * aqk;
+                    a[q * n + k] = s * apk + c * aqk;
+                }
+            }
+        }
+    }
+    (0..n).map(|i| a[i * n + i]).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::symmetric_eigenvalues;
+
+    #[test]
+    fn jacobi_finds_a_laplacians_eigenvalues() {
+        let n = 12;
+        let mut a = vec![0.0; n * n];
+        for i in 0..n {
+            a[i * n + i] = 2.0;
+            if i + 1 < n {
+                a[i * n + i + 1] = -1.0;
+                a[(i + 1) * n + i] = -1.0;
+            }
+        }
+        let mut found = symmetric_eigenvalues(a, n);
+        found.sort_by(f64::total_cmp);
+        for (j, value) in found.iter().enumerate() {
+            let truth = 2.0 - 2.0 * (std::f64::consts::PI * (j + 1) as f64 / (n + 1) as f64).cos();
+            assert!((value - truth).abs() < 1e-10, "{j}: {value} vs {truth}");
+        }
+    }
 }

@@ -2,8 +2,9 @@
 
 use crate::cloth::Cloth;
 use crate::error::{Error, Result};
+use crate::motion::Sleep;
 use crate::programs::cloth::FramePlan;
-use crate::stability::{self, DEFAULT_SAFETY, SpringProfile, Stability};
+use crate::stability::{self, BoundInputs, DEFAULT_SAFETY, Stability};
 use drape_types::{Health, SimParams, integrator};
 
 /// Time integration scheme.
@@ -43,6 +44,11 @@ pub struct SimSettings {
     pub max_stretch: f32,
     /// Time every pass with GPU timestamp queries (costs ~tens of µs per pass on lavapipe).
     pub timestamps: bool,
+    /// Automatic substeps are also enough that no particle moves more than the contact
+    /// thickness per substep (`motion`); no effect on a cloth without contact.
+    pub contact_substeps: bool,
+    /// When a still cloth stops running (`None`: never).
+    pub sleep: Option<Sleep>,
 }
 
 impl Default for SimSettings {
@@ -55,6 +61,8 @@ impl Default for SimSettings {
             normals: true,
             max_stretch: 10.0,
             timestamps: true,
+            contact_substeps: true,
+            sleep: Some(Sleep::default()),
         }
     }
 }
@@ -94,6 +102,17 @@ impl SimSettings {
         self.timestamps = timestamps;
         self
     }
+    /// Raise automatic substeps so no particle moves more than the contact thickness per
+    /// substep.
+    pub fn with_contact_substeps(mut self, on: bool) -> Self {
+        self.contact_substeps = on;
+        self
+    }
+    /// When a still cloth sleeps (`None`: never).
+    pub fn with_sleep(mut self, sleep: Option<Sleep>) -> Self {
+        self.sleep = sleep;
+        self
+    }
 
     /// The stability bound of `cloth` and the substeps these settings choose for it (what a
     /// solver of a model with this cloth will use), or why the settings do not fit it.
@@ -101,8 +120,9 @@ impl SimSettings {
         Ok(self.resolve(cloth)?.1)
     }
 
-    /// Checks the settings and chooses the substep for `cloth`; returns the params to upload.
-    pub(crate) fn resolve(&self, cloth: &Cloth) -> Result<(SimParams, Stability)> {
+    /// Checks the settings and chooses the substep for `cloth`; returns the params to upload
+    /// and what later bounds of the cloth need.
+    pub(crate) fn resolve(&self, cloth: &Cloth) -> Result<(SimParams, Stability, BoundInputs)> {
         let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
         let n = cloth.params.particle_count as usize;
         if cloth.positions.len() != n || cloth.velocities.len() != n {
@@ -123,11 +143,13 @@ impl SimSettings {
         if !cloth.positions.iter().chain(&cloth.velocities).all(|p| p.is_finite()) {
             return bad("cloth", "positions and velocities must be finite".into());
         }
-        self.resolve_params(&cloth.params, &SpringProfile::of(cloth))
+        let inputs = BoundInputs::of(cloth);
+        let (params, stability) = self.resolve_params(&cloth.params, &inputs)?;
+        Ok((params, stability, inputs))
     }
 
     /// Checks the settings and chooses the substep for a cloth's `params`.
-    pub(crate) fn resolve_params(&self, params: &SimParams, profile: &SpringProfile) -> Result<(SimParams, Stability)> {
+    pub(crate) fn resolve_params(&self, params: &SimParams, inputs: &BoundInputs) -> Result<(SimParams, Stability)> {
         let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
         if !(self.frame_dt.is_finite() && self.frame_dt > 0.0) {
             return bad("frame_dt", format!("must be finite and > 0, got {}", self.frame_dt));
@@ -142,7 +164,7 @@ impl SimSettings {
             return bad("max_stretch", format!("must be > 1, got {}", self.max_stretch));
         }
         let stability =
-            stability::choose_for(params, profile, self.integrator.id(), self.frame_dt, self.substeps, self.safety);
+            stability::choose_for(params, inputs, self.integrator.id(), self.frame_dt, self.substeps, self.safety);
         if stability.substeps > 100_000 {
             return bad(
                 "stiffness/mass",
@@ -159,8 +181,18 @@ impl SimSettings {
     }
 
     /// The frame schedule for these settings.
-    pub(crate) fn plan(&self, params: &SimParams, stability: &Stability) -> FramePlan {
-        FramePlan { substeps: stability.substeps, integrator: params.integrator, normals: self.normals }
+    pub(crate) fn plan(&self, params: &SimParams, stability: &Stability, asleep: bool) -> FramePlan {
+        FramePlan { substeps: stability.substeps, integrator: params.integrator, normals: self.normals, asleep }
+    }
+
+    /// `base` (the stability bound's choice) raised to the substeps contact needs, when
+    /// substeps are automatic and contact substeps are on.
+    pub(crate) fn with_contact(&self, base: &Stability, contact_substeps: u32) -> Stability {
+        if self.substeps.is_some() || !self.contact_substeps || contact_substeps <= base.substeps {
+            return *base;
+        }
+        let substep = self.frame_dt / contact_substeps as f32;
+        Stability { substeps: contact_substeps, substep, ratio: substep / base.max_substep, ..*base }
     }
 }
 

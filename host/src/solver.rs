@@ -27,6 +27,8 @@ pub struct FrameReport {
     /// Particle-substeps whose candidate list did not cover their motion, answered by a full
     /// LBVH walk instead (`ContactSearch::CandidateLists`).
     pub collision_fallbacks: u32,
+    /// Cloths that slept through the frame (ran nothing).
+    pub cloths_asleep: u32,
 }
 
 /// Frames recorded into callers' command buffers whose status can be pending at once.
@@ -93,6 +95,8 @@ impl Solver {
     /// Runs one frame; returns its timings and collision counters.
     pub fn step_report(&mut self) -> Result<FrameReport> {
         let leading = self.controls.begin_frame(&self.program);
+        let replan = self.controls.take_replan();
+        self.replan(replan)?;
         if !leading.is_empty() || self.own_frame_stale {
             let mut writes = self.engine.encode(self.frame.bindings(), &leading)?;
             if !writes.is_empty() {
@@ -107,8 +111,13 @@ impl Solver {
         self.frames_checked = self.frames_done;
         let mut report = FrameReport { timings, ..FrameReport::default() };
         for (i, (cloth, contacts)) in self.program.cloths.iter().zip(&self.program.contacts).enumerate() {
+            if self.controls.cloths[i].motion.asleep {
+                report.cloths_asleep += 1;
+                continue; // nothing ran: its status buffers hold its last awake frame's
+            }
             let health: Health = self.engine.read_mapped(cloth.health)?;
             check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i].stability)?;
+            self.controls.observe(i, &health);
             for contact in contacts {
                 let status: CollisionStatus = self.engine.read_mapped(contact.status)?;
                 check_collision(&status, self.frames_done)?;
@@ -145,6 +154,8 @@ impl Solver {
     pub unsafe fn record(&mut self, cmd: ash::vk::CommandBuffer) -> Result<()> {
         self.poll_status()?;
         let leading = self.controls.begin_frame(&self.program);
+        let replan = self.controls.take_replan();
+        self.replan(replan)?;
         let mut writes = self.engine.encode(self.frame.bindings(), &leading)?;
         if !writes.is_empty() {
             writes.push(Command::Barrier);
@@ -182,8 +193,10 @@ impl Solver {
             let mut chunks = bytes.as_chunks::<16>().0.iter().map(|c| c.as_slice());
             for (i, contacts) in self.program.contacts.iter().enumerate() {
                 if let Some(health) = chunks.next() {
+                    let health: Health = bytemuck::pod_read_unaligned(health);
                     let stability = &self.controls.cloths[i].stability;
-                    check_health(&bytemuck::pod_read_unaligned(health), frame, i, &self.controls.settings, stability)?;
+                    check_health(&health, frame, i, &self.controls.settings, stability)?;
+                    self.controls.observe(i, &health);
                 }
                 for status in contacts.iter().filter_map(|_| chunks.next()) {
                     check_collision(&bytemuck::pod_read_unaligned(status), frame)?;
@@ -231,7 +244,8 @@ impl Solver {
         State::read(&self.program, &self.controls, |buffer, n| self.engine.download(buffer, n))
     }
     /// Restores a state (e.g. one `state` returned): every cloth's positions (with their pin
-    /// weights) and velocities are uploaded at once; the colliders are put at their poses
+    /// weights) and velocities are uploaded at once, and its motion history (substeps, sleep)
+    /// comes back with them; the colliders are put at their poses
     /// without sweeping there.
     pub fn set_state(&mut self, state: &State) -> Result<()> {
         let engine = &mut self.engine;
@@ -281,6 +295,7 @@ impl Solver {
     pub fn teleport(&mut self, cloth: ClothId, positions: &[glam::Vec3], velocities: &[glam::Vec3]) -> Result<()> {
         let old = self.positions(cloth)?;
         let (x, v) = teleported(&old, positions, velocities)?;
+        self.controls.wake(cloth)?;
         let b = &self.program.cloths[cloth.index()];
         self.engine.upload(b.x, &x)?;
         self.engine.upload(b.v, &v)

@@ -1,5 +1,5 @@
-//! What changes while a solver runs, as values: every cloth's positions and velocities and
-//! every collider's pose. The live state stays on the GPU (the solver's vertex buffers); a
+//! What changes while a solver runs, as values: every cloth's positions, velocities and motion
+//! history (its substeps and sleep) and every collider's pose. The live state stays on the GPU (the solver's vertex buffers); a
 //! `State` is read with `Solver::state` and restored with `Solver::set_state` (checkpoints,
 //! rewinds, a scene reset, the same start on the GPU and the CPU twin).
 
@@ -7,6 +7,7 @@ use crate::controls::Controls;
 use crate::error::{Error, Result};
 use crate::graph::Handle;
 use crate::model::ColliderId;
+use crate::motion::ClothMotion;
 use crate::program::SolverProgram;
 use drape_types::RigidPose;
 use glam::Vec4;
@@ -19,6 +20,8 @@ pub struct ClothState {
     pub positions: Vec<Vec4>,
     /// xyz velocity (m/s), w = 0.
     pub velocities: Vec<Vec4>,
+    /// Its motion history (the substeps contact needs, sleep).
+    pub motion: ClothMotion,
 }
 
 /// A solver's state: index `i` of `cloths` is `ClothId` i, of `collider_poses` `ColliderId` i.
@@ -41,9 +44,10 @@ impl State {
         let cloths = program
             .cloths
             .iter()
-            .map(|b| {
+            .zip(&controls.cloths)
+            .map(|(b, c)| {
                 let n = b.particles as usize;
-                Ok(ClothState { positions: read(b.x, n)?, velocities: read(b.v, n)? })
+                Ok(ClothState { positions: read(b.x, n)?, velocities: read(b.v, n)?, motion: c.motion.clone() })
             })
             .collect::<Result<_>>()?;
         Ok(State { cloths, collider_poses: controls.collider_poses() })
@@ -58,9 +62,10 @@ impl State {
         mut upload: impl FnMut(Handle<Vec4>, &[Vec4]) -> Result<()>,
     ) -> Result<()> {
         self.check(program)?;
-        for (cloth, b) in self.cloths.iter().zip(&program.cloths) {
+        for (i, (cloth, b)) in self.cloths.iter().zip(&program.cloths).enumerate() {
             upload(b.x, &cloth.positions)?;
             upload(b.v, &cloth.velocities)?;
+            controls.restore_motion(i, cloth.motion.clone());
         }
         for (i, pose) in self.collider_poses.iter().enumerate() {
             controls.teleport_collider(ColliderId(i), *pose)?;

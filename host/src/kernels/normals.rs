@@ -44,6 +44,7 @@ pub static CHECK_HEALTH_SPRINGS: Kernel = Kernel {
             BindingSpec::read("params"),
             BindingSpec::read("x"),
             BindingSpec::read("v"),
+            BindingSpec::read("x_prev"),
             BindingSpec::read("particles"),
             BindingSpec::read("springs"),
             BindingSpec::write("health"),
@@ -61,6 +62,7 @@ pub static CHECK_HEALTH: Kernel = Kernel {
             BindingSpec::read("params"),
             BindingSpec::read("x"),
             BindingSpec::read("v"),
+            BindingSpec::read("x_prev"),
             BindingSpec::write("health"),
         ],
         push_constant_size: 0,
@@ -82,11 +84,11 @@ fn normals_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn health_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [params, x, v, health] = d.bindings()?;
+    let [params, x, v, x_prev, health] = d.bindings()?;
     let p: SimParams = params.first()?;
     let health = health.first_mut::<Health>()?;
     for i in 0..threads.min(p.particle_count) {
-        check_health_at(&p, i, x.slice(), v.slice(), health);
+        check_health_at(&p, i, x.slice(), v.slice(), x_prev.slice(), health);
     }
     Ok(())
 }
@@ -105,12 +107,12 @@ fn mesh_normals_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn health_springs_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [params, x, v, particles, springs, health] = d.bindings()?;
+    let [params, x, v, x_prev, particles, springs, health] = d.bindings()?;
     let p: SimParams = params.first()?;
     let health = health.first_mut::<Health>()?;
     let (particles, springs) = (particles.slice::<ParticleSprings>(), springs.slice::<Spring>());
     for i in 0..threads.min(p.particle_count) {
-        record_health(health, particle_health_springs(i, x.slice(), v.slice(), particles, springs));
+        record_health(health, particle_health_springs(i, x.slice(), v.slice(), x_prev.slice(), particles, springs));
     }
     Ok(())
 }

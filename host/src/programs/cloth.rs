@@ -142,13 +142,14 @@ impl ClothBuffers {
     fn health_check(&self) -> Step {
         let threads = Dispatch::Threads(self.particles);
         let (kernel, bindings): (&'static Kernel, _) = match &self.springs {
-            None => (&CHECK_HEALTH, vec![self.params.id(), self.x.id(), self.v.id(), self.health.id()]),
+            None => (&CHECK_HEALTH, vec![self.params.id(), self.x.id(), self.v.id(), self.x_prev.id(), self.health.id()]),
             Some(list) => (
                 &CHECK_HEALTH_SPRINGS,
                 vec![
                     self.params.id(),
                     self.x.id(),
                     self.v.id(),
+                    self.x_prev.id(),
                     list.particles.id(),
                     list.springs.id(),
                     self.health.id(),
@@ -166,11 +167,19 @@ pub struct FramePlan {
     /// `integrator::RK4` or `integrator::SEMI_IMPLICIT_EULER`.
     pub integrator: u32,
     pub normals: bool,
+    /// The cloth sleeps: its frame runs nothing (`motion`).
+    pub asleep: bool,
 }
+
+/// The timing table's line for a sleeping cloth's frame.
+pub const ASLEEP_LABEL: &str = "cloth asleep (all passes)";
 
 /// The steps of one frame of `cloth`, colliding with each of `colliders` (with the contact
 /// buffers of that pair) after every substep.
 pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&ColliderBuffers, &ContactBuffers)]) -> Vec<Step> {
+    if plan.asleep {
+        return vec![Step::Skip { label: ASLEEP_LABEL }];
+    }
     let a = (cloth.xa, cloth.va);
     let b = (cloth.xb, cloth.vb);
     let mut steps = vec![Step::fill(cloth.health, 0)];

@@ -1,5 +1,6 @@
 //! Blow-up detection, once per frame: counts non-finite particles and finds the largest
-//! structural stretch, so the host can stop with an error instead of returning NaN.
+//! structural stretch, so the host can stop with an error instead of returning NaN; and the
+//! largest speed, so the host can put a still cloth to sleep and bound the substep by motion.
 
 use crate::atomics;
 use crate::cloth::STRUCTURAL;
@@ -7,8 +8,19 @@ use drape_types::glam::{UVec3, Vec4, Vec4Swizzles};
 use drape_types::{Health, ParticleSprings, SimParams, Spring};
 use spirv_std::spirv;
 
-/// (is this particle non-finite, largest stretch of its +col and +row structural springs).
-pub fn particle_health(p: &SimParams, index: u32, x: &[Vec4], v: &[Vec4]) -> (bool, f32) {
+/// One particle's contribution to `Health`.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ParticleHealth {
+    pub non_finite: bool,
+    /// Largest stretch (length / rest) of its structural springs.
+    pub stretch: f32,
+    pub speed: f32,
+    /// Distance moved over the last substep (m).
+    pub moved: f32,
+}
+
+/// A grid particle's health: its +col and +row structural springs.
+pub fn particle_health(p: &SimParams, index: u32, x: &[Vec4], v: &[Vec4], x_prev: &[Vec4]) -> ParticleHealth {
     let i = index as usize;
     let here = x[i].xyz();
     let finite = here.is_finite() && v[i].xyz().is_finite();
@@ -19,7 +31,12 @@ pub fn particle_health(p: &SimParams, index: u32, x: &[Vec4], v: &[Vec4]) -> (bo
     if index / p.cols + 1 < p.rows {
         stretch = stretch.max((x[i + p.cols as usize].xyz() - here).length() * (1.0 / p.rest.y));
     }
-    (!finite, stretch)
+    ParticleHealth {
+        non_finite: !finite,
+        stretch,
+        speed: v[i].xyz().length(),
+        moved: (here - x_prev[i].xyz()).length(),
+    }
 }
 
 /// `particle_health` of a spring-list cloth: the largest stretch of the particle's structural
@@ -28,9 +45,10 @@ pub fn particle_health_springs(
     index: u32,
     x: &[Vec4],
     v: &[Vec4],
+    x_prev: &[Vec4],
     particles: &[ParticleSprings],
     springs: &[Spring],
-) -> (bool, f32) {
+) -> ParticleHealth {
     let i = index as usize;
     let here = x[i].xyz();
     let finite = here.is_finite() && v[i].xyz().is_finite();
@@ -44,38 +62,48 @@ pub fn particle_health_springs(
         }
         s += 1;
     }
-    (!finite, stretch)
+    ParticleHealth {
+        non_finite: !finite,
+        stretch,
+        speed: v[i].xyz().length(),
+        moved: (here - x_prev[i].xyz()).length(),
+    }
 }
 
-/// Folds one particle's (non-finite, stretch) into `health` (atomically on the GPU).
-pub fn record_health(health: &mut Health, (non_finite, stretch): (bool, f32)) {
-    if non_finite {
+/// Folds one particle's health into `health` (atomically on the GPU).
+pub fn record_health(health: &mut Health, particle: ParticleHealth) {
+    if particle.non_finite {
         atomics::add(&mut health.non_finite, 1);
     } else {
-        // NaN stretch cannot happen here: positions are finite and rest lengths positive.
-        atomics::max(&mut health.max_stretch_bits, stretch.to_bits());
+        // NaN cannot happen here: positions and velocities are finite, rest lengths positive;
+        // both are >= 0, so their bits order like their values.
+        atomics::max(&mut health.max_stretch_bits, particle.stretch.to_bits());
+        atomics::max(&mut health.max_speed_bits, particle.speed.to_bits());
+        atomics::max(&mut health.max_moved_bits, particle.moved.to_bits());
     }
 }
 
 /// Folds one grid particle into `health`.
-pub fn check_health_at(p: &SimParams, index: u32, x: &[Vec4], v: &[Vec4], health: &mut Health) {
-    record_health(health, particle_health(p, index, x, v));
+pub fn check_health_at(p: &SimParams, index: u32, x: &[Vec4], v: &[Vec4], x_prev: &[Vec4], health: &mut Health) {
+    record_health(health, particle_health(p, index, x, v, x_prev));
 }
 
+#[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(256)))]
 pub fn check_health_springs(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] particles: &[ParticleSprings],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] springs: &[Spring],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] particles: &[ParticleSprings],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] springs: &[Spring],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] health: &mut Health,
 ) {
     if id.x >= params.particle_count {
         return;
     }
-    record_health(health, particle_health_springs(id.x, x, v, particles, springs));
+    record_health(health, particle_health_springs(id.x, x, v, x_prev, particles, springs));
 }
 
 #[spirv(compute(threads(256)))]
@@ -84,10 +112,11 @@ pub fn check_health(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] health: &mut Health,
 ) {
     if id.x >= params.particle_count {
         return;
     }
-    check_health_at(params, id.x, x, v, health);
+    check_health_at(params, id.x, x, v, x_prev, health);
 }

@@ -68,7 +68,13 @@ pub struct Health {
     /// Largest structural-spring stretch (length / rest), as `f32::to_bits` (positive floats
     /// order like their bits, so `atomic_u_max` on the bits is a float max).
     pub max_stretch_bits: u32,
-    pub _pad: [u32; 2],
+    /// Largest particle speed (m/s) at the end of the frame, as `f32::to_bits` (the contact
+    /// substep bound).
+    pub max_speed_bits: u32,
+    /// Largest distance (m) a particle moved over the frame's last substep, contact included,
+    /// as `f32::to_bits` (sleeping: a particle resting on a collider has speed g h at a
+    /// substep's end, but does not move).
+    pub max_moved_bits: u32,
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of

@@ -1,0 +1,189 @@
+//! What a cloth's motion decides for its next frames: how many substeps its contact needs, and
+//! whether it sleeps.
+//!
+//! - **Contact substeps.** Self-collision and sphere contact are found within the contact
+//!   thickness at each substep's end, with a start-side test for what crossed during it; a
+//!   particle that moves much more than the thickness in one substep can pass a feature that
+//!   neither test sees (an edge against an edge). Triangle contact needs no bound: it sweeps each
+//!   particle's path against the moving triangles. The stability bound knows nothing of motion,
+//!   so a frame's substeps are at least enough that the last frame's fastest particle, plus the
+//!   colliders' fastest surface point this frame, moves at most `CONTACT_REACH` thicknesses per
+//!   substep. Raised at once, lowered only after `LOWER_AFTER` frames that need fewer.
+//! - **Sleeping.** A cloth whose fastest particle moves slower than `Sleep::speed` over the last
+//!   substep of each of `Sleep::frames` frames sleeps: its frame runs nothing (listed as
+//!   skipped), so it cannot drift. Motion, not velocity: a particle resting on a collider ends
+//!   each substep with the g h its contact has yet to cancel, but stays where it is. Any change
+//!   that could move it wakes it: a collider that moves or deforms, a force, parameter, pin or
+//!   state change.
+
+use drape_types::Health;
+
+/// Thicknesses a particle may move per substep, relative to the contact it is in.
+pub const CONTACT_REACH: f32 = 1.0;
+/// Frames the motion must need fewer substeps before the count comes down.
+pub const LOWER_AFTER: u32 = 30;
+
+/// When a still cloth sleeps.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Sleep {
+    /// Fastest particle motion over a frame's last substep (distance / substep, m/s) under which
+    /// the frame counts as still.
+    pub speed: f32,
+    /// Consecutive still frames before the cloth sleeps.
+    pub frames: u32,
+}
+
+impl Default for Sleep {
+    fn default() -> Self {
+        // A settled pile of cloth still jitters at 0.005-0.03 m/s (stacked layers pushing each
+        // other apart); 0.05 m/s is under a millimetre per frame.
+        Sleep { speed: 0.05, frames: 30 }
+    }
+}
+
+/// The largest particle speed (m/s) a frame's health check saw.
+pub fn max_speed(health: &Health) -> f32 {
+    f32::from_bits(health.max_speed_bits)
+}
+
+/// The largest distance a particle moved over the frame's last substep, per second (m/s).
+pub fn max_motion(health: &Health, substep: f32) -> f32 {
+    f32::from_bits(health.max_moved_bits) / substep
+}
+
+/// One cloth's motion history: what its next frames' substeps and sleep follow from. Part of a
+/// `ClothState`, so a restored state replays the same schedule.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ClothMotion {
+    /// Fastest particle at the end of the last frame (m/s).
+    last_speed: f32,
+    /// Substeps the motion needs now, and frames it has needed fewer.
+    pub(crate) contact_substeps: u32,
+    frames_needing_fewer: u32,
+    still_frames: u32,
+    pub(crate) asleep: bool,
+}
+
+/// What a frame's start changed of a cloth's schedule.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Change {
+    pub substeps: bool,
+    pub sleep: bool,
+}
+
+impl ClothMotion {
+    pub(crate) fn new() -> Self {
+        ClothMotion { contact_substeps: 1, ..Default::default() }
+    }
+
+    /// After a frame of substep `substep`: its health check's speed and motion.
+    pub(crate) fn observe(&mut self, health: &Health, substep: f32, sleep: Option<Sleep>) {
+        if self.asleep {
+            return; // a sleeping frame ran nothing; its health is the last awake frame's
+        }
+        self.last_speed = max_speed(health);
+        match sleep {
+            Some(s) if max_motion(health, substep) < s.speed => self.still_frames += 1,
+            _ => self.still_frames = 0,
+        }
+    }
+
+    /// Wakes the cloth; returns whether it was asleep.
+    pub(crate) fn wake(&mut self) -> bool {
+        self.still_frames = 0;
+        std::mem::take(&mut self.asleep)
+    }
+
+    /// At a frame's start: `thickness` of the thinnest contact the cloth is in (None: no contact),
+    /// the colliders' fastest surface speed this frame, the frame's length and the sleep policy.
+    pub(crate) fn plan_frame(
+        &mut self,
+        thickness: Option<f32>,
+        collider_speed: f32,
+        frame_dt: f32,
+        sleep: Option<Sleep>,
+    ) -> Change {
+        let mut change = Change::default();
+        if collider_speed > 0.0 {
+            change.sleep |= self.wake();
+        }
+        if let Some(s) = sleep
+            && !self.asleep
+            && self.still_frames >= s.frames
+        {
+            self.asleep = true;
+            change.sleep = true;
+        }
+        let needed = match thickness {
+            Some(t) if t > 0.0 => {
+                let reach = (self.last_speed + collider_speed) * frame_dt / (CONTACT_REACH * t);
+                if reach.is_finite() { (reach.ceil() as u32).clamp(1, 100_000) } else { 1 }
+            }
+            _ => 1,
+        };
+        if needed > self.contact_substeps {
+            (self.contact_substeps, self.frames_needing_fewer) = (needed, 0);
+            change.substeps = true;
+        } else if needed < self.contact_substeps {
+            self.frames_needing_fewer += 1;
+            if self.frames_needing_fewer >= LOWER_AFTER {
+                (self.contact_substeps, self.frames_needing_fewer) = (needed, 0);
+                change.substeps = true;
+            }
+        } else {
+            self.frames_needing_fewer = 0;
+        }
+        change
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A frame's health whose fastest particle has `speed` and moves at it (substep 1 ms).
+    fn health(speed: f32) -> Health {
+        Health { max_speed_bits: speed.to_bits(), max_moved_bits: (speed * H).to_bits(), ..Default::default() }
+    }
+
+    const H: f32 = 1e-3;
+
+    #[test]
+    fn fast_motion_raises_substeps_at_once_and_lowers_them_slowly() {
+        let mut m = ClothMotion::new();
+        m.observe(&health(2.9), H, None);
+        // 2.9 m/s over 1/60 s is 48 mm: ten 5 mm substeps.
+        assert_eq!(m.plan_frame(Some(0.005), 0.0, 1.0 / 60.0, None), Change { substeps: true, sleep: false });
+        assert_eq!(m.contact_substeps, 10);
+        m.observe(&health(0.1), H, None);
+        for _ in 1..LOWER_AFTER {
+            assert!(!m.plan_frame(Some(0.005), 0.0, 1.0 / 60.0, None).substeps);
+        }
+        assert!(m.plan_frame(Some(0.005), 0.0, 1.0 / 60.0, None).substeps);
+        assert_eq!(m.contact_substeps, 1);
+        // Without contact, motion needs nothing.
+        m.observe(&health(100.0), H, None);
+        m.plan_frame(None, 0.0, 1.0 / 60.0, None);
+        assert_eq!(m.contact_substeps, 1);
+    }
+
+    #[test]
+    fn a_still_cloth_sleeps_and_a_moving_collider_wakes_it() {
+        let sleep = Some(Sleep { speed: 0.01, frames: 3 });
+        let mut m = ClothMotion::new();
+        for _ in 0..3 {
+            m.observe(&health(0.001), H, sleep);
+            assert!(!m.plan_frame(None, 0.0, 1.0 / 60.0, sleep).sleep || m.asleep);
+        }
+        assert!(m.asleep);
+        // A sleeping frame's (stale) health does not count.
+        m.observe(&health(5.0), H, sleep);
+        assert!(m.asleep);
+        assert_eq!(m.plan_frame(None, 0.2, 1.0 / 60.0, sleep), Change { substeps: false, sleep: true });
+        assert!(!m.asleep);
+        // One fast frame restarts the count.
+        m.observe(&health(0.5), H, sleep);
+        m.plan_frame(None, 0.0, 1.0 / 60.0, sleep);
+        assert!(!m.asleep);
+    }
+}
