@@ -1,7 +1,9 @@
-//! One frame (1/60 s, automatic substeps, RK4) of the default swinging cloth at 32^2..256^2 on
-//! whatever Vulkan driver is installed (lavapipe in CI). Criterion measures the wall time per
-//! frame; then a table gives the GPU time per kernel (timestamp queries, medians), and a 2x2
-//! cloth run with the 64^2 schedule separates fixed per-dispatch cost from arithmetic.
+//! One frame (1/60 s, automatic substeps, RK4) of the default swinging cloth on whatever Vulkan
+//! driver is installed (lavapipe in CI). Criterion measures the wall time per frame at
+//! 32^2..256^2; then a table gives, at 64^2..512^2, the GPU time per frame and the throughput in
+//! particle-substeps per second (how the cost grows with the cloth), the GPU time per kernel at
+//! 64^2 (timestamp queries, medians), and a 2x2 cloth run with the 64^2 schedule separates fixed
+//! per-dispatch cost from arithmetic.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use drape::timing::TimingReport;
@@ -13,6 +15,8 @@ use std::time::{Duration, Instant};
 const CLOTH: ClothId = ClothId::new(0);
 
 const SIZES: [u32; 4] = [32, 64, 128, 256];
+/// Sizes of the throughput table (512^2 = 262k particles).
+const TABLE_SIZES: [u32; 4] = [64, 128, 256, 512];
 
 fn simulation(ctx: &Arc<Context>, grid: u32, settings: SimSettings) -> Solver {
     let cloth = drape::scenes::swinging_cloth(grid).build().expect("cloth");
@@ -47,20 +51,26 @@ fn frame(c: &mut Criterion) {
 
     println!("\nPer size (medians; wall = submit to fence, with and without timestamp queries):");
     println!(
-        "{:>9} {:>9} {:>11} {:>14} {:>14} {:>12} {:>16} {:>16}",
+        "{:>9} {:>9} {:>11} {:>14} {:>14} {:>14} {:>12} {:>16} {:>16} {:>18}",
         "cloth",
         "substeps",
         "dispatches",
         "GPU µs/stage",
         "GPU ms/frame",
+        "GPU ms (min)",
         "wall ms",
         "wall ms (no ts)",
-        "min ms (no ts)"
+        "min ms (no ts)",
+        "M particle-sub/s"
     );
     let mut stage_64 = 0.0;
     let mut substeps_64 = 0;
-    for grid in SIZES {
-        let frames = if grid >= 256 { 5 } else { 20 };
+    for grid in TABLE_SIZES {
+        let frames = match grid {
+            512.. => 2,
+            256.. => 5,
+            _ => 20,
+        };
         let mut sim = simulation(&ctx, grid, SimSettings::default());
         let timed = measure(&mut sim, frames);
         let mut sim = simulation(&ctx, grid, untimed);
@@ -73,16 +83,21 @@ fn frame(c: &mut Criterion) {
             substeps_64 = sim.stability(CLOTH).unwrap().substeps;
             println!("{}", timed.table());
         }
+        let substeps = sim.stability(CLOTH).unwrap().substeps;
+        // Particle-substeps per second of GPU time: flat when the cost grows only with the work.
+        let throughput = (grid * grid) as f64 * substeps as f64 / (timed.median_gpu_micros() * 1e-6) / 1e6;
         println!(
-            "{:>9} {:>9} {:>11} {:>14.1} {:>14.2} {:>12.2} {:>16.2} {:>16.2}",
+            "{:>9} {:>9} {:>11} {:>14.1} {:>14.2} {:>14.2} {:>12.2} {:>16.2} {:>16.2} {:>18.1}",
             format!("{grid}^2"),
-            sim.stability(CLOTH).unwrap().substeps,
+            substeps,
             dispatches,
             stage,
             timed.median_gpu_micros() / 1e3,
+            timed.min_gpu_micros() / 1e3,
             timed.median_wall_ms(),
             plain.median_wall_ms(),
-            plain.min_wall_ms()
+            plain.min_wall_ms(),
+            throughput
         );
     }
 

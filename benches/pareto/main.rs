@@ -14,6 +14,8 @@
 //! The plot's text needs a TrueType font: `$DRAPE_FONT`, else DejaVu Sans or Liberation Sans
 //! from the usual system paths; without one the plot is drawn without text (and says so).
 
+#[path = "../common/font.rs"]
+mod font;
 mod plot;
 
 use drape::metrics::{Accuracy, TriangleBvh, accuracy, accuracy_on_triangles};

@@ -1,29 +1,9 @@
 //! The Pareto plot: one row per mesh, one panel per error measure, frame time on x.
 
 use crate::Point;
+use crate::font::{FONT_PATHS, register_font};
 use plotters::prelude::*;
 use std::path::Path;
-
-const FONT_PATHS: [&str; 4] = [
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
-    "/Library/Fonts/Arial.ttf",
-];
-
-/// Registers a TrueType font as plotters' "sans-serif" (`$DRAPE_FONT` first); false if none.
-fn register_font() -> bool {
-    let candidates = std::env::var("DRAPE_FONT").into_iter().chain(FONT_PATHS.iter().map(|p| p.to_string()));
-    for path in candidates {
-        if let Ok(bytes) = std::fs::read(&path) {
-            let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-            if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
-                return true;
-            }
-        }
-    }
-    false
-}
 
 type Measure = (&'static str, fn(&Point) -> f64);
 

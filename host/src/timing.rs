@@ -66,6 +66,10 @@ impl TimingReport {
     pub fn median_gpu_micros(&self) -> f64 {
         median(&self.gpu_total)
     }
+    /// Fastest summed GPU time of a frame (µs).
+    pub fn min_gpu_micros(&self) -> f64 {
+        self.gpu_total.iter().copied().fold(f64::INFINITY, f64::min)
+    }
     /// (label, dispatches per frame, median µs per frame) for each pass label.
     pub fn rows(&self) -> Vec<(&'static str, u32, f64)> {
         self.labels.iter().zip(&self.samples).map(|(&(l, n), s)| (l, n, median(s))).collect()
