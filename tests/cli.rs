@@ -33,6 +33,9 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         (&["--mesh", "/nonexistent/model.obj", "--frames", "1"], runtime, "/nonexistent/model.obj"),
         (&["--cloth-mesh", "/nonexistent/cloth.obj", "--frames", "1"], runtime, "/nonexistent/cloth.obj"),
         (&["--obj-dir", "/proc/drape-cannot-write-here", "--frames", "1"], runtime, "--obj-dir"),
+        (&["--json", "/nonexistent/dir/report.json", "--frames", "1"], runtime, "--json"),
+        (&["--sleep", "-1"], usage, "[0, 10]"),
+        (&["--contact-substeps", "maybe"], usage, "--contact-substeps"),
     ];
     for &(args, code, needle) in cases {
         let output = drape(args);
@@ -87,4 +90,55 @@ fn drape_models_points_the_cli_at_its_models() {
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     assert!(stdout.contains("(4 vertices, 4 triangles)"), "DRAPE_MODELS was not used:\n{stdout}");
     std::fs::remove_dir_all(dir).ok();
+}
+
+/// `--json FILE --quiet`: nothing on stdout, and the report holds the run (its frames, the
+/// substeps and bound, the per-pass timings, the final intersections).
+#[test]
+fn json_report_and_quiet() {
+    let path = std::env::temp_dir().join(format!("drape-report-{}.json", std::process::id()));
+    let output =
+        drape(&["--scene", "swing", "--grid", "16", "--frames", "4", "--quiet", "--json", path.to_str().unwrap()]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(output.stdout.is_empty(), "--quiet printed: {}", String::from_utf8_lossy(&output.stdout));
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    std::fs::remove_file(&path).ok();
+    assert_eq!(report["frames"], 4);
+    assert_eq!(report["scene"], "swing");
+    assert_eq!(report["cloth"]["particles"], 256);
+    let substeps = report["stability"]["substeps"].as_u64().unwrap();
+    assert!(substeps >= 1 && report["stability"]["source"].as_str().unwrap().starts_with("Lanczos"));
+    let passes = report["timings"]["passes"].as_array().unwrap();
+    let k1 = passes.iter().find(|p| p["pass"] == "rk4: k1").expect("rk4: k1 in the passes");
+    assert_eq!(k1["dispatches"].as_u64(), Some(substeps));
+    assert_eq!(report["intersections_final_frame"]["cloth_cloth"], 0);
+}
+
+/// `--sleep`: the settling pile sleeps once its motion stays under 0.5 m/s (from about frame
+/// 150 of this strip), and never with `--sleep 0`.
+#[test]
+fn sleep_flag_puts_the_settled_pile_to_sleep_or_not() {
+    let asleep = |sleep: &str| {
+        let path = std::env::temp_dir().join(format!("drape-sleep-{sleep}-{}.json", std::process::id()));
+        let output = drape(&[
+            "--scene",
+            "pile",
+            "--grid",
+            "16",
+            "--frames",
+            "400",
+            "--sleep",
+            sleep,
+            "--quiet",
+            "--json",
+            path.to_str().unwrap(),
+        ]);
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        std::fs::remove_file(&path).ok();
+        report["schedule"]["frames_asleep"].as_u64().unwrap()
+    };
+    let slept = asleep("0.5");
+    assert!(slept > 0, "the pile must settle and sleep within 250 frames");
+    assert_eq!(asleep("0"), 0, "--sleep 0 never sleeps");
 }

@@ -1,0 +1,303 @@
+//! The command line: flags, their parsers and range checks, and the checks across flags.
+
+use clap::parser::ValueSource;
+use clap::{ArgMatches, Parser, ValueEnum};
+use drape::scenes::SETTLE_FRAMES;
+use glam::Vec3;
+use std::path::PathBuf;
+
+#[derive(Copy, Clone, Debug, ValueEnum, PartialEq)]
+pub(crate) enum SceneArg {
+    /// A cloth falls onto a mesh collider (the standard benchmark scene).
+    Drape,
+    /// A cloth pinned at two corners swings under gravity and wind (no collider).
+    Swing,
+    /// A long strip falls upright onto the ground and folds onto itself (`--grid` particles
+    /// along it, a quarter of that across).
+    Pile,
+    /// An open tube of cloth (a skirt, `--grid` particles around) falls over a body that turns
+    /// about its vertical axis.
+    Garment,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum ContactArg {
+    /// The paper's proxy: one sphere per non-empty voxel (`--voxels`).
+    Spheres,
+    /// The mesh's own triangles.
+    Triangles,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum SearchArg {
+    /// A broad phase once per frame gives each particle a short list of nearby leaves; each
+    /// substep tests only the list (a particle that leaves its query box walks the LBVH).
+    Lists,
+    /// Walk the LBVH every substep.
+    Traverse,
+    /// Test every leaf every substep (the baseline).
+    BruteForce,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum HolesArg {
+    /// Fill holes up to half the mesh's bounds diagonal in perimeter (a scan's, like the
+    /// bunny's base) so the collider is the solid the mesh depicts; larger openings stay open.
+    Close,
+    /// Collide with the triangles exactly as given (the cloth can pass through holes).
+    Keep,
+}
+
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum OnOff {
+    On,
+    Off,
+}
+
+#[derive(Copy, Clone, Debug, ValueEnum)]
+pub(crate) enum IntegratorArg {
+    Rk4,
+    Euler,
+}
+
+/// Simulate a scene: by default a 64x64 cloth falling onto a procedural icosphere for 2 s.
+#[derive(Parser, Debug)]
+#[command(name = "drape", version, about)]
+pub(crate) struct Args {
+    #[arg(long, value_enum, default_value = "drape")]
+    pub(crate) scene: SceneArg,
+    /// Collider mesh: icosphere, torus, bunny, dragon (from ../shared/models) or an OBJ path.
+    #[arg(long, default_value = "icosphere")]
+    pub(crate) mesh: String,
+    /// What the cloth collides with: the mesh's triangles or the paper's voxel spheres.
+    #[arg(long, value_enum, default_value = "triangles")]
+    pub(crate) contact: ContactArg,
+    /// The collider mesh's small holes: closed (default) or kept as given.
+    #[arg(long, value_enum, default_value = "close")]
+    pub(crate) holes: HolesArg,
+    /// Collider voxels per axis (one sphere per non-empty voxel; `--contact spheres`).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub(crate) voxels: u32,
+    /// Contact thickness (m), in (0, 0.5].
+    #[arg(long, default_value_t = drape::scenes::DEFAULT_THICKNESS, value_parser = parse_thickness, allow_hyphen_values = true)]
+    pub(crate) thickness: f32,
+    /// Coulomb friction coefficient of the contact, in [0, 10] (0 = the paper's frictionless
+    /// response).
+    #[arg(long, default_value_t = drape::scenes::DEFAULT_FRICTION, value_parser = parse_friction, allow_hyphen_values = true)]
+    pub(crate) friction: f32,
+    /// How contact finds the leaves each particle touches (same contacts, different cost).
+    #[arg(long, value_enum, default_value = "lists")]
+    pub(crate) search: SearchArg,
+    /// Test every leaf (sphere or triangle) instead of traversing the LBVH (baseline; the same
+    /// as `--search brute-force`).
+    #[arg(long, conflicts_with = "search")]
+    pub(crate) brute_force: bool,
+    /// Particles per side (rows = cols), 2..=2048.
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(2..=2048))]
+    pub(crate) grid: u32,
+    /// The cloth from a triangle mesh (OBJ): one particle per vertex in the file's order, springs
+    /// on its edges and across them, UVs kept. In the drape scene it is centred over the
+    /// collider, its lowest point 5 cm above the top; in the swing scene it stays where the
+    /// file puts it.
+    #[arg(long, conflicts_with = "grid")]
+    pub(crate) cloth_mesh: Option<PathBuf>,
+    /// Pin these particles (vertex indices, comma separated; a grid's are row * cols + col).
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) pin_vertices: Vec<u32>,
+    /// Pin every particle inside this box, given as MIN_X,MIN_Y,MIN_Z,MAX_X,MAX_Y,MAX_Z in the
+    /// cloth's own coordinates (a mesh's file coordinates), e.g. `--pin-box=-1,0.9,-1,1,1,1`.
+    #[arg(long, value_parser = parse_box, allow_hyphen_values = true)]
+    pub(crate) pin_box: Option<(Vec3, Vec3)>,
+    /// Self-collision: the cloth's particles keep `--thickness` from its own triangles (vertex
+    /// against triangle). Default: on in the pile scene, off elsewhere.
+    #[arg(long, value_enum)]
+    pub(crate) self_collision: Option<OnOff>,
+    /// Build the grid with listed springs (the kernels of mesh cloths) instead of its fast path:
+    /// the same cloth, to measure one path against the other.
+    #[arg(long, conflicts_with = "cloth_mesh")]
+    pub(crate) listed_springs: bool,
+    /// Put the cloth to sleep (its frames run nothing until something wakes it) once its fastest
+    /// particle has moved slower than this (m/s) for 30 frames, in [0, 10]; 0 = never.
+    #[arg(long, default_value_t = drape::Sleep::default().speed, value_parser = parse_sleep, allow_hyphen_values = true)]
+    pub(crate) sleep: f32,
+    /// Raise automatic substeps so no particle moves more than the contact thickness per
+    /// substep (from the last frame's fastest particle and the colliders' motion).
+    #[arg(long, value_enum, default_value = "on")]
+    pub(crate) contact_substeps: OnOff,
+    /// Print nothing on stdout and draw no progress bar (errors and warnings still go to
+    /// stderr; `--json` still writes its report).
+    #[arg(long)]
+    pub(crate) quiet: bool,
+    /// Write the run's report as JSON to this file (setup, stability, substeps and sleep,
+    /// per-pass GPU timings, wall times, collision counters, accuracy, intersections), for
+    /// scripts and CI dashboards. Checked writable before any work.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) json: Option<PathBuf>,
+    /// Frames to simulate (1/60 s each).
+    #[arg(long, default_value_t = SETTLE_FRAMES, value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) frames: u32,
+    /// Substeps per frame, 1..=100000; default: automatic from the stability bound.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub(crate) substeps: Option<u32>,
+    /// Time integrator.
+    #[arg(long, value_enum, default_value = "rk4")]
+    pub(crate) integrator: IntegratorArg,
+    /// Structural, shear and bend stiffness (N/m) as K_STRUCT,K_SHEAR,K_BEND, each in
+    /// [0, 1e6].
+    #[arg(long, value_parser = parse_stiffness, default_value = "40,10,2")]
+    pub(crate) stiffness: Vec3,
+    /// Damping along spring axes (N s/m), in [0, 100].
+    #[arg(long, default_value_t = 0.002, value_parser = parse_spring_damping, allow_hyphen_values = true)]
+    pub(crate) spring_damping: f32,
+    /// Wind: constant force on the whole cloth (N) as X,Y,Z, e.g. `--wind -1,0,0` (swing
+    /// scene).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0.3,0,0.5")]
+    pub(crate) wind: Vec3,
+    /// The cloth's initial velocity (m/s) as X,Y,Z, e.g. `--velocity=0,-10,0` (a throw).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub(crate) velocity: Option<Vec3>,
+    /// Skip vertex normals.
+    #[arg(long)]
+    pub(crate) no_normals: bool,
+    /// Write frames as OBJ into this directory (the final frame unless --obj-every is given).
+    #[arg(long)]
+    pub(crate) obj_dir: Option<PathBuf>,
+    /// Write every n-th frame (with --obj-dir).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) obj_every: Option<u32>,
+    /// Count the exact intersections after every frame (not only the last) and report the
+    /// worst frame of each kind.
+    #[arg(long)]
+    pub(crate) check_every_frame: bool,
+    /// Skip GPU timestamp queries (they cost tens of µs per pass on lavapipe).
+    #[arg(long)]
+    pub(crate) no_timestamps: bool,
+    /// Load the Vulkan validation layer (also: DRAPE_VALIDATION=1).
+    #[arg(long)]
+    pub(crate) validate: bool,
+}
+
+/// Whether the user typed `id` (not its default).
+pub(crate) fn given(matches: &ArgMatches, id: &str) -> bool {
+    matches.value_source(id) == Some(ValueSource::CommandLine)
+}
+
+/// Flags a scene or mode would silently ignore are usage errors naming both.
+pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), String> {
+    let collider_flags = ["mesh", "contact", "holes", "voxels", "thickness", "friction", "search", "brute_force"];
+    let flag = |id: &str| format!("--{}", id.replace('_', "-"));
+    for id in collider_flags {
+        if args.scene == SceneArg::Swing && given(matches, id) {
+            return Err(format!(
+                "{} does nothing in the swing scene, which has no collider: drop it, or use --scene drape or pile",
+                flag(id)
+            ));
+        }
+    }
+    for id in ["mesh", "holes"] {
+        if args.scene == SceneArg::Pile && given(matches, id) {
+            return Err(format!("{} does nothing in the pile scene, whose collider is the ground plane", flag(id)));
+        }
+        if args.scene == SceneArg::Garment && given(matches, id) {
+            return Err(format!("{} does nothing in the garment scene, whose collider is its body", flag(id)));
+        }
+    }
+    if args.scene != SceneArg::Swing && given(matches, "wind") {
+        return Err(format!("--wind only applies to the swing scene, not the {:?} scene", args.scene).to_lowercase());
+    }
+    if args.contact == ContactArg::Triangles && given(matches, "voxels") {
+        return Err("--voxels only applies with --contact spheres (triangle contact has no voxels)".into());
+    }
+    if args.obj_every.is_some() && args.obj_dir.is_none() {
+        return Err("--obj-every needs --obj-dir (the directory to write the frames into)".into());
+    }
+    Ok(())
+}
+
+/// A finite number in `lo..=hi` (`lo` excluded when `open_low`), or a message with the range.
+pub(crate) fn number_in(text: &str, lo: f32, hi: f32, open_low: bool) -> Result<f32, String> {
+    let value: f32 = text.trim().parse().map_err(|e| format!("`{text}`: {e}"))?;
+    let low_ok = if open_low { value > lo } else { value >= lo };
+    if value.is_finite() && low_ok && value <= hi {
+        Ok(value)
+    } else {
+        Err(format!("must be in {}{lo}, {hi}], got {text}", if open_low { "(" } else { "[" }))
+    }
+}
+
+pub(crate) fn parse_thickness(text: &str) -> Result<f32, String> {
+    number_in(text, 0.0, 0.5, true)
+}
+
+pub(crate) fn parse_sleep(text: &str) -> Result<f32, String> {
+    number_in(text, 0.0, 10.0, false)
+}
+
+pub(crate) fn parse_friction(text: &str) -> Result<f32, String> {
+    number_in(text, 0.0, 10.0, false)
+}
+
+pub(crate) fn parse_spring_damping(text: &str) -> Result<f32, String> {
+    number_in(text, 0.0, 100.0, false)
+}
+
+/// "K_STRUCT,K_SHEAR,K_BEND", each in [0, 1e6] N/m.
+pub(crate) fn parse_stiffness(text: &str) -> Result<Vec3, String> {
+    let values: Vec<&str> = text.split(',').collect();
+    match values[..] {
+        [a, b, c] => Ok(Vec3::new(
+            number_in(a, 0.0, 1e6, false)?,
+            number_in(b, 0.0, 1e6, false)?,
+            number_in(c, 0.0, 1e6, false)?,
+        )),
+        _ => Err(format!("expected three stiffnesses K_STRUCT,K_SHEAR,K_BEND, got `{text}`")),
+    }
+}
+
+/// The output directory exists (created if needed) and takes files, checked before any setup.
+pub(crate) fn check_output_dir(dir: &std::path::Path) -> drape::Result<()> {
+    let io = |source| drape::Error::Io { path: dir.to_path_buf(), source };
+    std::fs::create_dir_all(dir).map_err(io)?;
+    let probe = dir.join(".drape-write-test");
+    std::fs::write(&probe, b"").map_err(io)?;
+    std::fs::remove_file(&probe).map_err(io)
+}
+
+/// "X,Y,Z" (three finite numbers, negatives allowed) as a vector.
+pub(crate) fn parse_vec3(text: &str) -> Result<Vec3, String> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f32>().map_err(|e| format!("`{v}`: {e}")))
+        .collect::<Result<_, _>>()?;
+    match values[..] {
+        [x, y, z] if values.iter().all(|v| v.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("expected three finite numbers X,Y,Z, got `{text}`")),
+    }
+}
+
+/// "MIN_X,MIN_Y,MIN_Z,MAX_X,MAX_Y,MAX_Z" (six finite numbers, min <= max) as a box.
+pub(crate) fn parse_box(text: &str) -> Result<(Vec3, Vec3), String> {
+    let values: Vec<f32> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f32>().map_err(|e| format!("`{v}`: {e}")))
+        .collect::<Result<_, _>>()?;
+    match values[..] {
+        [a, b, c, d, e, f] if values.iter().all(|v| v.is_finite()) && a <= d && b <= e && c <= f => {
+            Ok((Vec3::new(a, b, c), Vec3::new(d, e, f)))
+        }
+        _ => Err(format!(
+            "expected six finite numbers MIN_X,MIN_Y,MIN_Z,MAX_X,MAX_Y,MAX_Z with min <= max, got `{text}`"
+        )),
+    }
+}
+
+/// The file can be created and written, checked before any work (it is written at the end).
+pub(crate) fn check_output_file(path: &std::path::Path) -> drape::Result<()> {
+    std::fs::OpenOptions::new()
+        .create(true)
+        .write(true)
+        .truncate(true)
+        .open(path)
+        .map(drop)
+        .map_err(|source| drape::Error::Io { path: path.to_path_buf(), source })
+}

@@ -1,0 +1,248 @@
+//! What a run reports: the setup, the schedule (substeps, sleep), the accuracy and the
+//! intersections, as text on stdout and as the JSON of `--json`.
+
+use super::args::Args;
+use super::say;
+use drape::metrics::Accuracy;
+use drape::metrics::intersections::Intersections;
+use drape::timing::TimingReport;
+use drape::{ClothBuilder, ClothId, SimSettings, Solver, Stability};
+use serde_json::{Value, json};
+
+/// The largest count of each kind of intersection over the frames, and the frame it came at.
+#[derive(Default)]
+pub(crate) struct WorstIntersections {
+    pub(crate) frames_with_any: u32,
+    pub(crate) cloth_cloth: (usize, u32),
+    pub(crate) cloth_edges: (usize, u32),
+    pub(crate) collider_edges: (usize, u32),
+}
+
+impl WorstIntersections {
+    pub(crate) fn record(&mut self, frame: u32, found: drape::metrics::intersections::Intersections) {
+        self.frames_with_any += (found.total() > 0) as u32;
+        for (worst, count) in [
+            (&mut self.cloth_cloth, found.cloth_cloth),
+            (&mut self.cloth_edges, found.cloth_edges_through_collider),
+            (&mut self.collider_edges, found.collider_edges_through_cloth),
+        ] {
+            if count > worst.0 {
+                *worst = (count, frame);
+            }
+        }
+    }
+}
+
+/// What the setup line says the cloth is.
+pub(crate) fn cloth_description(args: &Args, builder: &ClothBuilder) -> String {
+    let shape = match (&args.cloth_mesh, &builder.mesh) {
+        (path, Some(mesh)) => format!(
+            "mesh {} ({} particles, {} triangles{})",
+            path.as_ref().map_or("of the scene".to_string(), |p| p.display().to_string()),
+            mesh.vertices.len(),
+            mesh.triangles.len(),
+            if mesh.uvs.is_some() { ", UVs" } else { "" }
+        ),
+        _ => format!(
+            "{} x {} particles{}",
+            builder.rows,
+            builder.cols,
+            if args.listed_springs { " (listed springs)" } else { "" }
+        ),
+    };
+    match builder.self_collision {
+        Some(t) => format!("{shape}, self-collision on ({:.1} mm)", t * 1e3),
+        None => format!("{shape}, self-collision off"),
+    }
+}
+
+pub(crate) fn print_setup(
+    args: &Args,
+    description: &str,
+    sim: &Solver,
+    cloth: ClothId,
+    settings: &SimSettings,
+) -> drape::Result<()> {
+    let s = sim.stability(cloth)?;
+    say!("cloth: {description}, {:?}, {} substeps/frame of {:.3e} s", settings.integrator, s.substeps, s.substep);
+    say!(
+        "stability: omega_max {:.0} rad/s, gamma_max {:.0} 1/s, bound {:.3e} s, substep/bound {:.2}{}",
+        s.omega_max,
+        s.gamma_max,
+        s.max_substep,
+        s.ratio,
+        if args.substeps.is_none() { format!(" (auto, safety {})", settings.safety) } else { String::new() }
+    );
+    say!("  bound from {} (Gershgorin: omega_max {:.0} rad/s)", s.source, s.omega_gershgorin);
+    if let Some(w) = s.warning() {
+        eprintln!("warning: {w}");
+    }
+    Ok(())
+}
+
+pub(crate) fn print_accuracy(a: &Accuracy, frames: u32, seconds: f64) {
+    say!("accuracy at t = {:.2} s against the true triangle mesh ({:.2} s on the CPU):", frames as f32 / 60.0, seconds);
+    if a.inside_defined {
+        say!(
+            "  particles inside the mesh   {:.3} %  (max penetration {:.2} mm, p99 {:.2} mm)",
+            100.0 * a.inside_fraction,
+            a.max_penetration * 1e3,
+            a.p99_penetration * 1e3
+        );
+    } else {
+        say!("  particles inside the mesh   n/a (open mesh: no inside)");
+    }
+    say!("  within thickness of surface {:.3} %", 100.0 * a.within_thickness_fraction);
+    say!(
+        "  resting on the collider     {} particles, gap to true surface mean {:.2} mm, max {:.2} mm",
+        a.resting,
+        a.gap_mean * 1e3,
+        a.gap_max * 1e3
+    );
+    say!(
+        "  spring stretch              max {:.3}, p99 {:.3}; all finite: {}",
+        a.max_stretch,
+        a.p99_stretch,
+        a.all_finite
+    );
+}
+
+/// What the frames ran: substeps per frame (raised for contact, `drape::motion`) and sleep.
+#[derive(Default)]
+pub(crate) struct Schedule {
+    pub(crate) substeps: Vec<u32>,
+    pub(crate) asleep: u32,
+    pub(crate) first_asleep: Option<u32>,
+    pub(crate) asleep_wall_ms: Vec<f64>,
+}
+
+impl Schedule {
+    pub(crate) fn record(&mut self, substeps: u32, asleep: bool, frame: u32) {
+        if asleep {
+            self.asleep += 1;
+            self.first_asleep.get_or_insert(frame);
+        } else {
+            self.substeps.push(substeps);
+        }
+    }
+
+    pub(crate) fn print(&self, bound: u32, frames: u32, awake_median_ms: f64) {
+        let mut sorted = self.substeps.clone();
+        sorted.sort_unstable();
+        if let (Some(lo), Some(hi)) = (sorted.first(), sorted.last()) {
+            let raised = sorted.iter().filter(|&&n| n > bound).count();
+            say!(
+                "substeps per awake frame: min {lo}, median {}, max {hi} (stability bound {bound}; raised for contact in {raised} frames)",
+                sorted[sorted.len() / 2]
+            );
+        }
+        match self.first_asleep {
+            Some(first) => {
+                let asleep_ms = drape::timing::median(&self.asleep_wall_ms);
+                say!(
+                    "sleeping: {} of {frames} frames ran nothing (first asleep at frame {first}); wall time of a \
+                     sleeping frame: median {asleep_ms:.3} ms, {:.4}x an awake frame's median",
+                    self.asleep,
+                    asleep_ms / awake_median_ms
+                )
+            }
+            None => say!("sleeping: the cloth never slept"),
+        }
+    }
+}
+
+impl Schedule {
+    /// The schedule's JSON: substeps per awake frame and the sleeping frames.
+    pub(crate) fn json(&self, bound: u32) -> Value {
+        let mut sorted = self.substeps.clone();
+        sorted.sort_unstable();
+        json!({
+            "substeps_min": sorted.first(),
+            "substeps_median": sorted.get(sorted.len() / 2),
+            "substeps_max": sorted.last(),
+            "stability_bound_substeps": bound,
+            "frames_raised_for_contact": sorted.iter().filter(|&&n| n > bound).count(),
+            "frames_asleep": self.asleep,
+            "first_frame_asleep": self.first_asleep,
+            "asleep_wall_ms_median": (!self.asleep_wall_ms.is_empty()).then(|| drape::timing::median(&self.asleep_wall_ms)),
+        })
+    }
+}
+
+impl WorstIntersections {
+    /// The every-frame check's JSON.
+    pub(crate) fn json(&self) -> Value {
+        json!({
+            "frames_with_any": self.frames_with_any,
+            "worst_cloth_cloth": { "count": self.cloth_cloth.0, "frame": self.cloth_cloth.1 },
+            "worst_cloth_edges_through_collider": { "count": self.cloth_edges.0, "frame": self.cloth_edges.1 },
+            "worst_collider_edges_through_cloth": { "count": self.collider_edges.0, "frame": self.collider_edges.1 },
+        })
+    }
+}
+
+/// A stability bound's JSON.
+pub(crate) fn stability_json(s: &Stability) -> Value {
+    json!({
+        "substeps": s.substeps,
+        "substep_s": s.substep,
+        "bound_s": s.max_substep,
+        "substep_over_bound": s.ratio,
+        "omega_max": s.omega_max,
+        "gamma_max": s.gamma_max,
+        "omega_max_gershgorin": s.omega_gershgorin,
+        "source": s.source.to_string(),
+    })
+}
+
+/// The frames' timings: per-pass GPU time (when timestamps ran) and the wall times.
+pub(crate) fn timings_json(report: &TimingReport, timestamps: bool) -> Value {
+    let passes: Vec<Value> = report
+        .rows()
+        .into_iter()
+        .map(|(label, dispatches, micros)| json!({ "pass": label, "dispatches": dispatches, "gpu_us_per_frame": micros }))
+        .collect();
+    json!({
+        "awake_frames": report.frames(),
+        "wall_ms_median": report.median_wall_ms(),
+        "wall_ms_fastest": report.min_wall_ms(),
+        "gpu_us_per_frame_median": timestamps.then(|| report.median_gpu_micros()),
+        "passes": if timestamps { Value::Array(passes) } else { Value::Null },
+        "skipped": report.skipped(),
+    })
+}
+
+/// Accuracy against the true mesh as JSON (lengths in metres).
+pub(crate) fn accuracy_json(a: &Accuracy) -> Value {
+    json!({
+        "particles": a.particles,
+        "all_finite": a.all_finite,
+        "inside_fraction": a.inside_defined.then_some(a.inside_fraction),
+        "max_penetration_m": a.inside_defined.then_some(a.max_penetration),
+        "p99_penetration_m": a.inside_defined.then_some(a.p99_penetration),
+        "within_thickness_fraction": a.within_thickness_fraction,
+        "resting": a.resting,
+        "gap_mean_m": a.gap_mean,
+        "gap_max_m": a.gap_max,
+        "max_stretch": a.max_stretch,
+        "p99_stretch": a.p99_stretch,
+    })
+}
+
+/// Exact intersection counts as JSON.
+pub(crate) fn intersections_json(found: &Intersections) -> Value {
+    json!({
+        "cloth_cloth": found.cloth_cloth,
+        "cloth_edges_through_collider": found.cloth_edges_through_collider,
+        "collider_edges_through_cloth": found.collider_edges_through_cloth,
+    })
+}
+
+/// Writes the report to `path`.
+pub(crate) fn write_json(path: &std::path::Path, report: serde_json::Map<String, Value>) -> drape::Result<()> {
+    let text = serde_json::to_string_pretty(&Value::Object(report)).map_err(|e| drape::Error::InvalidParameter {
+        name: "--json",
+        problem: format!("the report could not be written as JSON: {e}"),
+    })?;
+    std::fs::write(path, text + "\n").map_err(|source| drape::Error::Io { path: path.to_path_buf(), source })
+}
