@@ -142,3 +142,91 @@ fn sleep_flag_puts_the_settled_pile_to_sleep_or_not() {
     assert!(slept > 0, "the pile must settle and sleep within 250 frames");
     assert_eq!(asleep("0"), 0, "--sleep 0 never sleeps");
 }
+
+/// Every example scene in scenes/ runs (2 frames here; flags override the file) and its report
+/// says it ran the file's scene.
+#[test]
+fn every_example_scene_runs() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 4, "scenes/ holds the examples ({} found in {})", files.len(), dir.display());
+    let out = std::env::temp_dir().join(format!("drape-scenes-{}", std::process::id()));
+    for file in files {
+        let json = out.join("report.json");
+        std::fs::create_dir_all(&out).unwrap();
+        let output = drape(&[
+            "--scene-file",
+            file.to_str().unwrap(),
+            "--frames",
+            "2",
+            "--quiet",
+            "--json",
+            json.to_str().unwrap(),
+            "--obj-dir",
+            out.join("obj").to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{}: {stderr}", file.display());
+        let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let text = std::fs::read_to_string(&file).unwrap();
+        let scene = text.lines().find_map(|l| l.strip_prefix("scene = ")).unwrap().trim_matches('"');
+        assert_eq!(report["scene"], scene, "{}", file.display());
+        assert_eq!(report["frames"], 2, "{}: the flag overrides the file", file.display());
+    }
+    std::fs::remove_dir_all(&out).ok();
+}
+
+/// `--print-scene` writes the effective scene, which read back as a scene file prints the same;
+/// command-line flags override the file; bad files get usage errors naming the file, line and
+/// key (unknown keys, values out of range, the wrong kind of value), an unreadable one a
+/// runtime error naming it.
+#[test]
+fn scene_files_round_trip_override_and_explain_their_errors() {
+    let dir = std::env::temp_dir().join(format!("drape-scene-file-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let write = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let printed = drape(&["--scene", "swing", "--wind=-1,0,0.5", "--grid", "24", "--print-scene"]);
+    assert!(printed.status.success());
+    let first = String::from_utf8(printed.stdout).unwrap();
+    assert!(first.contains("wind = [-1, 0, 0.5]") && first.contains("grid = 24"), "{first}");
+    let file = write("printed.toml", &first);
+    let again = String::from_utf8(drape(&["--scene-file", &file, "--print-scene"]).stdout).unwrap();
+    assert_eq!(again, first, "a printed scene reads back as itself");
+    let overridden =
+        String::from_utf8(drape(&["--scene-file", &file, "--grid", "12", "--print-scene"]).stdout).unwrap();
+    assert!(overridden.contains("grid = 12\n"), "{overridden}");
+
+    let cases: &[(&str, i32, &[&str])] = &[
+        ("scene = \"swing\"\ngird = 16\n", 2, &["line 2", "unknown key `gird`"]),
+        ("scene = \"swing\"\n\ngrid = 5000\n", 2, &["line 3", "key `grid`", "2..=2048"]),
+        ("grid = \"abc\"\n", 2, &["line 1", "key `grid`"]),
+        ("scene = { name = \"swing\" }\n", 2, &["line 1", "`scene` takes one of"]),
+        ("no-timestamps = 3\n", 2, &["line 1", "switch"]),
+        ("grid = [1,\n", 2, &["line 1"]),
+    ];
+    for (i, &(text, code, needles)) in cases.iter().enumerate() {
+        let file = write(&format!("bad{i}.toml"), text);
+        let output = drape(&["--scene-file", &file, "--frames", "1"]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(code), "{text:?}: {stderr}");
+        assert!(stderr.contains(&file), "{text:?}: the message names the file: {stderr}");
+        for needle in needles {
+            assert!(stderr.contains(needle), "{text:?}: expected `{needle}` in: {stderr}");
+        }
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+    let missing = dir.join("missing.toml");
+    let output = drape(&["--scene-file", missing.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("missing.toml"));
+    std::fs::remove_dir_all(&dir).ok();
+}

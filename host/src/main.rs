@@ -53,10 +53,22 @@ fn init_logging() {
 
 fn main() -> ExitCode {
     init_logging();
-    let matches = Args::command().get_matches();
+    let matches = match cli::scene_file::matches(std::env::args_os().collect()) {
+        Ok(matches) => matches,
+        // An unreadable scene file is a runtime error (exit 1), like an unreadable mesh.
+        Err(e) if e.kind() == clap::error::ErrorKind::Io => {
+            eprintln!("error: {}", e.to_string().trim_start_matches("error: ").lines().next().unwrap_or(""));
+            return ExitCode::FAILURE;
+        }
+        Err(e) => e.exit(),
+    };
     let args = Args::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     if let Err(problem) = check_flags(&args, &matches) {
         Args::command().error(clap::error::ErrorKind::ArgumentConflict, problem).exit();
+    }
+    if args.print_scene {
+        print!("{}", cli::scene_file::print(&args, &matches));
+        return ExitCode::SUCCESS;
     }
     match run(&args) {
         Ok(()) => ExitCode::SUCCESS,

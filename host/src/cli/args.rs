@@ -1,7 +1,7 @@
 //! The command line: flags, their parsers and range checks, and the checks across flags.
 
 use clap::parser::ValueSource;
-use clap::{ArgMatches, Parser, ValueEnum};
+use clap::{ArgMatches, CommandFactory, Parser, ValueEnum};
 use drape::scenes::SETTLE_FRAMES;
 use glam::Vec3;
 use std::path::PathBuf;
@@ -66,6 +66,14 @@ pub(crate) enum IntegratorArg {
 pub(crate) struct Args {
     #[arg(long, value_enum, default_value = "drape")]
     pub(crate) scene: SceneArg,
+    /// Read the flags from a TOML scene file (`key = value`, the keys being the long flags'
+    /// names, e.g. `grid = 64`, `wind = [-1, 0, 0]`); flags on the command line override it.
+    /// Examples in scenes/.
+    #[arg(long, value_name = "FILE.toml")]
+    pub(crate) scene_file: Option<PathBuf>,
+    /// Print the effective scene (scene file, flags and defaults) as a scene file and exit.
+    #[arg(long)]
+    pub(crate) print_scene: bool,
     /// Collider mesh: icosphere, torus, bunny, dragon (from ../shared/models) or an OBJ path.
     #[arg(long, default_value = "icosphere")]
     pub(crate) mesh: String,
@@ -184,34 +192,44 @@ pub(crate) fn given(matches: &ArgMatches, id: &str) -> bool {
 
 /// Flags a scene or mode would silently ignore are usage errors naming both.
 pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), String> {
-    let collider_flags = ["mesh", "contact", "holes", "voxels", "thickness", "friction", "search", "brute_force"];
-    let flag = |id: &str| format!("--{}", id.replace('_', "-"));
-    for id in collider_flags {
-        if args.scene == SceneArg::Swing && given(matches, id) {
-            return Err(format!(
-                "{} does nothing in the swing scene, which has no collider: drop it, or use --scene drape or pile",
-                flag(id)
-            ));
+    for arg in Args::command().get_arguments() {
+        let id = arg.get_id().as_str();
+        if given(matches, id)
+            && let Some(reason) = unused(args, id)
+        {
+            return Err(reason);
         }
-    }
-    for id in ["mesh", "holes"] {
-        if args.scene == SceneArg::Pile && given(matches, id) {
-            return Err(format!("{} does nothing in the pile scene, whose collider is the ground plane", flag(id)));
-        }
-        if args.scene == SceneArg::Garment && given(matches, id) {
-            return Err(format!("{} does nothing in the garment scene, whose collider is its body", flag(id)));
-        }
-    }
-    if args.scene != SceneArg::Swing && given(matches, "wind") {
-        return Err(format!("--wind only applies to the swing scene, not the {:?} scene", args.scene).to_lowercase());
-    }
-    if args.contact == ContactArg::Triangles && given(matches, "voxels") {
-        return Err("--voxels only applies with --contact spheres (triangle contact has no voxels)".into());
     }
     if args.obj_every.is_some() && args.obj_dir.is_none() {
         return Err("--obj-every needs --obj-dir (the directory to write the frames into)".into());
     }
     Ok(())
+}
+
+/// Why flag `id` does nothing with these arguments (None: it applies).
+pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
+    let collider_flags = ["mesh", "contact", "holes", "voxels", "thickness", "friction", "search", "brute_force"];
+    let flag = format!("--{}", id.replace('_', "-"));
+    if args.scene == SceneArg::Swing && collider_flags.contains(&id) {
+        return Some(format!(
+            "{flag} does nothing in the swing scene, which has no collider: drop it, or use --scene drape or pile"
+        ));
+    }
+    if ["mesh", "holes"].contains(&id) {
+        if args.scene == SceneArg::Pile {
+            return Some(format!("{flag} does nothing in the pile scene, whose collider is the ground plane"));
+        }
+        if args.scene == SceneArg::Garment {
+            return Some(format!("{flag} does nothing in the garment scene, whose collider is its body"));
+        }
+    }
+    if id == "wind" && args.scene != SceneArg::Swing {
+        return Some(format!("--wind only applies to the swing scene, not the {:?} scene", args.scene).to_lowercase());
+    }
+    if id == "voxels" && args.contact == ContactArg::Triangles {
+        return Some("--voxels only applies with --contact spheres (triangle contact has no voxels)".into());
+    }
+    None
 }
 
 /// A finite number in `lo..=hi` (`lo` excluded when `open_low`), or a message with the range.

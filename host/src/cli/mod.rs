@@ -3,6 +3,7 @@
 pub(crate) mod args;
 pub(crate) mod progress;
 pub(crate) mod report;
+pub(crate) mod scene_file;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 

@@ -1,0 +1,230 @@
+//! Scene files: `--scene-file FILE.toml` holds any of the flags as `key = value` (the long flag's
+//! name, `grid = 64`, `pin-box = [-1, 0.9, -1, 1, 1, 1]`, `no-timestamps = true`), and flags typed
+//! on the command line override it. The file's values go through the flags' own parsers and
+//! checks, so a bad value gets the flag's message, prefixed with the file, line and key. An
+//! unknown key or a value of the wrong kind is a usage error naming the key and its line.
+//! `--print-scene` writes the effective scene (file, flags and defaults) in the same form.
+
+use super::args::{Args, unused};
+use clap::error::{ContextKind, ContextValue, ErrorKind};
+use clap::parser::ValueSource;
+use clap::{ArgMatches, CommandFactory};
+use std::ffi::OsString;
+use std::path::Path;
+
+/// Flags a scene file cannot hold (they are about reading or printing scene files).
+const NOT_IN_FILES: [&str; 4] = ["help", "version", "scene_file", "print_scene"];
+
+/// The command line's matches with the scene file's flags (if any) underneath.
+pub(crate) fn matches(cli: Vec<OsString>) -> Result<ArgMatches, clap::Error> {
+    let first = Args::command().try_get_matches_from(&cli)?;
+    let Some(path) = first.get_one::<std::path::PathBuf>("scene_file").cloned() else {
+        return Ok(first);
+    };
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| Args::command().error(ErrorKind::Io, format!("--scene-file {}: {e}", path.display())))?;
+    let entries = file_flags(&path, &text)?;
+    let mut merged = vec![cli[0].clone()];
+    for entry in &entries {
+        // A flag typed on the command line overrides the file.
+        if first.value_source(&entry.id) != Some(ValueSource::CommandLine) {
+            merged.extend(entry.args.iter().map(OsString::from));
+        }
+    }
+    merged.extend(cli.into_iter().skip(1));
+    Args::command().try_get_matches_from(merged).map_err(|e| locate(e, &path, &entries))
+}
+
+/// One key of a scene file as command-line arguments.
+struct Entry {
+    id: String,
+    key: String,
+    line: usize,
+    args: Vec<String>,
+}
+
+/// The scene file's keys as flags, in file order.
+fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
+    let usage = |line: usize, problem: String| {
+        Args::command()
+            .error(ErrorKind::ValueValidation, format!("scene file {}, line {line}: {problem}", path.display()))
+    };
+    let table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+        let line = e.span().map_or(0, |s| text[..s.start].lines().count().max(1));
+        usage(line, e.message().to_string())
+    })?;
+    let command = Args::command();
+    let mut entries = Vec::new();
+    for (key, value) in &table {
+        let id = key.replace('-', "_");
+        let line = line_of(text, key);
+        let arg = command
+            .get_arguments()
+            .find(|a| a.get_id().as_str() == id && !NOT_IN_FILES.contains(&a.get_id().as_str()))
+            .ok_or_else(|| {
+                usage(line, format!("unknown key `{key}`: the keys are the long flags (`drape --help` lists them)"))
+            })?;
+        let flag = format!("--{}", arg.get_long().unwrap_or(&id));
+        let args = if arg.get_action().takes_values() {
+            vec![flag, flag_value(value).ok_or_else(|| usage(line, format!("`{key}` takes {}", kind_of(arg))))?]
+        } else {
+            match value {
+                toml::Value::Boolean(true) => vec![flag],
+                toml::Value::Boolean(false) => Vec::new(),
+                _ => return Err(usage(line, format!("`{key}` is a switch: true or false"))),
+            }
+        };
+        entries.push(Entry { id, key: key.clone(), line, args });
+    }
+    entries.sort_by_key(|e| e.line);
+    Ok(entries)
+}
+
+/// What a flag's value looks like, for the wrong-kind message.
+fn kind_of(arg: &clap::Arg) -> String {
+    let values: Vec<String> = arg.get_possible_values().iter().map(|v| format!("\"{}\"", v.get_name())).collect();
+    if values.is_empty() {
+        "a number, a string or a list of numbers".into()
+    } else {
+        format!("one of {}", values.join(", "))
+    }
+}
+
+/// A TOML value as one flag value: strings as they are, numbers in full, lists of numbers comma
+/// separated (the vector flags' form); None for tables, dates and other lists.
+fn flag_value(value: &toml::Value) -> Option<String> {
+    match value {
+        toml::Value::String(s) => Some(s.clone()),
+        toml::Value::Integer(i) => Some(i.to_string()),
+        toml::Value::Float(f) => Some(f.to_string()),
+        toml::Value::Array(items) => {
+            let parts: Option<Vec<String>> = items
+                .iter()
+                .map(|v| match v {
+                    toml::Value::Integer(i) => Some(i.to_string()),
+                    toml::Value::Float(f) => Some(f.to_string()),
+                    _ => None,
+                })
+                .collect();
+            parts.map(|p| p.join(","))
+        }
+        _ => None,
+    }
+}
+
+/// The 1-based line where `key` is set (0 if not found).
+fn line_of(text: &str, key: &str) -> usize {
+    let spellings = [key.to_string(), key.replace('_', "-"), key.replace('-', "_")];
+    text.lines()
+        .position(|l| {
+            let l = l.trim_start();
+            spellings.iter().any(|k| l.strip_prefix(k.as_str()).is_some_and(|rest| rest.trim_start().starts_with('=')))
+        })
+        .map_or(0, |i| i + 1)
+}
+
+/// A parse error of the merged arguments, said of the scene file when the flag came from it.
+fn locate(error: clap::Error, path: &Path, entries: &[Entry]) -> clap::Error {
+    let Some(ContextValue::String(arg)) = error.get(ContextKind::InvalidArg) else {
+        return error;
+    };
+    let long = arg.split_whitespace().next().unwrap_or("").trim_start_matches('-').replace('-', "_");
+    match entries.iter().find(|e| e.id == long) {
+        Some(entry) => {
+            let message = error.to_string();
+            let message = message.trim_start_matches("error: ").lines().next().unwrap_or("").to_string();
+            Args::command().error(
+                error.kind(),
+                format!("scene file {}, line {}, key `{}`: {message}", path.display(), entry.line, entry.key),
+            )
+        }
+        None => error,
+    }
+}
+
+/// The effective scene (the file's values, the flags over them, the defaults) as a scene file.
+/// A flag the scene does not use is written commented out, with the reason.
+pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
+    let mut out = String::from("# drape scene: `drape --scene-file THIS.toml` runs it; flags override it.\n");
+    for arg in Args::command().get_arguments() {
+        let id = arg.get_id().as_str();
+        if NOT_IN_FILES.contains(&id) {
+            continue;
+        }
+        let key = arg.get_long().unwrap_or(id);
+        let value = if !arg.get_action().takes_values() {
+            matches.get_flag(id).to_string()
+        } else {
+            let Some(raw) = matches.get_raw(id) else {
+                continue; // an optional flag not given: its absence is the default
+            };
+            let values: Vec<String> = raw.map(|v| v.to_string_lossy().into_owned()).collect();
+            toml_value(&values.join(","))
+        };
+        match unused(args, id) {
+            Some(reason) => out += &format!("# {key} = {value}    # unused: {reason}\n"),
+            None => out += &format!("{key} = {value}\n"),
+        }
+    }
+    out
+}
+
+/// A flag's value as TOML: a number, a list of numbers, or a string.
+fn toml_value(text: &str) -> String {
+    let number = |s: &str| s.trim().parse::<f64>().ok().filter(|v| v.is_finite()).map(|_| s.trim().to_string());
+    if let Some(n) = number(text) {
+        return n;
+    }
+    let parts: Option<Vec<String>> = text.split(',').map(number).collect();
+    match parts {
+        Some(p) if p.len() > 1 => format!("[{}]", p.join(", ")),
+        _ => toml::Value::String(text.to_string()).to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Scene files mutated at random (bytes flipped, dropped, duplicated, cut short) never
+    /// panic the reader: each is flags or an error.
+    #[test]
+    fn mangled_scene_files_are_errors_not_panics() {
+        let valid =
+            "scene = \"pile\"\ngrid = 32\nwind = [-1, 0, 0.5]\nno-timestamps = true\npin-box = [0, 0, 0, 1, 1, 1]\n";
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let (mut parsed, mut rejected) = (0, 0);
+        for _ in 0..3000 {
+            let mut bytes = valid.as_bytes().to_vec();
+            for _ in 0..1 + next() % 4 {
+                let at = (next() % bytes.len().max(1) as u64) as usize;
+                match next() % 4 {
+                    0 => bytes[at] = (next() % 128) as u8,
+                    1 => {
+                        bytes.remove(at);
+                    }
+                    2 => bytes.insert(at, b"=[]\"{},.-#\n0x"[(next() % 13) as usize]),
+                    _ => bytes.truncate(at),
+                }
+                if bytes.is_empty() {
+                    break;
+                }
+            }
+            let text = String::from_utf8_lossy(&bytes);
+            match file_flags(Path::new("fuzz.toml"), &text) {
+                Ok(_) => parsed += 1,
+                Err(_) => rejected += 1,
+            }
+        }
+        assert!(
+            parsed > 0 && rejected > 0,
+            "the mutations must reach both outcomes ({parsed} parsed, {rejected} rejected)"
+        );
+    }
+}
