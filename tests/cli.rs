@@ -34,6 +34,7 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         (&["--cloth-mesh", "/nonexistent/cloth.obj", "--frames", "1"], runtime, "/nonexistent/cloth.obj"),
         (&["--obj-dir", "/proc/drape-cannot-write-here", "--frames", "1"], runtime, "--obj-dir"),
         (&["--json", "/nonexistent/dir/report.json", "--frames", "1"], runtime, "--json"),
+        (&["--usd", "/nonexistent/dir/cloth.usda", "--frames", "1"], runtime, "--usd"),
         (&["--sleep", "-1"], usage, "[0, 10]"),
         (&["--contact-substeps", "maybe"], usage, "--contact-substeps"),
     ];
@@ -228,5 +229,89 @@ fn scene_files_round_trip_override_and_explain_their_errors() {
     let output = drape(&["--scene-file", missing.to_str().unwrap()]);
     assert_eq!(output.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&output.stderr).contains("missing.toml"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `--usd`: the cache read back holds, at every frame, the positions the OBJ frames of the same
+/// run hold (both print f32 in full), the cloth's triangles, and the turning body's pose per
+/// frame.
+#[test]
+fn usd_cache_reads_back_as_the_frames() {
+    let dir = std::env::temp_dir().join(format!("drape-usd-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let usd = dir.join("garment.usda");
+    let frames = 3;
+    let output = drape(&[
+        "--scene",
+        "garment",
+        "--grid",
+        "16",
+        "--frames",
+        "3",
+        "--quiet",
+        "--usd",
+        usd.to_str().unwrap(),
+        "--obj-dir",
+        dir.to_str().unwrap(),
+        "--obj-every",
+        "1",
+    ]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let text = std::fs::read_to_string(&usd).unwrap();
+    assert!(text.starts_with("#usda 1.0"));
+    // The cloth's samples: `N: [(x, y, z), ...],` lines inside `points.timeSamples = {`.
+    let samples = text
+        .split("point3f[] points.timeSamples = {")
+        .nth(1)
+        .expect("points.timeSamples")
+        .split("\n        }")
+        .next()
+        .unwrap();
+    let parse_points = |list: &str| -> Vec<[f32; 3]> {
+        list.trim()
+            .trim_start_matches('[')
+            .trim_end_matches(',')
+            .trim_end_matches(']')
+            .split("), (")
+            .map(|p| {
+                let v: Vec<f32> =
+                    p.trim_matches(|c| c == '(' || c == ')').split(", ").map(|x| x.parse().unwrap()).collect();
+                [v[0], v[1], v[2]]
+            })
+            .collect()
+    };
+    let mut seen = 0;
+    for line in samples.lines().filter(|l| l.contains(": [")) {
+        let (frame, list) = line.trim().split_once(": ").unwrap();
+        let frame: u32 = frame.parse().unwrap();
+        let obj = std::fs::read_to_string(dir.join(format!("frame_{frame:05}.obj"))).unwrap();
+        let from_obj: Vec<[f32; 3]> = obj
+            .lines()
+            .filter_map(|l| l.strip_prefix("v "))
+            .map(|l| {
+                let v: Vec<f32> = l.split(' ').map(|x| x.parse().unwrap()).collect();
+                [v[0], v[1], v[2]]
+            })
+            .collect();
+        assert_eq!(parse_points(list), from_obj, "frame {frame}");
+        seen += 1;
+    }
+    assert_eq!(seen, frames, "one sample per frame");
+    // Triangles: the OBJ's faces, in order.
+    let obj = std::fs::read_to_string(dir.join("frame_00001.obj")).unwrap();
+    let faces: Vec<u32> = obj
+        .lines()
+        .filter_map(|l| l.strip_prefix("f "))
+        .flat_map(|l| {
+            l.split(' ').map(|c| c.split('/').next().unwrap().parse::<u32>().unwrap() - 1).collect::<Vec<_>>()
+        })
+        .collect();
+    let indices = text.split("int[] faceVertexIndices = [").nth(1).unwrap().split(']').next().unwrap();
+    let indices: Vec<u32> = indices.split(", ").map(|x| x.parse().unwrap()).collect();
+    assert_eq!(indices, faces);
+    assert!(text.contains("primvars:st"), "the cloth's UVs");
+    let orient =
+        text.split("quatf xformOp:orient.timeSamples = {").nth(1).expect("the body's pose").split('}').next().unwrap();
+    assert_eq!(orient.lines().filter(|l| l.contains(": (")).count(), frames as usize);
     std::fs::remove_dir_all(&dir).ok();
 }

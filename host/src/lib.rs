@@ -62,6 +62,7 @@ pub mod stability;
 mod state;
 pub mod timing;
 pub mod topology;
+pub mod usd;
 
 pub use cloth::{Cloth, ClothBuilder, ClothTopology};
 pub use cloth_mesh::{ClothMesh, ClothUvs};

@@ -112,6 +112,12 @@ fn run(args: &Args) -> drape::Result<()> {
             problem: format!("cannot write the report there: {e}"),
         })?;
     }
+    if let Some(path) = &args.usd {
+        check_output_file(path).map_err(|e| drape::Error::InvalidParameter {
+            name: "--usd",
+            problem: format!("cannot write the USD cache there: {e}"),
+        })?;
+    }
     if let Some(dir) = &args.obj_dir {
         check_output_dir(dir).map_err(|e| drape::Error::InvalidParameter {
             name: "--obj-dir",
@@ -269,6 +275,21 @@ fn run(args: &Args) -> drape::Result<()> {
         }
     }
 
+    let mut usd = match &args.usd {
+        Some(path) => {
+            let mut cache = drape::usd::UsdCache::create(path, &built, args.frames)?;
+            if let Some(s) = &scene {
+                let name = match args.scene {
+                    SceneArg::Pile => "ground",
+                    SceneArg::Garment => "body",
+                    _ => "collider",
+                };
+                cache.add_collider(name, &s.mesh);
+            }
+            Some(cache)
+        }
+        None => None,
+    };
     let mut worst = WorstIntersections::default();
     let mut report = TimingReport::default();
     let (mut ran, mut skipped, mut fallbacks) = (0, 0, 0u64);
@@ -301,6 +322,12 @@ fn run(args: &Args) -> drape::Result<()> {
             let path = dir.join(format!("frame_{frame:05}.obj"));
             drape::obj::write_cloth_obj(&path, &built, &sim.positions(cloth)?, &sim.normals(cloth)?)?;
         }
+        if let Some(cache) = &mut usd {
+            cache.frame(frame, &sim.positions(cloth)?)?;
+            if args.scene == SceneArg::Garment {
+                cache.collider_pose(0, frame, drape::scenes::garment_rotation(frame as f32 / 60.0), Vec3::ZERO);
+            }
+        }
         if args.check_every_frame {
             let posed = scene.as_ref().filter(|_| args.scene == SceneArg::Garment).map(|s| {
                 s.mesh.transformed(glam::Mat4::from_quat(drape::scenes::garment_rotation(frame as f32 / 60.0)))
@@ -313,6 +340,9 @@ fn run(args: &Args) -> drape::Result<()> {
         }
     }
     end_progress_line();
+    if let Some(cache) = usd {
+        cache.finish()?;
+    }
     if args.no_timestamps {
         say!(
             "\nGPU timestamps off (--no-timestamps): wall time per frame over {} frames: median {:.3} ms, min {:.3} ms",

@@ -136,6 +136,11 @@ pub(crate) struct Args {
     /// stderr; `--json` still writes its report).
     #[arg(long)]
     pub(crate) quiet: bool,
+    /// Write the cloth's animation as a USD cache (`.usda`, every frame; Blender and Houdini
+    /// import it without add-ons): the cloth's points per frame, its triangles and UVs, and the
+    /// collider with its pose per frame. Checked writable before any work.
+    #[arg(long, value_name = "FILE.usda")]
+    pub(crate) usd: Option<PathBuf>,
     /// Write the run's report as JSON to this file (setup, stability, substeps and sleep,
     /// per-pass GPU timings, wall times, collision counters, accuracy, intersections), for
     /// scripts and CI dashboards. Checked writable before any work.
