@@ -223,6 +223,18 @@ impl ClothBuilder {
             }
         }
         cloth.self_collision = self.self_collision;
+        if let Some(t) = self.self_collision {
+            let shortest = cloth.structural_springs().iter().map(|s| s.2).fold(f32::INFINITY, f32::min);
+            if t >= shortest {
+                log::warn!(
+                    "self-collision thickness {:.1} mm is not below the cloth's shortest edge, {:.1} mm: features two \
+                     edges apart are always in contact, which pushes the cloth apart and multiplies the pairs to test; \
+                     use a thickness under the edge length or a coarser cloth",
+                    t * 1e3,
+                    shortest * 1e3
+                );
+            }
+        }
         // Pinned particles (w = 0) stay at rest.
         cloth.velocities = cloth.positions.iter().map(|p| (self.velocity * p.w).extend(0.0)).collect();
         Ok(cloth)
