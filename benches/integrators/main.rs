@@ -15,6 +15,7 @@ mod plot;
 
 use drape::reference::ReferenceCloth;
 use drape::{ClothId, Context, Integrator, Model, SimSettings, Solver, Validation};
+use drape::timing::median;
 use std::path::PathBuf;
 
 const CLOTH: ClothId = ClothId::new(0);
@@ -42,12 +43,6 @@ struct Run {
     solver: Option<Solver>,
     gpu: Vec<f64>,
     wall: Vec<f64>,
-}
-
-fn median(values: &[f64]) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn main() {

@@ -21,6 +21,7 @@ mod plot;
 use drape::metrics::{Accuracy, TriangleBvh, accuracy, accuracy_on_triangles};
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, shared_model};
 use drape::{ClothId, Collider, ContactSearch, Context, Mesh, Model, SimSettings, Solver, Validation};
+use drape::timing::median;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -66,12 +67,6 @@ struct Run {
     collider: Collider,
     solver: Solver,
     walls: Vec<f64>,
-}
-
-fn median(values: &[f64]) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn main() {
