@@ -14,8 +14,8 @@ mod font;
 mod plot;
 
 use drape::reference::ReferenceCloth;
-use drape::{ClothId, Context, Integrator, Model, SimSettings, Solver, Validation};
 use drape::timing::median;
+use drape::{ClothId, Context, Integrator, Model, SimSettings, Solver, Validation};
 use std::path::PathBuf;
 
 const CLOTH: ClothId = ClothId::new(0);

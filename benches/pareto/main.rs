@@ -20,8 +20,8 @@ mod plot;
 
 use drape::metrics::{Accuracy, TriangleBvh, accuracy, accuracy_on_triangles};
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, shared_model};
-use drape::{ClothId, Collider, ContactSearch, Context, Mesh, Model, SimSettings, Solver, Validation};
 use drape::timing::median;
+use drape::{ClothId, Collider, ContactSearch, Context, Mesh, Model, SimSettings, Solver, Validation};
 use std::path::PathBuf;
 use std::time::Instant;
 
