@@ -315,3 +315,13 @@ fn usd_cache_reads_back_as_the_frames() {
     assert_eq!(orient.lines().filter(|l| l.contains(": (")).count(), frames as usize);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Redirected (not a terminal), the run draws no progress bar: no carriage returns in its
+/// output, and its report is on stdout.
+#[test]
+fn a_redirected_run_has_no_carriage_returns() {
+    let output = drape(&["--scene", "swing", "--grid", "8", "--frames", "3"]);
+    assert!(output.status.success());
+    assert!(!output.stderr.contains(&b'\r') && !output.stdout.contains(&b'\r'));
+    assert!(String::from_utf8_lossy(&output.stdout).contains("GPU time per kernel"));
+}

@@ -10,7 +10,7 @@ use cli::args::{
     Args, ContactArg, HolesArg, IntegratorArg, OnOff, SceneArg, SearchArg, check_flags, check_output_dir,
     check_output_file,
 };
-use cli::progress::{end_progress_line, progress};
+use cli::progress::Progress;
 use cli::report::{
     Schedule, WorstIntersections, accuracy_json, cloth_description, intersections_json, print_accuracy, print_setup,
     stability_json, timings_json, write_json,
@@ -36,7 +36,7 @@ impl log::Log for StderrLogger {
     }
     fn log(&self, record: &log::Record) {
         if self.enabled(record.metadata()) {
-            eprintln!("[{} {}] {}", record.level(), record.target(), record.args());
+            cli::progress::eprint_line(&format!("[{} {}] {}", record.level(), record.target(), record.args()));
         }
     }
     fn flush(&self) {}
@@ -73,7 +73,6 @@ fn main() -> ExitCode {
     match run(&args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            end_progress_line();
             eprintln!("error: {e}");
             ExitCode::FAILURE
         }
@@ -295,6 +294,7 @@ fn run(args: &Args) -> drape::Result<()> {
     let (mut ran, mut skipped, mut fallbacks) = (0, 0, 0u64);
     let body = model.collider_ids().next();
     let mut schedule = Schedule::default();
+    let progress = Progress::new(args.frames);
     for frame in 1..=args.frames {
         if let (SceneArg::Garment, Some(body)) = (args.scene, body) {
             sim.set_collider_pose(body, drape::scenes::garment_rotation(frame as f32 / 60.0), Vec3::ZERO)?;
@@ -313,7 +313,7 @@ fn run(args: &Args) -> drape::Result<()> {
         ran += r.collision_ran;
         skipped += r.collision_skipped;
         fallbacks += u64::from(r.collision_fallbacks);
-        progress(frame, args.frames);
+        progress.set(frame);
         let write_this = match args.obj_every {
             Some(n) => frame % n == 0,
             None => frame == args.frames,
@@ -339,7 +339,7 @@ fn run(args: &Args) -> drape::Result<()> {
             worst.record(frame, count_intersections(&sim.positions(cloth)?, &built.triangles, solid));
         }
     }
-    end_progress_line();
+    drop(progress);
     if let Some(cache) = usd {
         cache.finish()?;
     }

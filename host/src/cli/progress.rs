@@ -1,27 +1,57 @@
-//! The progress bar on stderr: only on a terminal, and never sharing a line with an error.
+//! The progress bar on stderr (indicatif): drawn only on a terminal and not with `--quiet`, so a
+//! redirected log gets no carriage returns; log lines are printed above it, and it is cleared
+//! when the run ends, by success or error, so an error never shares its line.
 
-use std::io::Write;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::io::IsTerminal;
+use std::sync::Mutex;
 
-/// Whether a progress bar is on stderr's current line (so what comes next starts a new one).
-pub(crate) static PROGRESS_ON_LINE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+/// The bar being drawn, for the logger to print above.
+static ACTIVE: Mutex<Option<ProgressBar>> = Mutex::new(None);
 
-/// The progress bar, redrawn in place: only on a terminal (a redirected log gets no carriage
-/// returns).
-pub(crate) fn progress(frame: u32, total: u32) {
-    use std::io::IsTerminal;
-    if !std::io::stderr().is_terminal() || super::quiet() {
-        return;
+/// The frames' progress bar; clears itself when dropped.
+pub(crate) struct Progress(Option<ProgressBar>);
+
+impl Progress {
+    /// A bar over `frames` frames (none when stderr is not a terminal or with `--quiet`).
+    pub(crate) fn new(frames: u32) -> Self {
+        if !std::io::stderr().is_terminal() || super::quiet() {
+            return Progress(None);
+        }
+        let style = ProgressStyle::with_template("[{bar:40}] {pos}/{len} frames, {elapsed} (eta {eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("#>-");
+        let bar =
+            ProgressBar::with_draw_target(Some(u64::from(frames)), ProgressDrawTarget::stderr()).with_style(style);
+        if let Ok(mut active) = ACTIVE.lock() {
+            *active = Some(bar.clone());
+        }
+        Progress(Some(bar))
     }
-    let width = 40;
-    let done = (frame as usize * width) / total.max(1) as usize;
-    eprint!("\r[{}{}] {frame}/{total} frames", "#".repeat(done), " ".repeat(width - done));
-    let _ = std::io::stderr().flush();
-    PROGRESS_ON_LINE.store(true, std::sync::atomic::Ordering::Relaxed);
+
+    /// `frame` frames are done.
+    pub(crate) fn set(&self, frame: u32) {
+        if let Some(bar) = &self.0 {
+            bar.set_position(u64::from(frame));
+        }
+    }
 }
 
-/// Ends the progress bar's line, if one is drawn.
-pub(crate) fn end_progress_line() {
-    if PROGRESS_ON_LINE.swap(false, std::sync::atomic::Ordering::Relaxed) {
-        eprintln!();
+impl Drop for Progress {
+    fn drop(&mut self) {
+        if let Some(bar) = self.0.take() {
+            bar.finish_and_clear();
+        }
+        if let Ok(mut active) = ACTIVE.lock() {
+            *active = None;
+        }
+    }
+}
+
+/// Prints a line on stderr above the bar, if one is drawn.
+pub(crate) fn eprint_line(line: &str) {
+    match ACTIVE.lock().ok().and_then(|a| a.clone()) {
+        Some(bar) => bar.suspend(|| eprintln!("{line}")),
+        None => eprintln!("{line}"),
     }
 }
