@@ -311,6 +311,29 @@ fn blow_up_is_an_error_that_says_what_to_change() {
     }
 }
 
+/// The blow-up error names the quantity that drove it and a value that would be stable:
+/// stiffness or damping when the substep is over the bound (whichever sets it), the external
+/// force when the substep is within it.
+#[test]
+fn blow_up_names_the_quantity_that_drove_it() {
+    let ctx = context();
+    let blow_up = |builder: ClothBuilder, substeps: Option<u32>| {
+        let cloth = builder.pin_top_corners().build().unwrap();
+        let settings = SimSettings::default().with_substeps(substeps).with_timestamps(false);
+        let mut sim = Solver::new(&ctx, &Model::single(&cloth, &[], settings).unwrap()).unwrap();
+        let error = (0..60).find_map(|_| sim.step().err()).expect("must blow up");
+        assert!(matches!(error, Error::Unstable { .. }), "{error}");
+        error.to_string()
+    };
+    let stiff = blow_up(ClothBuilder::new(8, 8).stiffness(5000.0, 1000.0, 100.0), Some(1));
+    assert!(stiff.contains("set by the stiffness") && stiff.contains("stiffness of at most"), "{stiff}");
+    let damped = blow_up(ClothBuilder::new(8, 8).spring_damping(50.0), Some(2));
+    assert!(damped.contains("set by the damping") && damped.contains("spring damping"), "{damped}");
+    let pushed = blow_up(ClothBuilder::new(8, 8).external_force(Vec3::new(1e5, 0.0, 0.0)), None);
+    assert!(pushed.contains("within the stability bound") && pushed.contains("external force"), "{pushed}");
+    assert_validation_clean(&ctx);
+}
+
 #[test]
 fn invalid_parameters_are_errors_not_panics() {
     let cases: Vec<(&str, drape::Result<Cloth>)> = vec![

@@ -47,7 +47,7 @@ impl CpuSolver {
                 continue;
             }
             let health: Health = self.executor.read(cloth.health, 1)?[0];
-            check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i].stability)?;
+            check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i])?;
             self.controls.observe(i, &health);
             for contact in contacts {
                 check_collision(&self.executor.read(contact.status, 1)?[0], self.frames_done)?;

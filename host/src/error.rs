@@ -36,13 +36,22 @@ pub enum Error {
     /// A parameter is out of its valid range.
     #[error("invalid parameter `{name}`: {problem}")]
     InvalidParameter { name: &'static str, problem: String },
-    /// The simulation blew up; the message says what to change.
+    /// The simulation blew up; the message names the quantity that drove it, a value of it that
+    /// would be stable, and the substeps that would be.
     #[error(
-        "cloth {cloth} became unstable at frame {frame} ({detail}); the substep {substep:.3e} s \
-         should be at most the stability bound {bound:.3e} s: use at least {suggested_substeps} \
-         substeps per frame (or automatic substeps), or lower the stiffness / raise the mass"
+        "cloth {cloth} became unstable at frame {frame} ({detail}): {cause}; or use at least \
+         {suggested_substeps} substeps per frame (or automatic substeps)"
     )]
-    Unstable { cloth: usize, frame: u64, detail: String, substep: f32, bound: f32, suggested_substeps: u32 },
+    Unstable {
+        cloth: usize,
+        frame: u64,
+        detail: String,
+        /// What drove it and a stable value (`stability::diagnosis`).
+        cause: String,
+        substep: f32,
+        bound: f32,
+        suggested_substeps: u32,
+    },
     /// A mesh file or mesh parameter is unusable; names the file and line where there is one.
     #[error("mesh {path}: {problem}")]
     Mesh { path: PathBuf, problem: String },

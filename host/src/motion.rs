@@ -88,6 +88,11 @@ impl ClothMotion {
         }
     }
 
+    /// The fastest particle at the end of the last frame observed (m/s).
+    pub(crate) fn last_speed(&self) -> f32 {
+        self.last_speed
+    }
+
     /// Wakes the cloth; returns whether it was asleep.
     pub(crate) fn wake(&mut self) -> bool {
         self.still_frames = 0;

@@ -196,13 +196,13 @@ impl SimSettings {
     }
 }
 
-/// Reads cloth `cloth`'s blow-up detector and turns a blow-up into an error.
+/// Reads cloth `cloth`'s blow-up detector and turns a blow-up into an error naming its cause.
 pub(crate) fn check_health(
     health: &Health,
     frame: u64,
     cloth: usize,
     settings: &SimSettings,
-    stability: &Stability,
+    control: &crate::controls::ClothControl,
 ) -> Result<()> {
     let stretch = f32::from_bits(health.max_stretch_bits);
     let detail = if health.non_finite > 0 {
@@ -212,10 +212,15 @@ pub(crate) fn check_health(
     } else {
         return Ok(());
     };
+    let stability = &control.stability;
+    let speed = control.motion.last_speed();
+    let cause =
+        stability::diagnosis::cause(&control.params, stability, settings.integrator.id(), settings.max_stretch, speed);
     Err(Error::Unstable {
         cloth,
         frame,
         detail,
+        cause,
         substep: stability.substep,
         bound: stability.max_substep,
         suggested_substeps: stability.min_stable_substeps().max(stability.substeps * 2),

@@ -116,7 +116,7 @@ impl Solver {
                 continue; // nothing ran: its status buffers hold its last awake frame's
             }
             let health: Health = self.engine.read_mapped(cloth.health)?;
-            check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i].stability)?;
+            check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i])?;
             self.controls.observe(i, &health);
             for contact in contacts {
                 let status: CollisionStatus = self.engine.read_mapped(contact.status)?;
@@ -194,8 +194,7 @@ impl Solver {
             for (i, contacts) in self.program.contacts.iter().enumerate() {
                 if let Some(health) = chunks.next() {
                     let health: Health = bytemuck::pod_read_unaligned(health);
-                    let stability = &self.controls.cloths[i].stability;
-                    check_health(&health, frame, i, &self.controls.settings, stability)?;
+                    check_health(&health, frame, i, &self.controls.settings, &self.controls.cloths[i])?;
                     self.controls.observe(i, &health);
                 }
                 for status in contacts.iter().filter_map(|_| chunks.next()) {

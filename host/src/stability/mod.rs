@@ -20,6 +20,7 @@
 //! stretches stiffer than the state the bound was taken at. Blow-up detection (`check_health`)
 //! stays the safety net.
 
+pub mod diagnosis;
 pub mod rk4_region;
 pub mod spectrum;
 

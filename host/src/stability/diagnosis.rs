@@ -1,0 +1,95 @@
+//! What drove a blow-up, and a value of that quantity that would be stable: the error a user
+//! reads when a cloth blows up (`Error::Unstable`).
+//!
+//! - A substep over the stability bound: the bound is set either by the stiffness (omega_max)
+//!   or by the damping (gamma_max), whichever alone allows the shorter substep; the message
+//!   names it, its values, and the largest value that would be stable at this substep (omega
+//!   grows as sqrt(k), gamma as c).
+//! - A substep within the bound: the springs are stable, so a load stretched them past the
+//!   limit: the external force or gravity when it exceeds what a particle's structural springs
+//!   hold at the stretch limit (an upper limit: the message says the force must be well below
+//!   it), else the motion (a fast particle or a contact pushing it), for which more substeps
+//!   help.
+
+use super::{Stability, max_stable_substep};
+use drape_types::SimParams;
+
+/// The cause of a blow-up of a cloth with `params` running at `stability`, with `max_stretch`
+/// the stretch limit and `speed` the fastest particle of the last healthy frame (m/s).
+pub fn cause(params: &SimParams, stability: &Stability, integrator: u32, max_stretch: f32, speed: f32) -> String {
+    let (omega, gamma) = (stability.omega_max as f64, stability.gamma_max as f64);
+    if stability.ratio > 1.0 {
+        let over = stability.ratio as f64;
+        let stiffness_limit = max_stable_substep(omega, 0.0, integrator);
+        let damping_limit = max_stable_substep(0.0, gamma, integrator);
+        return if stiffness_limit <= damping_limit {
+            // omega ~ sqrt(k): k / over^2 would put the bound at this substep.
+            let scale = 1.0 / (over * over);
+            format!(
+                "the substep {:.3e} s is {over:.2}x the stability bound {:.3e} s, set by the stiffness (omega_max {:.0} \
+                 rad/s from k = {}, {}, {} N/m with particle mass {:.3e} kg): stiffness of at most {:.3e}, {:.3e}, {:.3e} \
+                 N/m would be stable at this substep",
+                stability.substep,
+                stability.max_substep,
+                omega,
+                params.k_struct,
+                params.k_shear,
+                params.k_bend,
+                params.particle_mass,
+                params.k_struct as f64 * scale,
+                params.k_shear as f64 * scale,
+                params.k_bend as f64 * scale
+            )
+        } else {
+            let mut stable = Vec::new();
+            if params.spring_damping > 0.0 {
+                stable.push(format!("spring damping {:.3e} N s/m", params.spring_damping as f64 / over));
+            }
+            if params.velocity_damping > 0.0 {
+                stable.push(format!("velocity damping {:.3e} N s/m", params.velocity_damping as f64 / over));
+            }
+            format!(
+                "the substep {:.3e} s is {over:.2}x the stability bound {:.3e} s, set by the damping (gamma_max {:.0} 1/s \
+                 from spring damping {} N s/m and velocity damping {} N s/m with particle mass {:.3e} kg): {} at most \
+                 would be stable at this substep",
+                stability.substep,
+                stability.max_substep,
+                gamma,
+                params.spring_damping,
+                params.velocity_damping,
+                params.particle_mass,
+                stable.join(" and ")
+            )
+        };
+    }
+    // Within the bound: a load. What four structural springs hold at the stretch limit.
+    let rest = params.rest.x.min(params.rest.y).max(f32::MIN_POSITIVE);
+    let held = 4.0 * params.k_struct * rest * (max_stretch - 1.0);
+    let force = params.external_force.truncate().length();
+    let weight = params.gravity.truncate().length() * params.particle_mass;
+    let particles = params.particle_count.max(1) as f32;
+    if force > held {
+        format!(
+            "the substep is within the stability bound, so the load drove it: the external force, {:.3e} N on the \
+             cloth ({force:.3e} N per particle), exceeds the {held:.3e} N per particle that even a particle held by \
+             all four of its structural springs ({} N/m) bears at {max_stretch}x stretch; the cloth as a whole bears \
+             less, so use a force well below {:.3e} N on the cloth, or stiffer springs",
+            force * particles,
+            params.k_struct,
+            held * particles
+        )
+    } else if weight > held {
+        format!(
+            "the substep is within the stability bound, but gravity pulls each particle with {weight:.3e} N, more than \
+             the springs hold at {max_stretch}x stretch ({held:.3e} N): gravity below {:.3e} m/s^2, or stiffer springs, \
+             would be stable",
+            held / params.particle_mass
+        )
+    } else {
+        format!(
+            "the substep is within the stability bound, so motion drove it: the fastest particle moved at {speed:.3e} m/s \
+             in the last healthy frame (a fast throw, or contact pushing particles apart, e.g. a thickness larger than \
+             the cloth's edges); smaller substeps resolve it"
+        )
+    }
+}
