@@ -81,16 +81,16 @@ impl TimingReport {
     /// A text table: one row per pass label, then totals.
     pub fn table(&self) -> String {
         let mut out = String::new();
-        let _ = writeln!(out, "{:<22} {:>10} {:>14} {:>14}", "pass", "dispatches", "GPU µs/frame", "µs/dispatch");
+        let _ = writeln!(out, "{:<34} {:>10} {:>14} {:>14}", "pass", "dispatches", "GPU µs/frame", "µs/dispatch");
         for (label, n, micros) in self.rows() {
-            let _ = writeln!(out, "{label:<22} {n:>10} {micros:>14.1} {:>14.1}", micros / n as f64);
+            let _ = writeln!(out, "{label:<34} {n:>10} {micros:>14.1} {:>14.1}", micros / n as f64);
         }
         for label in &self.skipped {
-            let _ = writeln!(out, "{label:<22} {:>10} {:>14} {:>14}", 0, "skipped", "-");
+            let _ = writeln!(out, "{label:<34} {:>10} {:>14} {:>14}", 0, "skipped", "-");
         }
         let _ = writeln!(
             out,
-            "{:<22} {:>10} {:>14.1}\nwall time per frame over {} frames: median {:.3} ms, min {:.3} ms",
+            "{:<34} {:>10} {:>14.1}\nwall time per frame over {} frames: median {:.3} ms, min {:.3} ms",
             "total GPU",
             self.labels.iter().map(|(_, n)| n).sum::<u32>(),
             self.median_gpu_micros(),

@@ -70,7 +70,8 @@ pub const fn broad_phase_spec(entry: &'static str) -> KernelSpec {
     }
 }
 
-/// The binding table of every leaf kind's narrow-phase detect pass (over candidate lists).
+/// The binding table of every leaf kind's narrow-phase pass (over candidate lists): detects
+/// and responds in one dispatch.
 pub const DETECT_CANDIDATES_BINDINGS: &[BindingSpec] = &[
     read("params"),
     read("collider"),
@@ -80,8 +81,9 @@ pub const DETECT_CANDIDATES_BINDINGS: &[BindingSpec] = &[
     read("leaves"),
     read("queries"),
     read("candidates"),
-    read("x"),
+    write("x"),
     read("x_prev"),
+    write("v"),
     write("contacts"),
     write("status"),
 ];
@@ -161,26 +163,27 @@ where
     Ok(())
 }
 
-/// CPU adapter of leaf kind `K`'s narrow-phase detect pass (`DETECT_CANDIDATES_BINDINGS`).
+/// CPU adapter of leaf kind `K`'s narrow-phase detect + respond pass (`DETECT_CANDIDATES_BINDINGS`).
 pub fn detect_candidates_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String>
 where
     K::Leaf: bytemuck::Pod,
 {
     let threads = d.invocations();
     let push: ContactPush = d.push_as();
-    let [params, collider, pose, nodes, aabbs, leaves, queries, candidates, x, x_prev, contacts, status] =
+    let [params, collider, pose, nodes, aabbs, leaves, queries, candidates, x, x_prev, v, contacts, status] =
         d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = collider.first()?;
     let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<K::Leaf>());
     let lists = (queries.slice::<ContactQuery>(), candidates.slice::<u32>());
-    let (x, x_prev, contacts) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), contacts.slice_mut::<Contact>());
-    let status = status.first_mut::<CollisionStatus>()?;
+    let (x, x_prev, v) = (x.slice_mut::<Vec4>(), x_prev.slice::<Vec4>(), v.slice_mut::<Vec4>());
+    let (contacts, status) = (contacts.slice_mut::<Contact>(), status.first_mut::<CollisionStatus>()?);
     for i in 0..threads.min(p.particle_count) {
         let outcome = detect_candidates_at::<K>(i, &c, &motion, tree, lists, x, x_prev, contacts);
         status.fallbacks += outcome.fell_back as u32;
         status.overflows += outcome.overflowed as u32;
+        respond_at(i, &contacts[i as usize], &c, &motion, x, v);
     }
     Ok(())
 }

@@ -1,7 +1,8 @@
 //! Cloth-vs-collider contact after each substep, for any leaf kind: a culling pass against the
-//! collider's root box writes the indirect dispatch of the next two passes (zero workgroups when
+//! collider's root box writes the indirect dispatch of the next passes (zero workgroups when
 //! they cannot touch), the leaf kind's detect pass writes each particle's earliest contact, and
-//! the respond pass applies them. The brute-force mode detects by testing every leaf instead.
+//! the respond pass applies them. With candidate lists (the default) detect and respond are one
+//! pass. The brute-force mode detects by testing every leaf instead.
 
 use super::cloth::ClothBuffers;
 use super::lbvh::LbvhBuffers;
@@ -40,7 +41,7 @@ pub enum ContactMode {
 /// Label of the broad phase.
 pub const BROAD_PHASE_LABEL: &str = "contact: broad phase";
 /// Label of the narrow-phase detect pass over candidate lists.
-pub const DETECT_CANDIDATES_LABEL: &str = "contact: detect (lists)";
+pub const DETECT_CANDIDATES_LABEL: &str = "contact: detect+respond (lists)";
 
 /// A collider's leaves as contact sees them: the LBVH over them, the leaves in its order, and
 /// the detect kernels of their kind. Each leaf kind implements it in its own file.
@@ -215,13 +216,15 @@ impl ContactBuffers {
                         lists.candidates.id(),
                         cloth.x.id(),
                         cloth.x_prev.id(),
+                        cloth.v.id(),
                         self.contacts.id(),
                         self.status.id(),
                     ],
                     push,
                     Dispatch::Indirect(self.args),
                 ));
-                Dispatch::Indirect(self.args)
+                // The pass responds too: no respond pass (one dispatch and barrier fewer).
+                return;
             }
             Search::Bvh => {
                 out.push(self.cull_step(cloth, tree, pose, push));

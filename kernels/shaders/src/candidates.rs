@@ -14,7 +14,7 @@
 
 use crate::contact::{
     Candidate, LeafKind, Left, NO_CANDIDATE, blocks_relative, consider, detect_at, hit_relative, local_motion,
-    path_blocked, point_in_aabb, substep_motion, target_of,
+    path_blocked, point_in_aabb, respond_at, substep_motion, target_of,
 };
 use crate::lbvh::{TreeQuery, walk};
 use crate::pose::{SubstepMotion, to_local};
@@ -227,8 +227,10 @@ pub fn detect_candidates_at<K: LeafKind>(
     NarrowOutcome { fell_back: false, overflowed: false }
 }
 
-/// The body of every leaf kind's narrow-phase detect entry point: fallbacks and overflows
-/// counted in `status`.
+/// The body of every leaf kind's narrow-phase entry point: detects particle `index`'s contact
+/// over its list (fallbacks and overflows counted in `status`) and applies it at once. One
+/// pass instead of a detect pass and a respond pass: a particle's detection reads only its own
+/// position, so no other thread's response can change what it finds.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn detect_candidates_particle<K: LeafKind>(
@@ -239,7 +241,7 @@ pub fn detect_candidates_particle<K: LeafKind>(
     pose: &ColliderPose,
     tree: (&[BvhNode], &[Aabb], &[K::Leaf]),
     lists: (&[ContactQuery], &[u32]),
-    (x, x_prev): (&[Vec4], &[Vec4]),
+    (x, x_prev, v): (&mut [Vec4], &[Vec4], &mut [Vec4]),
     contacts: &mut [Contact],
     status: &mut CollisionStatus,
 ) {
@@ -254,4 +256,5 @@ pub fn detect_candidates_particle<K: LeafKind>(
     if outcome.overflowed {
         crate::atomics::add(&mut status.overflows, 1);
     }
+    respond_at(index, &contacts[index as usize], collider, &motion, x, v);
 }

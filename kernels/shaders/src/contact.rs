@@ -698,7 +698,7 @@ macro_rules! contact_entry_points {
             );
         }
 
-        /// Narrow phase (every substep): detect over each particle's candidate list.
+        /// Narrow phase (every substep): detect over each particle's candidate list and respond.
         #[allow(clippy::too_many_arguments)]
         #[spirv(compute(threads(64)))]
         pub fn detect_candidates(
@@ -712,10 +712,11 @@ macro_rules! contact_entry_points {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[$leaf],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] queries: &[::drape_types::ContactQuery],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] candidates: &[u32],
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x: &mut [::drape_types::glam::Vec4],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] x_prev: &[::drape_types::glam::Vec4],
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] contacts: &mut [::drape_types::Contact],
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] status: &mut ::drape_types::CollisionStatus,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] v: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] contacts: &mut [::drape_types::Contact],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] status: &mut ::drape_types::CollisionStatus,
         ) {
             $crate::candidates::detect_candidates_particle::<$kind>(
                 id.x,
@@ -725,7 +726,7 @@ macro_rules! contact_entry_points {
                 pose,
                 (nodes, aabbs, leaves),
                 (queries, candidates),
-                (x, x_prev),
+                (x, x_prev, v),
                 contacts,
                 status,
             );
