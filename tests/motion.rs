@@ -75,6 +75,33 @@ fn a_settled_cloth_sleeps_without_drifting_until_a_collider_moves() {
     assert_validation_clean(&ctx);
 }
 
+/// A collider moving far from the sleeping cloth leaves it asleep; one moving within reach of
+/// it wakes it.
+#[test]
+fn only_a_collider_moving_near_the_cloth_wakes_it() {
+    let ctx = context();
+    let (cloth, ground) = cloth_over_ground();
+    let far = Collider::new(vec![glam::Vec4::new(10.0, 0.5, 0.0, 0.2)], 0.005);
+    let mut builder = Model::builder();
+    builder.add_cloth(cloth);
+    let ground_id = builder.add_collider(ground);
+    let far_id = builder.add_collider(far);
+    let model = builder.settings(settings()).build().unwrap();
+    let mut sim = Solver::new(&ctx, &model).unwrap();
+    until_asleep(&mut sim, 300);
+    let resting = sim.positions(CLOTH).unwrap();
+    for frame in 1..=20 {
+        // The far ball circles 10 m away.
+        let at = Vec3::new(10.0 + (frame as f32 * 0.3).cos(), 0.5, (frame as f32 * 0.3).sin());
+        sim.set_collider_pose(far_id, Quat::IDENTITY, at - Vec3::new(10.0, 0.5, 0.0)).unwrap();
+        assert_eq!(sim.step_report().unwrap().cloths_asleep, 1, "frame {frame}: a far collider woke the cloth");
+    }
+    assert_eq!(sim.positions(CLOTH).unwrap(), resting);
+    sim.set_collider_pose(ground_id, Quat::IDENTITY, Vec3::new(0.0, 0.005, 0.0)).unwrap();
+    assert_eq!(sim.step_report().unwrap().cloths_asleep, 0, "the ground under it moved: it must wake");
+    assert_validation_clean(&ctx);
+}
+
 /// A force change wakes a sleeping cloth; without sleeping it never sleeps; the CPU twin
 /// sleeps at the same frame as the GPU.
 #[test]

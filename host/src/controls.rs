@@ -180,6 +180,20 @@ impl Controls {
         }
     }
 
+    /// Cloths that sleep without a known resting place (they just fell asleep): their indices.
+    pub fn asleep_unplaced(&self) -> Vec<usize> {
+        (0..self.cloths.len())
+            .filter(|&i| self.cloths[i].motion.asleep && self.cloths[i].motion.resting_bounds.is_none())
+            .collect()
+    }
+
+    /// Where sleeping cloth `index` lies (its positions, read back).
+    pub fn rest_at(&mut self, index: usize, positions: &[Vec4]) {
+        if let Some(c) = self.cloths.get_mut(index) {
+            c.motion.rest_at(positions);
+        }
+    }
+
     /// Wakes one cloth.
     pub fn wake(&mut self, cloth: ClothId) -> Result<()> {
         let woke = self.cloth_mut(cloth)?.motion.wake();
@@ -423,6 +437,17 @@ impl Controls {
     fn plan_motion(&mut self) {
         let settings = self.settings;
         let collider_speed = self.colliders.iter().map(|c| c.surface_speed(settings.frame_dt)).fold(0.0, f32::max);
+        // Each moving collider's swept box, grown by its contact reach.
+        let moving: Vec<(Vec3, Vec3)> = self
+            .colliders
+            .iter()
+            .filter(|c| c.surface_speed(settings.frame_dt) > 0.0)
+            .map(|c| {
+                let (lo, hi) = c.swept_bounds();
+                let reach = Vec3::splat(c.params.thickness);
+                (lo - reach, hi + reach)
+            })
+            .collect();
         // Triangle contact sweeps each particle's path against the moving triangles (CCD): any
         // substep length is safe. Sphere contact and self-collision test proximity at substep
         // ends only.
@@ -430,7 +455,8 @@ impl Controls {
             self.colliders.iter().filter(|c| c.deformable.0 == "spheres").map(|c| c.params.thickness).reduce(f32::min);
         for c in &mut self.cloths {
             let thickness = [collider_thickness, c.self_collision].into_iter().flatten().reduce(f32::min);
-            let change = c.motion.plan_frame(thickness, collider_speed, settings.frame_dt, settings.sleep);
+            let near = moving.iter().any(|&bounds| c.motion.near(bounds));
+            let change = c.motion.plan_frame(thickness, (collider_speed, near), settings.frame_dt, settings.sleep);
             if change.substeps {
                 self.replan |= c.apply_contact(&settings);
                 log::debug!(
@@ -449,6 +475,36 @@ impl Controls {
 }
 
 impl ColliderControl {
+    /// The world box the collider's surface sweeps over the coming frame: its leaves' box in
+    /// its own frame (and the deformed one's), at the last frame's end pose and the target.
+    fn swept_bounds(&self) -> (Vec3, Vec3) {
+        let local = |leaves: &[Vec4]| {
+            leaves.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), l| {
+                let r = Vec3::splat(l.w.max(0.0));
+                (lo.min(l.truncate() - r), hi.max(l.truncate() + r))
+            })
+        };
+        let (mut lo, mut hi) = local(&self.current);
+        if let Some(next) = &self.deformed {
+            let (a, b) = local(next);
+            (lo, hi) = (lo.min(a), hi.max(b));
+        }
+        let mut world = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for pose in [self.end_of_last_frame, self.target] {
+            let (q, t) = (Quat::from_vec4(pose.rotation), pose.translation.truncate());
+            for corner in 0..8 {
+                let c = Vec3::new(
+                    if corner & 1 == 0 { lo.x } else { hi.x },
+                    if corner & 2 == 0 { lo.y } else { hi.y },
+                    if corner & 4 == 0 { lo.z } else { hi.z },
+                );
+                let p = q * c + t;
+                world = (world.0.min(p), world.1.max(p));
+            }
+        }
+        world
+    }
+
     /// The fastest point of the collider's surface over the coming frame (m/s): its rigid
     /// motion from the last frame's end to the target pose, plus its deformation.
     fn surface_speed(&self, frame_dt: f32) -> f32 {

@@ -39,6 +39,11 @@ impl CpuSolver {
         let leading = self.controls.begin_frame(&self.program);
         let replan = self.controls.take_replan();
         self.replan(replan)?;
+        for i in self.controls.asleep_unplaced() {
+            let b = &self.program.cloths[i];
+            let x = self.executor.read(b.x, b.particles as usize)?;
+            self.controls.rest_at(i, &x);
+        }
         self.executor.run(&leading)?;
         self.executor.run(&self.program.frame)?;
         self.frames_done += 1;

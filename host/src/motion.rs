@@ -12,11 +12,14 @@
 //! - **Sleeping.** A cloth whose fastest particle moves slower than `Sleep::speed` over the last
 //!   substep of each of `Sleep::frames` frames sleeps: its frame runs nothing (listed as
 //!   skipped), so it cannot drift. Motion, not velocity: a particle resting on a collider ends
-//!   each substep with the g h its contact has yet to cancel, but stays where it is. Any change
+//!   each substep with the g h its contact has yet to cancel, but stays where it is. A collider
+//!   that moves wakes it when its swept box comes within reach of where the cloth lies (known
+//!   when the solver could read the cloth back as it fell asleep; otherwise any moving collider). Any change
 //!   that could move it wakes it: a collider that moves or deforms, a force, parameter, pin or
 //!   state change.
 
 use drape_types::Health;
+use glam::{Vec3, Vec4};
 
 /// Thicknesses a particle may move per substep, relative to the contact it is in.
 pub const CONTACT_REACH: f32 = 1.0;
@@ -62,6 +65,9 @@ pub struct ClothMotion {
     frames_needing_fewer: u32,
     still_frames: u32,
     pub(crate) asleep: bool,
+    /// Where the sleeping cloth lies (its particles' box), when the solver could read it: a
+    /// collider moving outside it (grown by the contact reach) does not wake the cloth.
+    pub(crate) resting_bounds: Option<(Vec3, Vec3)>,
 }
 
 /// What a frame's start changed of a cloth's schedule.
@@ -96,20 +102,39 @@ impl ClothMotion {
     /// Wakes the cloth; returns whether it was asleep.
     pub(crate) fn wake(&mut self) -> bool {
         self.still_frames = 0;
+        self.resting_bounds = None;
         std::mem::take(&mut self.asleep)
     }
 
+    /// Records where the sleeping cloth lies (`positions` read back once it fell asleep).
+    pub(crate) fn rest_at(&mut self, positions: &[Vec4]) {
+        let (lo, hi) = positions
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p.truncate()), hi.max(p.truncate())));
+        self.resting_bounds = (lo.cmple(hi).all()).then_some((lo, hi));
+    }
+
+    /// Whether a collider moving through `bounds` (its swept box, grown by the contact reach)
+    /// can touch this cloth: yes unless the cloth sleeps at a known place away from it.
+    pub(crate) fn near(&self, (lo, hi): (Vec3, Vec3)) -> bool {
+        match self.resting_bounds {
+            Some((rest_lo, rest_hi)) => lo.cmple(rest_hi).all() && hi.cmpge(rest_lo).all(),
+            None => true,
+        }
+    }
+
     /// At a frame's start: `thickness` of the thinnest contact the cloth is in (None: no contact),
-    /// the colliders' fastest surface speed this frame, the frame's length and the sleep policy.
+    /// the colliders' fastest surface speed this frame, whether a moving collider comes near
+    /// the cloth, the frame's length and the sleep policy.
     pub(crate) fn plan_frame(
         &mut self,
         thickness: Option<f32>,
-        collider_speed: f32,
+        (collider_speed, collider_near): (f32, bool),
         frame_dt: f32,
         sleep: Option<Sleep>,
     ) -> Change {
         let mut change = Change::default();
-        if collider_speed > 0.0 {
+        if collider_near {
             change.sleep |= self.wake();
         }
         if let Some(s) = sleep
@@ -158,17 +183,17 @@ mod tests {
         let mut m = ClothMotion::new();
         m.observe(&health(2.9), H, None);
         // 2.9 m/s over 1/60 s is 48 mm: ten 5 mm substeps.
-        assert_eq!(m.plan_frame(Some(0.005), 0.0, 1.0 / 60.0, None), Change { substeps: true, sleep: false });
+        assert_eq!(m.plan_frame(Some(0.005), (0.0, false), 1.0 / 60.0, None), Change { substeps: true, sleep: false });
         assert_eq!(m.contact_substeps, 10);
         m.observe(&health(0.1), H, None);
         for _ in 1..LOWER_AFTER {
-            assert!(!m.plan_frame(Some(0.005), 0.0, 1.0 / 60.0, None).substeps);
+            assert!(!m.plan_frame(Some(0.005), (0.0, false), 1.0 / 60.0, None).substeps);
         }
-        assert!(m.plan_frame(Some(0.005), 0.0, 1.0 / 60.0, None).substeps);
+        assert!(m.plan_frame(Some(0.005), (0.0, false), 1.0 / 60.0, None).substeps);
         assert_eq!(m.contact_substeps, 1);
         // Without contact, motion needs nothing.
         m.observe(&health(100.0), H, None);
-        m.plan_frame(None, 0.0, 1.0 / 60.0, None);
+        m.plan_frame(None, (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 1);
     }
 
@@ -178,17 +203,17 @@ mod tests {
         let mut m = ClothMotion::new();
         for _ in 0..3 {
             m.observe(&health(0.001), H, sleep);
-            assert!(!m.plan_frame(None, 0.0, 1.0 / 60.0, sleep).sleep || m.asleep);
+            assert!(!m.plan_frame(None, (0.0, false), 1.0 / 60.0, sleep).sleep || m.asleep);
         }
         assert!(m.asleep);
         // A sleeping frame's (stale) health does not count.
         m.observe(&health(5.0), H, sleep);
         assert!(m.asleep);
-        assert_eq!(m.plan_frame(None, 0.2, 1.0 / 60.0, sleep), Change { substeps: false, sleep: true });
+        assert_eq!(m.plan_frame(None, (0.2, true), 1.0 / 60.0, sleep), Change { substeps: false, sleep: true });
         assert!(!m.asleep);
         // One fast frame restarts the count.
         m.observe(&health(0.5), H, sleep);
-        m.plan_frame(None, 0.0, 1.0 / 60.0, sleep);
+        m.plan_frame(None, (0.0, false), 1.0 / 60.0, sleep);
         assert!(!m.asleep);
     }
 }

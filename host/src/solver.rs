@@ -97,6 +97,14 @@ impl Solver {
         let leading = self.controls.begin_frame(&self.program);
         let replan = self.controls.take_replan();
         self.replan(replan)?;
+        // A cloth that just fell asleep lies where the last (waited-for) frame left it: read it
+        // once, so colliders moving elsewhere do not wake it. (`record` cannot read back: the
+        // caller may not have submitted its frames; there any moving collider wakes it.)
+        for i in self.controls.asleep_unplaced() {
+            let b = &self.program.cloths[i];
+            let x = self.engine.download(b.x, b.particles as usize)?;
+            self.controls.rest_at(i, &x);
+        }
         if !leading.is_empty() || self.own_frame_stale {
             let mut writes = self.engine.encode(self.frame.bindings(), &leading)?;
             if !writes.is_empty() {
