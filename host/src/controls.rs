@@ -32,6 +32,32 @@ pub(crate) struct ColliderStart {
     pub pose: RigidPose,
     pub deformable: &'static str,
     pub contents: Vec<Vec4>,
+    /// Its contact sweeps each particle's path against the moving leaves (triangles: CCD), so
+    /// any substep length is safe for it.
+    pub swept_contact: bool,
+}
+
+/// Where a collider's leaves reach in its own frame: their box and the largest distance from
+/// the frame's origin (what a turn moves the surface by, per radian).
+#[derive(Copy, Clone, Debug)]
+struct Extent {
+    low: Vec3,
+    high: Vec3,
+    radius: f32,
+}
+
+impl Extent {
+    /// The extent of spheres (w = radius) or vertices (w = 0).
+    fn of(leaves: &[Vec4]) -> Self {
+        leaves.iter().fold(Extent { low: Vec3::INFINITY, high: Vec3::NEG_INFINITY, radius: 0.0 }, |e, l| {
+            let (centre, r) = (l.truncate(), l.w.max(0.0));
+            Extent {
+                low: e.low.min(centre - Vec3::splat(r)),
+                high: e.high.max(centre + Vec3::splat(r)),
+                radius: e.radius.max(centre.length() + r),
+            }
+        })
+    }
 }
 
 /// One collider's host-side values.
@@ -53,6 +79,11 @@ struct ColliderControl {
     /// Whether the last frame's leaves swept (so the next one, if it does not deform, resets
     /// them to standing still).
     sweeping: bool,
+    /// `current`'s extent (kept with it, so a moving collider's speed and swept box cost no
+    /// pass over its leaves).
+    extent: Extent,
+    /// Its contact needs no substep bound (`ColliderStart::swept_contact`).
+    swept_contact: bool,
 }
 
 /// One cloth's host-side values.
@@ -137,9 +168,11 @@ impl Controls {
             .collect();
         let colliders = colliders
             .into_iter()
-            .map(|ColliderStart { params, pose, deformable, contents }| ColliderControl {
+            .map(|ColliderStart { params, pose, deformable, contents, swept_contact }| ColliderControl {
                 params,
                 deformable: (deformable, contents.len() as u32),
+                extent: Extent::of(&contents),
+                swept_contact,
                 current: contents,
                 sweeping: false,
                 params_dirty: false,
@@ -420,6 +453,7 @@ impl Controls {
                 }
                 steps.push(Step::write(leaves.deformable(), 0, &data));
                 steps.extend(leaves.refit_steps());
+                c.extent = Extent::of(&data);
                 c.current = data;
             } else if std::mem::take(&mut c.sweeping) {
                 // It stopped deforming: its leaves stand still again.
@@ -436,26 +470,25 @@ impl Controls {
     /// last frame's speeds and the colliders' motion this frame.
     fn plan_motion(&mut self) {
         let settings = self.settings;
-        let collider_speed = self.colliders.iter().map(|c| c.surface_speed(settings.frame_dt)).fold(0.0, f32::max);
-        // Each moving collider's swept box, grown by its contact reach.
-        let moving: Vec<(Vec3, Vec3)> = self
+        // Each moving collider's surface speed and swept box, grown by its contact reach.
+        let moving: Vec<(f32, (Vec3, Vec3))> = self
             .colliders
             .iter()
-            .filter(|c| c.surface_speed(settings.frame_dt) > 0.0)
-            .map(|c| {
-                let (lo, hi) = c.swept_bounds();
+            .filter_map(|c| {
+                let (speed, (lo, hi)) = c.frame_motion(settings.frame_dt)?;
                 let reach = Vec3::splat(c.params.thickness);
-                (lo - reach, hi + reach)
+                Some((speed, (lo - reach, hi + reach)))
             })
             .collect();
+        let collider_speed = moving.iter().map(|m| m.0).fold(0.0, f32::max);
         // Triangle contact sweeps each particle's path against the moving triangles (CCD): any
         // substep length is safe. Sphere contact and self-collision test proximity at substep
         // ends only.
         let collider_thickness =
-            self.colliders.iter().filter(|c| c.deformable.0 == "spheres").map(|c| c.params.thickness).reduce(f32::min);
+            self.colliders.iter().filter(|c| !c.swept_contact).map(|c| c.params.thickness).reduce(f32::min);
         for c in &mut self.cloths {
             let thickness = [collider_thickness, c.self_collision].into_iter().flatten().reduce(f32::min);
-            let near = moving.iter().any(|&bounds| c.motion.near(bounds));
+            let near = moving.iter().any(|&(_, bounds)| c.motion.near(bounds));
             let change = c.motion.plan_frame(thickness, (collider_speed, near), settings.frame_dt, settings.sleep);
             if change.substeps {
                 self.replan |= c.apply_contact(&settings);
@@ -475,55 +508,44 @@ impl Controls {
 }
 
 impl ColliderControl {
-    /// The world box the collider's surface sweeps over the coming frame: its leaves' box in
-    /// its own frame (and the deformed one's), at the last frame's end pose and the target.
-    fn swept_bounds(&self) -> (Vec3, Vec3) {
-        let local = |leaves: &[Vec4]| {
-            leaves.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), l| {
-                let r = Vec3::splat(l.w.max(0.0));
-                (lo.min(l.truncate() - r), hi.max(l.truncate() + r))
-            })
-        };
-        let (mut lo, mut hi) = local(&self.current);
+    /// How the collider moves over the coming frame, from the last frame's end pose to the
+    /// target and from its leaves to the deformed ones: None when it stands still, else the
+    /// fastest point of its surface (m/s) and the world box its leaves sweep.
+    fn frame_motion(&self, frame_dt: f32) -> Option<(f32, (Vec3, Vec3))> {
+        let (from, to) = (self.end_of_last_frame, self.target);
+        let moved = (to.translation - from.translation).truncate().length();
+        let turn = Quat::from_vec4(to.rotation) * Quat::from_vec4(from.rotation).conjugate();
+        let angle = 2.0 * turn.w.abs().min(1.0).acos();
+        let (mut low, mut high) = (self.extent.low, self.extent.high);
+        let mut deformed = 0.0f32;
         if let Some(next) = &self.deformed {
-            let (a, b) = local(next);
-            (lo, hi) = (lo.min(a), hi.max(b));
+            let extent = Extent::of(next);
+            (low, high) = (low.min(extent.low), high.max(extent.high));
+            deformed = next
+                .iter()
+                .zip(&self.current)
+                .map(|(a, b)| (a.truncate() - b.truncate()).length() + (a.w - b.w).abs())
+                .fold(0.0, f32::max);
         }
+        if moved == 0.0 && angle == 0.0 && deformed == 0.0 {
+            return None;
+        }
+        // Rotation moves a point at distance r from the collider's origin by r x angle.
+        let speed = (moved + angle * self.extent.radius + deformed) / frame_dt;
         let mut world = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        for pose in [self.end_of_last_frame, self.target] {
+        for pose in [from, to] {
             let (q, t) = (Quat::from_vec4(pose.rotation), pose.translation.truncate());
             for corner in 0..8 {
                 let c = Vec3::new(
-                    if corner & 1 == 0 { lo.x } else { hi.x },
-                    if corner & 2 == 0 { lo.y } else { hi.y },
-                    if corner & 4 == 0 { lo.z } else { hi.z },
+                    if corner & 1 == 0 { low.x } else { high.x },
+                    if corner & 2 == 0 { low.y } else { high.y },
+                    if corner & 4 == 0 { low.z } else { high.z },
                 );
                 let p = q * c + t;
                 world = (world.0.min(p), world.1.max(p));
             }
         }
-        world
-    }
-
-    /// The fastest point of the collider's surface over the coming frame (m/s): its rigid
-    /// motion from the last frame's end to the target pose, plus its deformation.
-    fn surface_speed(&self, frame_dt: f32) -> f32 {
-        let (from, to) = (self.end_of_last_frame, self.target);
-        let moved = (to.translation - from.translation).truncate().length();
-        let turn = Quat::from_vec4(to.rotation) * Quat::from_vec4(from.rotation).conjugate();
-        let angle = 2.0 * turn.w.abs().min(1.0).acos();
-        let deformed = self.deformed.as_ref().map_or(0.0, |next| {
-            next.iter()
-                .zip(&self.current)
-                .map(|(a, b)| (a.truncate() - b.truncate()).length() + (a.w - b.w).abs())
-                .fold(0.0, f32::max)
-        });
-        if moved == 0.0 && angle == 0.0 && deformed == 0.0 {
-            return 0.0;
-        }
-        // Rotation moves a point at distance r from the collider's origin by r x angle.
-        let radius = self.current.iter().map(|c| c.truncate().length() + c.w.max(0.0)).fold(0.0, f32::max);
-        (moved + angle * radius + deformed) / frame_dt
+        Some((speed, world))
     }
 }
 

@@ -27,11 +27,13 @@ pub(crate) struct SolverProgram {
 
 /// What a collider of `shape` starts with (see `ColliderStart`).
 fn collider_start(params: ColliderParams, pose: RigidPose, shape: &ColliderShape) -> ColliderStart {
-    let (deformable, contents) = match shape {
-        ColliderShape::Spheres(s) => ("spheres", s.clone()),
-        ColliderShape::Triangles { vertices, .. } => ("vertices", vertices.iter().map(|v| v.extend(0.0)).collect()),
+    let (deformable, contents, swept_contact) = match shape {
+        ColliderShape::Spheres(s) => ("spheres", s.clone(), false),
+        ColliderShape::Triangles { vertices, .. } => {
+            ("vertices", vertices.iter().map(|v| v.extend(0.0)).collect(), true)
+        }
     };
-    ColliderStart { params, pose, deformable, contents }
+    ColliderStart { params, pose, deformable, contents, swept_contact }
 }
 
 /// Debug-name prefix of item `index` of a kind (the first keeps the plain name).
