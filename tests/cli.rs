@@ -37,6 +37,12 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         (&["--usd", "/nonexistent/dir/cloth.usda", "--frames", "1"], runtime, "--usd"),
         (&["--sleep", "-1"], usage, "[0, 10]"),
         (&["--contact-substeps", "maybe"], usage, "--contact-substeps"),
+        (&["--png-every", "5"], usage, "--png-every needs --png-dir"),
+        (&["--png-size", "320x240"], usage, "--png-size needs --png-dir"),
+        (&["--png-dir", "/tmp/drape-unused", "--png-size", "8x8"], usage, "16..=4096"),
+        (&["--png-dir", "/tmp/drape-unused", "--png-size", "640"], usage, "WIDTHxHEIGHT"),
+        (&["--png-dir", "/tmp/drape-unused", "--no-normals"], usage, "--no-normals"),
+        (&["--png-dir", "/proc/drape-cannot-write-here", "--frames", "1"], runtime, "--png-dir"),
     ];
     for &(args, code, needle) in cases {
         let output = drape(args);
@@ -324,4 +330,48 @@ fn a_redirected_run_has_no_carriage_returns() {
     assert!(output.status.success());
     assert!(!output.stderr.contains(&b'\r') && !output.stdout.contains(&b'\r'));
     assert!(String::from_utf8_lossy(&output.stdout).contains("GPU time per kernel"));
+}
+
+/// `--png-dir` draws the scene offscreen: the requested frames at the requested size, the
+/// cloth (red-dominant) and the collider (blue-dominant) both in view, the cloth moving
+/// between the pictures, and the report lists the files.
+#[test]
+fn png_dir_writes_pictures_of_the_scene() {
+    let dir = std::env::temp_dir().join(format!("drape-png-{}", std::process::id()));
+    let json = dir.with_extension("json");
+    let output = Command::new(env!("CARGO_BIN_EXE_drape"))
+        .args(["--grid", "16", "--frames", "20", "--png-every", "10", "--png-size", "160x120", "--quiet"])
+        .arg("--png-dir")
+        .arg(&dir)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let read = |frame: u32| {
+        let path = dir.join(format!("frame_{frame:05}.png"));
+        let file = std::fs::File::open(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let mut reader = png::Decoder::new(std::io::BufReader::new(file)).read_info().unwrap();
+        let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut pixels).unwrap();
+        assert_eq!((info.width, info.height, info.color_type), (160, 120, png::ColorType::Rgba));
+        pixels
+    };
+    let (first, last) = (read(10), read(20));
+    let share = |pixels: &[u8], keep: fn(&[u8; 4]) -> bool| {
+        pixels.as_chunks::<4>().0.iter().filter(|p| keep(p)).count() as f64 / (160.0 * 120.0)
+    };
+    let cloth = |p: &[u8; 4]| p[0] > 100 && p[0] > p[2] + 40;
+    let collider = |p: &[u8; 4]| p[2] > 100 && p[2] > p[0] + 40;
+    for pixels in [&first, &last] {
+        assert!(share(pixels, cloth) > 0.05, "the cloth covers {:.3} of the picture", share(pixels, cloth));
+        assert!(share(pixels, collider) > 0.005, "the collider covers {:.4}", share(pixels, collider));
+    }
+    let changed = first.iter().zip(&last).filter(|(a, b)| a != b).count();
+    assert!(changed > 2000, "the cloth moves between frames 10 and 20 ({changed} bytes differ)");
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(report["pictures"].as_array().map(Vec::len), Some(2), "{}", report["pictures"]);
+    assert!(!dir.join("frame_00005.png").exists(), "only every 10th frame is drawn");
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_file(&json).ok();
 }

@@ -1,10 +1,6 @@
 //! `examples/embed` (the integrator's view) on a small scene: the picture it renders from
 //! drape's vertex buffers shows the cloth exactly where `positions()` says it is.
 
-#[path = "../examples/embed/render.rs"]
-#[allow(dead_code)]
-mod render;
-
 #[path = "../examples/embed/app.rs"]
 mod app;
 

@@ -1,13 +1,13 @@
-//! The integrator's view of drape: an "engine" that owns its Vulkan instance, device, queue,
-//! command buffers and renderer, imports them into drape, and each frame records drape's step
-//! and then its own graphics pass (drawing the cloth straight from drape's vertex buffers, and
-//! the collider moving along a path) into one command buffer.
+//! The integrator's view of drape: an "engine" that owns its Vulkan instance, device, queue and
+//! command buffers, imports them into drape, and each frame records drape's step and then a
+//! graphics pass (`drape::render`: the cloth drawn straight from drape's vertex buffers, the
+//! collider moving along a path) into one command buffer of its own.
 
-use crate::render::{Draw, Renderer, Result};
 use ash::vk;
+use drape::render::{CLOTH_COLOR, COLLIDER_COLOR, Camera, RawDraw, Renderer, SurfaceMesh};
 use drape::scenes::DrapeScene;
 use drape::{Context, ExternalDevice, Model, SimSettings, Solver, rigid_pose};
-use drape_types::{RigidPose, SurfacePush};
+use drape_types::RigidPose;
 use glam::{Mat4, Quat, Vec3, Vec4};
 use std::ffi::c_void;
 use std::path::PathBuf;
@@ -53,10 +53,7 @@ pub struct Outcome {
     pub validated: bool,
 }
 
-/// The cloth's colour (linear RGB, a = ambient share): red dominant, so its pixels are told
-/// apart from the collider's blue ones.
-pub const CLOTH_COLOR: Vec4 = Vec4::new(0.85, 0.22, 0.18, 0.35);
-pub const COLLIDER_COLOR: Vec4 = Vec4::new(0.30, 0.45, 0.80, 0.35);
+pub type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
 /// Validation errors of the engine's messenger.
 static VALIDATION_ERRORS: Mutex<Vec<String>> = Mutex::new(Vec::new());
@@ -140,15 +137,11 @@ impl Engine {
             .ok_or("no Vulkan device with a graphics + compute queue (install a driver, e.g. mesa-vulkan-drivers)")?;
         let priorities = [1.0];
         let queues = [vk::DeviceQueueCreateInfo::default().queue_family_index(family).queue_priorities(&priorities)];
-        // drape needs the Vulkan memory model (device scope); the renderer dynamic rendering.
+        // drape needs the Vulkan memory model (device scope); its renderer needs nothing more.
         let mut features12 = vk::PhysicalDeviceVulkan12Features::default()
             .vulkan_memory_model(true)
             .vulkan_memory_model_device_scope(true);
-        let mut features13 = vk::PhysicalDeviceVulkan13Features::default().dynamic_rendering(true);
-        let info = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&queues)
-            .push_next(&mut features12)
-            .push_next(&mut features13);
+        let info = vk::DeviceCreateInfo::default().queue_create_infos(&queues).push_next(&mut features12);
         let device = unsafe { instance.create_device(physical, &info, None)? };
         let queue = unsafe { device.get_device_queue(family, 0) };
         let pool = unsafe {
@@ -203,67 +196,6 @@ impl Drop for Engine {
     }
 }
 
-/// A host-visible buffer the engine fills once (the collider's mesh).
-struct HostBuffer {
-    device: ash::Device,
-    buffer: vk::Buffer,
-    memory: vk::DeviceMemory,
-}
-
-impl HostBuffer {
-    fn new(engine: &Engine, usage: vk::BufferUsageFlags, bytes: &[u8]) -> Result<Self> {
-        let d = &engine.device;
-        let buffer =
-            unsafe { d.create_buffer(&vk::BufferCreateInfo::default().size(bytes.len() as u64).usage(usage), None)? };
-        let requirements = unsafe { d.get_buffer_memory_requirements(buffer) };
-        let properties = unsafe { engine.instance.get_physical_device_memory_properties(engine.physical) };
-        let wanted = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
-        let Some(index) = (0..properties.memory_type_count).find(|&i| {
-            requirements.memory_type_bits & (1 << i) != 0
-                && properties.memory_types[i as usize].property_flags.contains(wanted)
-        }) else {
-            unsafe { d.destroy_buffer(buffer, None) };
-            return Err("no host-visible memory for the collider's vertex buffers".into());
-        };
-        let memory = unsafe {
-            d.allocate_memory(
-                &vk::MemoryAllocateInfo::default().allocation_size(requirements.size).memory_type_index(index),
-                None,
-            )?
-        };
-        let this = HostBuffer { device: d.clone(), buffer, memory };
-        unsafe {
-            d.bind_buffer_memory(buffer, memory, 0)?;
-            let mapped = d.map_memory(memory, 0, bytes.len() as u64, vk::MemoryMapFlags::empty())?;
-            std::ptr::copy_nonoverlapping(bytes.as_ptr(), mapped as *mut u8, bytes.len());
-            d.unmap_memory(memory);
-        }
-        Ok(this)
-    }
-}
-
-impl Drop for HostBuffer {
-    fn drop(&mut self) {
-        unsafe {
-            self.device.destroy_buffer(self.buffer, None);
-            self.device.free_memory(self.memory, None);
-        }
-    }
-}
-
-/// Per-vertex normals: area-weighted face normals.
-fn vertex_normals(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec4> {
-    let mut normals = vec![Vec3::ZERO; vertices.len()];
-    for t in triangles {
-        let [a, b, c] = t.map(|i| vertices[i as usize]);
-        let n = (b - a).cross(c - a);
-        for &i in t {
-            normals[i as usize] += n;
-        }
-    }
-    normals.into_iter().map(|n| n.normalize_or_zero().extend(0.0)).collect()
-}
-
 /// The collider's path: sways sideways and turns about the vertical, period 3 s.
 pub fn collider_pose(time: f32) -> (Quat, Vec3) {
     let phase = std::f32::consts::TAU * time / 3.0;
@@ -271,25 +203,8 @@ pub fn collider_pose(time: f32) -> (Quat, Vec3) {
 }
 
 /// The fixed camera: above and in front of the scene, looking at its middle.
-pub fn view_projection(width: u32, height: u32) -> Mat4 {
-    use glam::camera::rh::{proj::vulkan, view::look_at_mat4};
-    let view = look_at_mat4(Vec3::new(0.0, 1.3, 1.8), Vec3::new(0.0, 0.45, 0.0), Vec3::Y);
-    // Vulkan's clip space: y down, depth 0..1.
-    vulkan::perspective(45f32.to_radians(), width as f32 / height as f32, 0.05, 20.0) * view
-}
-
-fn push(view_projection: Mat4, pose: RigidPose, color: Vec4) -> SurfacePush {
-    let c = view_projection.to_cols_array_2d().map(Vec4::from_array);
-    SurfacePush { view_projection: c, pose, color, light: Vec3::new(0.4, 1.0, 0.3).normalize().extend(0.0) }
-}
-
-fn write_png(path: &std::path::Path, width: u32, height: u32, pixels: &[u8]) -> Result<()> {
-    let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width, height);
-    encoder.set_color(png::ColorType::Rgba);
-    encoder.set_depth(png::BitDepth::Eight);
-    encoder.write_header()?.write_image_data(pixels)?;
-    Ok(())
+pub fn camera(width: u32, height: u32) -> Camera {
+    Camera::look_at(Vec3::new(0.0, 1.3, 1.8), Vec3::new(0.0, 0.45, 0.0), width as f32 / height as f32, 0.05, 20.0)
 }
 
 /// Runs the example: `options.frames` frames of the default drape scene with a moving collider.
@@ -341,45 +256,24 @@ fn simulate_and_draw(engine: &Engine, options: &Options) -> Result<Outcome> {
     let frame_dt = sim.settings().frame_dt;
 
     let mesh = &scene.mesh;
-    let collider_positions: Vec<Vec4> = mesh.vertices.iter().map(|v| v.extend(1.0)).collect();
-    let collider_normals = vertex_normals(&mesh.vertices, &mesh.triangles);
-    let vertex = vk::BufferUsageFlags::VERTEX_BUFFER;
-    let collider_buffers = [
-        HostBuffer::new(engine, vertex, bytemuck::cast_slice(&collider_positions))?,
-        HostBuffer::new(engine, vertex, bytemuck::cast_slice(&collider_normals))?,
-        HostBuffer::new(engine, vk::BufferUsageFlags::INDEX_BUFFER, bytemuck::cast_slice(&mesh.triangles))?,
-    ];
-
-    let renderer = Renderer::new(&engine.instance, engine.physical, &engine.device, options.width, options.height)?;
-    let view_projection = view_projection(options.width, options.height);
+    // The collider's vertex buffers, drawn at its pose each frame.
+    let collider_mesh = SurfaceMesh::new(&ctx, &mesh.vertices, &mesh.triangles)?;
+    let renderer = Renderer::new(&ctx, options.width, options.height)?;
+    let camera = camera(options.width, options.height);
     let mut written = Vec::new();
     let mut pose = RigidPose::IDENTITY;
     for frame in 1..=options.frames {
         let (rotation, translation) = collider_pose(frame as f32 * frame_dt);
         sim.set_collider_pose(body, rotation, translation)?;
         pose = rigid_pose(rotation, translation);
-        let draws = [
-            Draw {
-                positions: buffers.positions,
-                normals: buffers.normals,
-                indices: buffers.indices,
-                index_count: buffers.index_count,
-                push: push(view_projection, RigidPose::IDENTITY, CLOTH_COLOR),
-            },
-            Draw {
-                positions: collider_buffers[0].buffer,
-                normals: collider_buffers[1].buffer,
-                indices: collider_buffers[2].buffer,
-                index_count: 3 * mesh.triangles.len() as u32,
-                push: push(view_projection, pose, COLLIDER_COLOR),
-            },
-        ];
+        let draws = [RawDraw::cloth(&buffers, CLOTH_COLOR), RawDraw::mesh(&collider_mesh, pose, COLLIDER_COLOR)];
         engine.submit(|cmd| {
-            // SAFETY: `cmd` is recording; drape's frame ends with a barrier to vertex input,
-            // and every buffer drawn lives until the submission is waited for.
+            // SAFETY: `cmd` is recording on the device drape and the renderer were made on;
+            // drape's frame ends with a barrier to vertex input, and every buffer drawn lives
+            // until the submission is waited for.
             unsafe {
                 sim.record(cmd)?;
-                renderer.record(cmd, &draws);
+                renderer.record(cmd, &camera, &draws);
             }
             Ok(())
         })?;
@@ -390,19 +284,19 @@ fn simulate_and_draw(engine: &Engine, options: &Options) -> Result<Outcome> {
         {
             let path = out.join(format!("frame_{frame:04}.png"));
             // SAFETY: the submission was waited for.
-            write_png(&path, options.width, options.height, &unsafe { renderer.pixels() }?)?;
+            unsafe { renderer.picture() }?.write_png(&path)?;
             written.push(path);
         }
     }
     // SAFETY: the last submission was waited for.
-    let pixels = unsafe { renderer.pixels() }?;
+    let pixels = unsafe { renderer.picture() }?.rgba;
     let collider_triangles =
         mesh.triangles.iter().map(|t| t.map(|i| pose_point(&pose, mesh.vertices[i as usize]))).collect();
     Ok(Outcome {
         pixels,
         width: options.width,
         height: options.height,
-        view_projection,
+        view_projection: camera.view_projection,
         cloth_positions: sim.positions(cloth)?,
         cloth_triangles: model.cloths()[cloth.index()].triangles(),
         collider_triangles,

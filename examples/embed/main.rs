@@ -7,7 +7,6 @@
 //! writes `DIR/frame_0010.png`, ..., `DIR/frame_0060.png`.
 
 mod app;
-mod render;
 
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -55,6 +55,7 @@ mod model;
 pub mod motion;
 pub mod obj;
 mod program;
+pub mod render;
 pub mod scenes;
 mod settings;
 mod solver;

@@ -10,6 +10,7 @@ use cli::args::{
     Args, ContactArg, HolesArg, IntegratorArg, OnOff, SceneArg, SearchArg, check_flags, check_output_dir,
     check_output_file,
 };
+use cli::pictures::Pictures;
 use cli::progress::Progress;
 use cli::report::{
     Schedule, WorstIntersections, accuracy_json, cloth_description, intersections_json, print_accuracy, print_setup,
@@ -121,6 +122,12 @@ fn run(args: &Args) -> drape::Result<()> {
         check_output_dir(dir).map_err(|e| drape::Error::InvalidParameter {
             name: "--obj-dir",
             problem: format!("cannot write the OBJ frames there: {e}"),
+        })?;
+    }
+    if let Some(dir) = &args.png_dir {
+        check_output_dir(dir).map_err(|e| drape::Error::InvalidParameter {
+            name: "--png-dir",
+            problem: format!("cannot write the pictures there: {e}"),
         })?;
     }
     let validation = if args.validate { Validation::Required } else { Validation::from_env() };
@@ -289,6 +296,13 @@ fn run(args: &Args) -> drape::Result<()> {
         }
         None => None,
     };
+    let mut pictures = match &args.png_dir {
+        Some(dir) => {
+            let collider_mesh = scene.as_ref().map(|s| &s.mesh);
+            Some(Pictures::new(&ctx, dir, args.png_every, args.png_size, &built.positions, collider_mesh)?)
+        }
+        None => None,
+    };
     let mut worst = WorstIntersections::default();
     let mut report = TimingReport::default();
     let (mut ran, mut skipped, mut fallbacks) = (0, 0, 0u64);
@@ -328,6 +342,15 @@ fn run(args: &Args) -> drape::Result<()> {
                 cache.collider_pose(0, frame, drape::scenes::garment_rotation(frame as f32 / 60.0), Vec3::ZERO);
             }
         }
+        if let Some(p) = &mut pictures {
+            let pose = match args.scene {
+                SceneArg::Garment => {
+                    drape::rigid_pose(drape::scenes::garment_rotation(frame as f32 / 60.0), Vec3::ZERO)
+                }
+                _ => drape::RigidPose::IDENTITY,
+            };
+            p.frame(frame, args.frames, &sim, cloth, pose)?;
+        }
         if args.check_every_frame {
             let posed = scene.as_ref().filter(|_| args.scene == SceneArg::Garment).map(|s| {
                 s.mesh.transformed(glam::Mat4::from_quat(drape::scenes::garment_rotation(frame as f32 / 60.0)))
@@ -340,6 +363,14 @@ fn run(args: &Args) -> drape::Result<()> {
         }
     }
     drop(progress);
+    if let Some(p) = &pictures {
+        say!(
+            "pictures: {} PNG files in {}",
+            p.written.len(),
+            args.png_dir.as_deref().unwrap_or(std::path::Path::new("")).display()
+        );
+        json.insert("pictures".into(), json!(p.written.iter().map(|w| w.display().to_string()).collect::<Vec<_>>()));
+    }
     if let Some(cache) = usd {
         cache.finish()?;
     }

@@ -178,6 +178,17 @@ pub(crate) struct Args {
     /// Write every n-th frame (with --obj-dir).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub(crate) obj_every: Option<u32>,
+    /// Draw frames as PNG pictures into this directory (offscreen Vulkan: the shaded cloth and
+    /// collider from a fixed camera framing the scene; the final frame unless --png-every is
+    /// given). Checked writable before any work.
+    #[arg(long, value_name = "DIR")]
+    pub(crate) png_dir: Option<PathBuf>,
+    /// Draw every n-th frame (with --png-dir).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) png_every: Option<u32>,
+    /// Picture size in pixels as WIDTHxHEIGHT, each 16..=4096 (with --png-dir).
+    #[arg(long, value_parser = parse_size, default_value = "640x480", value_name = "WxH")]
+    pub(crate) png_size: (u32, u32),
     /// Count the exact intersections after every frame (not only the last) and report the
     /// worst frame of each kind.
     #[arg(long)]
@@ -207,6 +218,16 @@ pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), Strin
     }
     if args.obj_every.is_some() && args.obj_dir.is_none() {
         return Err("--obj-every needs --obj-dir (the directory to write the frames into)".into());
+    }
+    if args.png_dir.is_none() {
+        for (id, flag) in [("png_every", "--png-every"), ("png_size", "--png-size")] {
+            if given(matches, id) {
+                return Err(format!("{flag} needs --png-dir (the directory to write the pictures into)"));
+            }
+        }
+    }
+    if args.png_dir.is_some() && args.no_normals {
+        return Err("--png-dir shades the cloth with its vertex normals, which --no-normals skips: drop one".into());
     }
     Ok(())
 }
@@ -284,6 +305,17 @@ pub(crate) fn check_output_dir(dir: &std::path::Path) -> drape::Result<()> {
     let probe = dir.join(".drape-write-test");
     std::fs::write(&probe, b"").map_err(io)?;
     std::fs::remove_file(&probe).map_err(io)
+}
+
+/// "WIDTHxHEIGHT", each side 16..=4096 pixels.
+pub(crate) fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let side = |v: &str| match v.trim().parse::<u32>() {
+        Ok(n) if (16..=4096).contains(&n) => Ok(n),
+        _ => Err(format!("expected WIDTHxHEIGHT with each side a whole number in 16..=4096, got `{text}`")),
+    };
+    let (w, h) =
+        text.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, e.g. 640x480, got `{text}`"))?;
+    Ok((side(w)?, side(h)?))
 }
 
 /// "X,Y,Z" (three finite numbers, negatives allowed) as a vector.

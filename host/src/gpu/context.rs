@@ -55,6 +55,8 @@ pub struct DeviceInfo {
 pub struct Context {
     _entry: ash::Entry,
     pub(crate) instance: ash::Instance,
+    /// The physical device the logical one comes from (format queries of the renderer).
+    pub(crate) physical_device: vk::PhysicalDevice,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     /// Boxed so its address stays valid for the messenger callback.
     validation_log: Box<ValidationLog>,
@@ -228,6 +230,7 @@ impl Context {
         Ok(Arc::new(Context {
             _entry: entry,
             instance,
+            physical_device,
             debug,
             validation_log,
             device,
@@ -285,6 +288,7 @@ impl Context {
         Ok(Arc::new(Context {
             _entry: entry,
             instance,
+            physical_device,
             debug: None,
             validation_log: Box::default(),
             device,
@@ -516,10 +520,13 @@ fn pick_device(instance: &ash::Instance) -> Result<(vk::PhysicalDevice, u32, Dev
 pub(crate) fn describe_device(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<(u32, DeviceInfo, u32)> {
     // SAFETY: plain queries on a valid instance and one of its physical devices.
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    // A family that also draws, where there is one: the pictures (`crate::render`) need it.
+    let graphics_and_compute = vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE;
     let (family, props) = families
         .iter()
         .enumerate()
-        .find(|(_, f)| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+        .find(|(_, f)| f.queue_flags.contains(graphics_and_compute))
+        .or_else(|| families.iter().enumerate().find(|(_, f)| f.queue_flags.contains(vk::QueueFlags::COMPUTE)))
         .ok_or(Error::NoComputeDevice)?;
     let info = device_info(instance, pd, props.timestamp_valid_bits);
     check_features(instance, pd, &info.name)?;

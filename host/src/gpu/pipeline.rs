@@ -11,7 +11,7 @@ use std::sync::Arc;
 /// The shader module holding every entry point.
 pub struct ShaderModule {
     ctx: Arc<Context>,
-    handle: vk::ShaderModule,
+    pub(crate) handle: vk::ShaderModule,
 }
 
 impl ShaderModule {

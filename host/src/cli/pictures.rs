@@ -1,0 +1,70 @@
+//! `--png-dir`: pictures of the run, drawn offscreen with Vulkan (`drape::render`): the cloth
+//! straight from the solver's vertex buffers and the collider at its pose, seen by a fixed
+//! camera that frames the scene at its start.
+
+use drape::mesh::Mesh;
+use drape::render::{CLOTH_COLOR, COLLIDER_COLOR, Camera, Draw, Renderer, SurfaceMesh, scene_box};
+use drape::{ClothId, Context, RigidPose, Solver};
+use glam::Vec4;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+pub(crate) struct Pictures {
+    dir: PathBuf,
+    /// Every n-th frame; None: the last frame only.
+    every: Option<u32>,
+    renderer: Renderer,
+    camera: Camera,
+    collider: Option<SurfaceMesh>,
+    pub(crate) written: Vec<PathBuf>,
+}
+
+impl Pictures {
+    /// A renderer of `size` pictures framing `cloth` (its initial positions) and `collider`.
+    pub(crate) fn new(
+        ctx: &Arc<Context>,
+        dir: &Path,
+        every: Option<u32>,
+        (width, height): (u32, u32),
+        cloth: &[Vec4],
+        collider: Option<&Mesh>,
+    ) -> drape::Result<Self> {
+        let boxes: Vec<_> = collider.iter().map(|m| m.bounds()).collect();
+        let (lo, hi) = scene_box(cloth, &boxes);
+        Ok(Pictures {
+            dir: dir.to_path_buf(),
+            every,
+            renderer: Renderer::new(ctx, width, height)?,
+            camera: Camera::framing(lo, hi, width as f32 / height as f32),
+            collider: collider.map(|m| SurfaceMesh::new(ctx, &m.vertices, &m.triangles)).transpose()?,
+            written: Vec::new(),
+        })
+    }
+
+    /// Draws and writes `frame_NNNNN.png` if `frame` is one to write (of `frames`).
+    pub(crate) fn frame(
+        &mut self,
+        frame: u32,
+        frames: u32,
+        solver: &Solver,
+        cloth: ClothId,
+        collider_pose: RigidPose,
+    ) -> drape::Result<()> {
+        let due = match self.every {
+            Some(n) => frame.is_multiple_of(n),
+            None => frame == frames,
+        };
+        if !due {
+            return Ok(());
+        }
+        let mut draws = vec![Draw::Cloth { solver, cloth, color: CLOTH_COLOR }];
+        if let Some(mesh) = &self.collider {
+            draws.push(Draw::Mesh { mesh, pose: collider_pose, color: COLLIDER_COLOR });
+        }
+        let picture = self.renderer.render(&self.camera, &draws)?;
+        let path = self.dir.join(format!("frame_{frame:05}.png"));
+        picture.write_png(&path)?;
+        self.written.push(path);
+        Ok(())
+    }
+}
