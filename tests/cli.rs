@@ -176,6 +176,10 @@ fn every_example_scene_runs() {
             json.to_str().unwrap(),
             "--obj-dir",
             out.join("obj").to_str().unwrap(),
+            "--png-dir",
+            out.join("png").to_str().unwrap(),
+            "--png-size",
+            "64x48",
         ]);
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert!(output.status.success(), "{}: {stderr}", file.display());
@@ -219,6 +223,11 @@ fn scene_files_round_trip_override_and_explain_their_errors() {
         ("scene = { name = \"swing\" }\n", 2, &["line 1", "`scene` takes one of"]),
         ("no-timestamps = 3\n", 2, &["line 1", "switch"]),
         ("grid = [1,\n", 2, &["line 1"]),
+        ("grid = 8\n[[collider]]\nmesh = \"torus\"\nspin = 3\n", 2, &["line 4", "unknown field `spin`"]),
+        ("[[collider]]\nscale = 2\n", 2, &["line 1", "missing field `mesh`"]),
+        ("grid = 8\n\n[[collider]]\nmesh = \"torus\"\nscale = 0\n", 2, &["line 3", "`scale` must be above 0"]),
+        ("[[collider]]\nmesh = \"torus\"\nvelocity = [1, 2]\n", 2, &["line 3", "velocity"]),
+        ("[[collider]]\nmesh = \"/nonexistent/rock.obj\"\n", 1, &["/nonexistent/rock.obj"]),
     ];
     for (i, &(text, code, needles)) in cases.iter().enumerate() {
         let file = write(&format!("bad{i}.toml"), text);
@@ -374,4 +383,40 @@ fn png_dir_writes_pictures_of_the_scene() {
     assert!(!dir.join("frame_00005.png").exists(), "only every 10th frame is drawn");
     std::fs::remove_dir_all(&dir).ok();
     std::fs::remove_file(&json).ok();
+}
+
+/// A scene file's `[[collider]]` tables are simulated: a plane placed at y = 0.5 under the
+/// swinging cloth (which swings below y = 0 at t = 0.5 s without it) holds it up, and a plane rising from y = 0.1
+/// at 0.4 m/s lifts it to y = 0.5 by t = 1 s; the tables survive `--print-scene`.
+#[test]
+fn scene_file_colliders_are_placed_and_move() {
+    let dir = std::env::temp_dir().join(format!("drape-colliders-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let lowest = |name: &str, frames: u32, tables: &str| {
+        let file = dir.join(format!("{name}.toml"));
+        let json = dir.join(format!("{name}.json"));
+        let text = format!("scene = \"swing\"\ngrid = 16\nframes = {frames}\nno-timestamps = true\n{tables}");
+        std::fs::write(&file, text).unwrap();
+        let output = drape(&["--scene-file", file.to_str().unwrap(), "--quiet", "--json", json.to_str().unwrap()]);
+        assert!(output.status.success(), "{name}: {}", String::from_utf8_lossy(&output.stderr));
+        let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        report["lowest_particle_y_m"].as_f64().unwrap()
+    };
+    let free = lowest("free", 30, "");
+    let held = lowest("held", 60, "[[collider]]\nmesh = \"plane\"\ntranslate = [0, 0.5, 0]\n");
+    let lifted =
+        lowest("lifted", 60, "[[collider]]\nmesh = \"plane\"\ntranslate = [0, 0.1, 0]\nvelocity = [0, 0.4, 0]\n");
+    eprintln!("lowest particle: free {free:.3} m, held {held:.3} m, lifted {lifted:.3} m");
+    assert!(free < 0.3, "without a collider the cloth hangs low ({free})");
+    assert!((0.49..0.6).contains(&held), "the placed plane holds the cloth at y = 0.5 ({held})");
+    assert!((0.49..0.6).contains(&lifted), "the rising plane lifts the cloth to y = 0.5 by t = 1 s ({lifted})");
+
+    let file = dir.join("lifted.toml");
+    let printed = String::from_utf8(drape(&["--scene-file", file.to_str().unwrap(), "--print-scene"]).stdout).unwrap();
+    assert!(printed.contains("[[collider]]") && printed.contains("velocity = [0.0, 0.4, 0.0]"), "{printed}");
+    let again_file = dir.join("printed.toml");
+    std::fs::write(&again_file, &printed).unwrap();
+    let again = String::from_utf8(drape(&["--scene-file", again_file.to_str().unwrap(), "--print-scene"]).stdout);
+    assert_eq!(again.unwrap(), printed, "a printed scene with colliders reads back as itself");
+    std::fs::remove_dir_all(&dir).ok();
 }

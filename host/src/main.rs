@@ -10,18 +10,20 @@ use cli::args::{
     Args, ContactArg, HolesArg, IntegratorArg, OnOff, SceneArg, SearchArg, check_flags, check_output_dir,
     check_output_file,
 };
+use cli::colliders::{Motion, SceneCollider, load_mesh, union_at};
 use cli::pictures::Pictures;
 use cli::progress::Progress;
 use cli::report::{
     Schedule, WorstIntersections, accuracy_json, cloth_description, intersections_json, print_accuracy, print_setup,
     stability_json, timings_json, write_json,
 };
-use drape::mesh::Mesh;
 use drape::metrics::intersections::count_intersections;
 use drape::metrics::{TriangleBvh, accuracy_of_cloth};
-use drape::scenes::{DrapeScene, default_mesh, find_model};
+use drape::scenes::DrapeScene;
 use drape::timing::TimingReport;
-use drape::{ClothBuilder, ClothMesh, ContactSearch, Context, Integrator, Model, SimSettings, Solver, Validation};
+use drape::{
+    ClothBuilder, ClothMesh, Collider, ContactSearch, Context, Integrator, Model, SimSettings, Solver, Validation,
+};
 use glam::Vec3;
 use serde_json::json;
 use std::process::ExitCode;
@@ -54,8 +56,8 @@ fn init_logging() {
 
 fn main() -> ExitCode {
     init_logging();
-    let matches = match cli::scene_file::matches(std::env::args_os().collect()) {
-        Ok(matches) => matches,
+    let (matches, colliders) = match cli::scene_file::matches(std::env::args_os().collect()) {
+        Ok(found) => found,
         // An unreadable scene file is a runtime error (exit 1), like an unreadable mesh.
         Err(e) if e.kind() == clap::error::ErrorKind::Io => {
             eprintln!("error: {}", e.to_string().trim_start_matches("error: ").lines().next().unwrap_or(""));
@@ -63,7 +65,8 @@ fn main() -> ExitCode {
         }
         Err(e) => e.exit(),
     };
-    let args = Args::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    let mut args = Args::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    args.colliders = colliders;
     if let Err(problem) = check_flags(&args, &matches) {
         Args::command().error(clap::error::ErrorKind::ArgumentConflict, problem).exit();
     }
@@ -77,16 +80,6 @@ fn main() -> ExitCode {
             eprintln!("error: {e}");
             ExitCode::FAILURE
         }
-    }
-}
-
-fn load_mesh(name: &str) -> drape::Result<Mesh> {
-    match name {
-        "icosphere" => Ok(default_mesh()),
-        "torus" => Ok(Mesh::torus(0.35, 0.12, 48, 24)),
-        "bunny" => Mesh::load_obj(&find_model("stanford-bunny.obj")?),
-        "dragon" => Mesh::load_obj(&find_model("stanford-dragon-res2.obj")?),
-        path => Mesh::load_obj(std::path::Path::new(path)),
     }
 }
 
@@ -222,40 +215,61 @@ fn run(args: &Args) -> drape::Result<()> {
         .with_timestamps(!args.no_timestamps)
         .with_contact_substeps(args.contact_substeps == OnOff::On)
         .with_sleep((args.sleep > 0.0).then(|| drape::Sleep { speed: args.sleep, ..drape::Sleep::default() }));
-    let collider = match &mut scene {
-        Some(s) => {
-            s.thickness = args.thickness;
-            s.friction = args.friction;
-            let start = Instant::now();
-            let mut c = match args.contact {
-                ContactArg::Spheres => s.collider(args.voxels)?,
-                ContactArg::Triangles => s.triangle_collider(),
-            };
-            c.search = match (args.brute_force, args.search) {
-                (true, _) | (_, SearchArg::BruteForce) => ContactSearch::BruteForce,
-                (_, SearchArg::Lists) => ContactSearch::CandidateLists,
-                (_, SearchArg::Traverse) => ContactSearch::TraverseEverySubstep,
-            };
-            let leaves = match args.contact {
-                ContactArg::Spheres => format!("{n}^3 voxels -> {} spheres", c.spheres().len(), n = args.voxels),
-                ContactArg::Triangles => format!("{} triangle leaves", c.leaf_count()),
-            };
-            say!(
-                "collider: {} ({} vertices, {} triangles), {leaves} in {:.1} ms (CPU)",
-                match args.scene {
-                    SceneArg::Pile => "ground",
-                    SceneArg::Garment => "body",
-                    _ => &args.mesh,
-                },
-                s.mesh.vertices.len(),
-                s.mesh.triangles.len(),
-                start.elapsed().as_secs_f64() * 1e3,
-            );
-            Some(c)
-        }
-        None => None,
+    let search = match (args.brute_force, args.search) {
+        (true, _) | (_, SearchArg::BruteForce) => ContactSearch::BruteForce,
+        (_, SearchArg::Lists) => ContactSearch::CandidateLists,
+        (_, SearchArg::Traverse) => ContactSearch::TraverseEverySubstep,
     };
-    let model = Model::single(&built, collider.as_slice(), settings)?;
+    // The scene's own collider first, then the scene file's.
+    let mut scene_colliders = Vec::new();
+    if let Some(s) = &mut scene {
+        s.thickness = args.thickness;
+        s.friction = args.friction;
+        let (name, motion) = match args.scene {
+            SceneArg::Pile => ("ground", Motion::default()),
+            SceneArg::Garment => {
+                ("body", Motion { axis: Vec3::Y, spin_rate: drape::scenes::GARMENT_TURN_RATE, ..Motion::default() })
+            }
+            _ => ("collider", Motion::default()),
+        };
+        scene_colliders.push(SceneCollider { name: name.into(), mesh: s.mesh.clone(), motion });
+    }
+    for (i, table) in args.colliders.iter().enumerate() {
+        let file = args.scene_file.as_deref().unwrap_or(std::path::Path::new("")).display();
+        scene_colliders.push(table.build(i).map_err(|e| drape::Error::InvalidParameter {
+            name: "[[collider]]",
+            problem: format!("scene file {file}, [[collider]] number {}: {e}", i + 1),
+        })?);
+    }
+    let mut colliders = Vec::new();
+    for sc in &scene_colliders {
+        let start = Instant::now();
+        let c = match args.contact {
+            ContactArg::Spheres => {
+                Collider::new(drape::collider::voxel_spheres(&sc.mesh, args.voxels)?, args.thickness)
+                    .with_friction(args.friction)
+            }
+            ContactArg::Triangles => Collider::mesh(&sc.mesh, args.thickness).with_friction(args.friction),
+        }
+        .with_search(search);
+        let leaves = match args.contact {
+            ContactArg::Spheres => format!("{n}^3 voxels -> {} spheres", c.spheres().len(), n = args.voxels),
+            ContactArg::Triangles => format!("{} triangle leaves", c.leaf_count()),
+        };
+        let name = match (args.scene, sc.name.as_str()) {
+            (SceneArg::Drape, "collider") => args.mesh.as_str(),
+            (_, name) => name,
+        };
+        let moving = if sc.motion.is_static() { String::new() } else { format!(", moving: {:?}", sc.motion) };
+        say!(
+            "collider: {name} ({} vertices, {} triangles), {leaves} in {:.1} ms (CPU){moving}",
+            sc.mesh.vertices.len(),
+            sc.mesh.triangles.len(),
+            start.elapsed().as_secs_f64() * 1e3,
+        );
+        colliders.push(c);
+    }
+    let model = Model::single(&built, &colliders, settings)?;
     let cloth = model.first_cloth();
     let mut sim = Solver::new(&ctx, &model)?;
     print_setup(args, &cloth_description, &sim, cloth, &settings)?;
@@ -276,21 +290,16 @@ fn run(args: &Args) -> drape::Result<()> {
     }
     if let Some(dir) = &args.obj_dir {
         std::fs::create_dir_all(dir).map_err(|source| drape::Error::Io { path: dir.clone(), source })?;
-        if let Some(s) = &scene {
-            drape::obj::write_mesh_obj(&dir.join("collider.obj"), &s.mesh)?;
+        for sc in &scene_colliders {
+            drape::obj::write_mesh_obj(&dir.join(format!("{}.obj", sc.name)), &sc.mesh)?;
         }
     }
 
     let mut usd = match &args.usd {
         Some(path) => {
             let mut cache = drape::usd::UsdCache::create(path, &built, args.frames)?;
-            if let Some(s) = &scene {
-                let name = match args.scene {
-                    SceneArg::Pile => "ground",
-                    SceneArg::Garment => "body",
-                    _ => "collider",
-                };
-                cache.add_collider(name, &s.mesh);
+            for sc in &scene_colliders {
+                cache.add_collider(&sc.name, &sc.mesh);
             }
             Some(cache)
         }
@@ -298,20 +307,26 @@ fn run(args: &Args) -> drape::Result<()> {
     };
     let mut pictures = match &args.png_dir {
         Some(dir) => {
-            let collider_mesh = scene.as_ref().map(|s| &s.mesh);
-            Some(Pictures::new(&ctx, dir, args.png_every, args.png_size, &built.positions, collider_mesh)?)
+            let meshes: Vec<_> = scene_colliders.iter().map(|c| &c.mesh).collect();
+            Some(Pictures::new(&ctx, dir, args.png_every, args.png_size, &built.positions, &meshes)?)
         }
         None => None,
     };
     let mut worst = WorstIntersections::default();
     let mut report = TimingReport::default();
     let (mut ran, mut skipped, mut fallbacks) = (0, 0, 0u64);
-    let body = model.collider_ids().next();
+    let collider_ids: Vec<_> = model.collider_ids().collect();
+    let frame_dt = sim.settings().frame_dt;
     let mut schedule = Schedule::default();
     let progress = Progress::new(args.frames);
     for frame in 1..=args.frames {
-        if let (SceneArg::Garment, Some(body)) = (args.scene, body) {
-            sim.set_collider_pose(body, drape::scenes::garment_rotation(frame as f32 / 60.0), Vec3::ZERO)?;
+        // Where each collider stands at the end of this frame (it sweeps there over the frame).
+        let t = frame as f32 * frame_dt;
+        let poses: Vec<_> = scene_colliders.iter().map(|c| c.motion.pose(t)).collect();
+        for ((id, sc), &(rotation, translation)) in collider_ids.iter().zip(&scene_colliders).zip(&poses) {
+            if !sc.motion.is_static() {
+                sim.set_collider_pose(*id, rotation, translation)?;
+            }
         }
         let start = Instant::now();
         let r = sim.step_report()?;
@@ -338,28 +353,21 @@ fn run(args: &Args) -> drape::Result<()> {
         }
         if let Some(cache) = &mut usd {
             cache.frame(frame, &sim.positions(cloth)?)?;
-            if args.scene == SceneArg::Garment {
-                cache.collider_pose(0, frame, drape::scenes::garment_rotation(frame as f32 / 60.0), Vec3::ZERO);
+            for (i, (sc, &(rotation, translation))) in scene_colliders.iter().zip(&poses).enumerate() {
+                if !sc.motion.is_static() {
+                    cache.collider_pose(i, frame, rotation, translation);
+                }
             }
         }
         if let Some(p) = &mut pictures {
-            let pose = match args.scene {
-                SceneArg::Garment => {
-                    drape::rigid_pose(drape::scenes::garment_rotation(frame as f32 / 60.0), Vec3::ZERO)
-                }
-                _ => drape::RigidPose::IDENTITY,
-            };
-            p.frame(frame, args.frames, &sim, cloth, pose)?;
+            let rigid: Vec<_> = poses.iter().map(|&(r, t)| drape::rigid_pose(r, t)).collect();
+            p.frame(frame, args.frames, &sim, cloth, &rigid)?;
         }
         if args.check_every_frame {
-            let posed = scene.as_ref().filter(|_| args.scene == SceneArg::Garment).map(|s| {
-                s.mesh.transformed(glam::Mat4::from_quat(drape::scenes::garment_rotation(frame as f32 / 60.0)))
-            });
-            let solid = match &posed {
-                Some(m) => (m.vertices.as_slice(), m.triangles.as_slice()),
-                None => solid_of(&scene),
-            };
-            worst.record(frame, count_intersections(&sim.positions(cloth)?, &built.triangles, solid));
+            let solid = union_at(&scene_colliders, t);
+            let found =
+                count_intersections(&sim.positions(cloth)?, &built.triangles, (&solid.vertices, &solid.triangles));
+            worst.record(frame, found);
         }
     }
     drop(progress);
@@ -389,7 +397,7 @@ fn run(args: &Args) -> drape::Result<()> {
     schedule.print(bound_substeps, args.frames, report.median_wall_ms());
     json.insert("timings".into(), timings_json(&report, !args.no_timestamps));
     json.insert("schedule".into(), schedule.json(bound_substeps));
-    if let Some(c) = &collider {
+    if let Some(c) = colliders.first() {
         json.insert(
             "collision".into(),
             json!({ "substeps_run": ran, "substeps_culled": skipped, "candidate_list_fallbacks": fallbacks }),
@@ -404,23 +412,20 @@ fn run(args: &Args) -> drape::Result<()> {
         }
     }
     let x = sim.positions(cloth)?;
-    // The metrics see the collider where it stands now (the garment's body has turned).
-    if let (SceneArg::Garment, Some(s)) = (args.scene, &mut scene) {
-        let turn = drape::scenes::garment_rotation(args.frames as f32 / 60.0);
-        s.mesh = s.mesh.transformed(glam::Mat4::from_quat(turn));
-    }
-    if let (Some(s), Some(c)) = (&scene, &collider) {
+    // The metrics see every collider where it stands now (a moving one has moved).
+    let t_end = args.frames as f32 * frame_dt;
+    let solid = union_at(&scene_colliders, t_end);
+    if !scene_colliders.is_empty() {
         let start = Instant::now();
-        let bvh = TriangleBvh::new(&s.mesh);
-        let spheres = (args.contact == ContactArg::Spheres).then(|| c.spheres());
-        let a = accuracy_of_cloth(&bvh, spheres, c.thickness, &built.structural_springs(), &x);
+        let bvh = TriangleBvh::new(&solid);
+        let spheres = (args.contact == ContactArg::Spheres).then(|| posed_spheres(&colliders, &scene_colliders, t_end));
+        let a = accuracy_of_cloth(&bvh, spheres.as_deref(), args.thickness, &built.structural_springs(), &x);
         print_accuracy(&a, args.frames, start.elapsed().as_secs_f64());
         json.insert("accuracy".into(), accuracy_json(&a));
-    } else {
-        let lowest = x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
-        json.insert("lowest_particle_y_m".into(), json!(lowest));
-        say!("final: lowest particle at y = {lowest:.3} m after {} frames", sim.frames_done());
     }
+    let lowest = x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min);
+    json.insert("lowest_particle_y_m".into(), json!(lowest));
+    say!("final: lowest particle at y = {lowest:.3} m after {} frames", sim.frames_done());
     if args.check_every_frame {
         json.insert("intersections_every_frame".into(), worst.json());
         say!(
@@ -437,7 +442,7 @@ fn run(args: &Args) -> drape::Result<()> {
         );
     }
     let start = Instant::now();
-    let found = count_intersections(&x, &built.triangles, solid_of(&scene));
+    let found = count_intersections(&x, &built.triangles, (&solid.vertices, &solid.triangles));
     say!(
         "intersections (exact, final frame, {:.2} s on the CPU): cloth-cloth {}, cloth edges through the collider {}, \
          collider edges through the cloth {}",
@@ -454,10 +459,12 @@ fn run(args: &Args) -> drape::Result<()> {
     Ok(())
 }
 
-/// The collider mesh of a scene, for the intersection counts (none: empty).
-fn solid_of(scene: &Option<DrapeScene>) -> (&[Vec3], &[[u32; 3]]) {
-    match scene {
-        Some(s) => (s.mesh.vertices.as_slice(), s.mesh.triangles.as_slice()),
-        None => (&[], &[]),
+/// Every collider's spheres where it stands at time `t`.
+fn posed_spheres(colliders: &[Collider], scene_colliders: &[SceneCollider], t: f32) -> Vec<glam::Vec4> {
+    let mut all = Vec::new();
+    for (c, sc) in colliders.iter().zip(scene_colliders) {
+        let (rotation, translation) = sc.motion.pose(t);
+        all.extend(c.spheres().iter().map(|s| (rotation * s.truncate() + translation).extend(s.w)));
     }
+    all
 }

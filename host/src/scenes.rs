@@ -30,12 +30,16 @@ pub fn pile(grid: u32) -> DrapeScene {
         .mass(0.2 * width * length)
         .velocity(Vec3::new(0.4, 0.0, 0.0))
         .transform(lift * stand);
+    DrapeScene { mesh: ground(), cloth, thickness: DEFAULT_THICKNESS, friction: DEFAULT_FRICTION }
+}
+
+/// A ground: a 6 m square at y = 0, two triangles facing up (open).
+pub fn ground() -> crate::mesh::Mesh {
     let h = 3.0;
-    let ground = crate::mesh::Mesh {
+    crate::mesh::Mesh {
         vertices: vec![Vec3::new(-h, 0.0, -h), Vec3::new(h, 0.0, -h), Vec3::new(h, 0.0, h), Vec3::new(-h, 0.0, h)],
         triangles: vec![[0, 2, 1], [0, 3, 2]],
-    };
-    DrapeScene { mesh: ground, cloth, thickness: DEFAULT_THICKNESS, friction: DEFAULT_FRICTION }
+    }
 }
 
 /// How fast the garment scene's body turns about its vertical axis (rad/s).

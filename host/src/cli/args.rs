@@ -199,6 +199,9 @@ pub(crate) struct Args {
     /// Load the Vulkan validation layer (also: DRAPE_VALIDATION=1).
     #[arg(long)]
     pub(crate) validate: bool,
+    /// Colliders a scene file adds (`[[collider]]` tables), after the scene's own.
+    #[arg(skip)]
+    pub(crate) colliders: Vec<super::colliders::ColliderTable>,
 }
 
 /// Whether the user typed `id` (not its default).
@@ -219,13 +222,6 @@ pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), Strin
     if args.obj_every.is_some() && args.obj_dir.is_none() {
         return Err("--obj-every needs --obj-dir (the directory to write the frames into)".into());
     }
-    if args.png_dir.is_none() {
-        for (id, flag) in [("png_every", "--png-every"), ("png_size", "--png-size")] {
-            if given(matches, id) {
-                return Err(format!("{flag} needs --png-dir (the directory to write the pictures into)"));
-            }
-        }
-    }
     if args.png_dir.is_some() && args.no_normals {
         return Err("--png-dir shades the cloth with its vertex normals, which --no-normals skips: drop one".into());
     }
@@ -236,12 +232,18 @@ pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), Strin
 pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
     let collider_flags = ["mesh", "contact", "holes", "voxels", "thickness", "friction", "search", "brute_force"];
     let flag = format!("--{}", id.replace('_', "-"));
-    if args.scene == SceneArg::Swing && collider_flags.contains(&id) {
+    if args.scene == SceneArg::Swing && args.colliders.is_empty() && collider_flags.contains(&id) {
         return Some(format!(
-            "{flag} does nothing in the swing scene, which has no collider: drop it, or use --scene drape or pile"
+            "{flag} does nothing in the swing scene, which has no collider: drop it, use --scene drape or pile, \
+             or add colliders with [[collider]] tables in a --scene-file"
         ));
     }
     if ["mesh", "holes"].contains(&id) {
+        if args.scene == SceneArg::Swing {
+            return Some(format!(
+                "{flag} does nothing in the swing scene, whose colliders are the scene file's [[collider]] tables"
+            ));
+        }
         if args.scene == SceneArg::Pile {
             return Some(format!("{flag} does nothing in the pile scene, whose collider is the ground plane"));
         }
@@ -251,6 +253,9 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
     }
     if id == "wind" && args.scene != SceneArg::Swing {
         return Some(format!("--wind only applies to the swing scene, not the {:?} scene", args.scene).to_lowercase());
+    }
+    if ["png_every", "png_size"].contains(&id) && args.png_dir.is_none() {
+        return Some(format!("{flag} needs --png-dir (the directory to write the pictures into)"));
     }
     if id == "voxels" && args.contact == ContactArg::Triangles {
         return Some("--voxels only applies with --contact spheres (triangle contact has no voxels)".into());

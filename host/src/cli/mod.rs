@@ -1,6 +1,7 @@
 //! The `drape` command line's parts: its flags, its progress bar, its report.
 
 pub(crate) mod args;
+pub(crate) mod colliders;
 pub(crate) mod pictures;
 pub(crate) mod progress;
 pub(crate) mod report;

@@ -3,7 +3,7 @@
 //! camera that frames the scene at its start.
 
 use drape::mesh::Mesh;
-use drape::render::{CLOTH_COLOR, COLLIDER_COLOR, Camera, Draw, Renderer, SurfaceMesh, scene_box};
+use drape::render::{CLOTH_COLOR, Camera, Draw, Renderer, SurfaceMesh, collider_color, scene_box};
 use drape::{ClothId, Context, RigidPose, Solver};
 use glam::Vec4;
 use std::path::{Path, PathBuf};
@@ -15,40 +15,45 @@ pub(crate) struct Pictures {
     every: Option<u32>,
     renderer: Renderer,
     camera: Camera,
-    collider: Option<SurfaceMesh>,
+    colliders: Vec<SurfaceMesh>,
     pub(crate) written: Vec<PathBuf>,
 }
 
 impl Pictures {
-    /// A renderer of `size` pictures framing `cloth` (its initial positions) and `collider`.
+    /// A renderer of `size` pictures framing `cloth` (its initial positions) and `colliders`
+    /// (at rest).
     pub(crate) fn new(
         ctx: &Arc<Context>,
         dir: &Path,
         every: Option<u32>,
         (width, height): (u32, u32),
         cloth: &[Vec4],
-        collider: Option<&Mesh>,
+        colliders: &[&Mesh],
     ) -> drape::Result<Self> {
-        let boxes: Vec<_> = collider.iter().map(|m| m.bounds()).collect();
+        let boxes: Vec<_> = colliders.iter().map(|m| m.bounds()).collect();
         let (lo, hi) = scene_box(cloth, &boxes);
         Ok(Pictures {
             dir: dir.to_path_buf(),
             every,
             renderer: Renderer::new(ctx, width, height)?,
             camera: Camera::framing(lo, hi, width as f32 / height as f32),
-            collider: collider.map(|m| SurfaceMesh::new(ctx, &m.vertices, &m.triangles)).transpose()?,
+            colliders: colliders
+                .iter()
+                .map(|m| SurfaceMesh::new(ctx, &m.vertices, &m.triangles))
+                .collect::<drape::Result<_>>()?,
             written: Vec::new(),
         })
     }
 
-    /// Draws and writes `frame_NNNNN.png` if `frame` is one to write (of `frames`).
+    /// Draws and writes `frame_NNNNN.png` if `frame` is one to write (of `frames`), each
+    /// collider at its pose in `collider_poses`.
     pub(crate) fn frame(
         &mut self,
         frame: u32,
         frames: u32,
         solver: &Solver,
         cloth: ClothId,
-        collider_pose: RigidPose,
+        collider_poses: &[RigidPose],
     ) -> drape::Result<()> {
         let due = match self.every {
             Some(n) => frame.is_multiple_of(n),
@@ -58,8 +63,8 @@ impl Pictures {
             return Ok(());
         }
         let mut draws = vec![Draw::Cloth { solver, cloth, color: CLOTH_COLOR }];
-        if let Some(mesh) = &self.collider {
-            draws.push(Draw::Mesh { mesh, pose: collider_pose, color: COLLIDER_COLOR });
+        for (i, (mesh, &pose)) in self.colliders.iter().zip(collider_poses).enumerate() {
+            draws.push(Draw::Mesh { mesh, pose, color: collider_color(i) });
         }
         let picture = self.renderer.render(&self.camera, &draws)?;
         let path = self.dir.join(format!("frame_{frame:05}.png"));

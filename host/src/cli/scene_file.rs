@@ -4,8 +4,12 @@
 //! checks, so a bad value gets the flag's message, prefixed with the file, line and key. An
 //! unknown key or a value of the wrong kind is a usage error naming the key and its line.
 //! `--print-scene` writes the effective scene (file, flags and defaults) in the same form.
+//!
+//! Beyond the flags, a scene file adds colliders as `[[collider]]` tables (see
+//! `super::colliders::ColliderTable`): a mesh, its placement and its motion, as many as wanted.
 
 use super::args::{Args, unused};
+use super::colliders::ColliderTable;
 use clap::error::{ContextKind, ContextValue, ErrorKind};
 use clap::parser::ValueSource;
 use clap::{ArgMatches, CommandFactory};
@@ -15,15 +19,24 @@ use std::path::Path;
 /// Flags a scene file cannot hold (they are about reading or printing scene files).
 const NOT_IN_FILES: [&str; 4] = ["help", "version", "scene_file", "print_scene"];
 
-/// The command line's matches with the scene file's flags (if any) underneath.
-pub(crate) fn matches(cli: Vec<OsString>) -> Result<ArgMatches, clap::Error> {
+/// The `[[collider]]` tables of a scene file.
+#[derive(Debug, Default, serde::Deserialize, serde::Serialize)]
+struct ColliderTables {
+    #[serde(default)]
+    collider: Vec<ColliderTable>,
+}
+
+/// The command line's matches with the scene file's flags (if any) underneath, and the file's
+/// `[[collider]]` tables.
+pub(crate) fn matches(cli: Vec<OsString>) -> Result<(ArgMatches, Vec<ColliderTable>), clap::Error> {
     let first = Args::command().try_get_matches_from(&cli)?;
     let Some(path) = first.get_one::<std::path::PathBuf>("scene_file").cloned() else {
-        return Ok(first);
+        return Ok((first, Vec::new()));
     };
     let text = std::fs::read_to_string(&path)
         .map_err(|e| Args::command().error(ErrorKind::Io, format!("--scene-file {}: {e}", path.display())))?;
     let entries = file_flags(&path, &text)?;
+    let colliders = collider_tables(&path, &text)?;
     let mut merged = vec![cli[0].clone()];
     for entry in &entries {
         // A flag typed on the command line overrides the file.
@@ -32,7 +45,40 @@ pub(crate) fn matches(cli: Vec<OsString>) -> Result<ArgMatches, clap::Error> {
         }
     }
     merged.extend(cli.into_iter().skip(1));
-    Args::command().try_get_matches_from(merged).map_err(|e| locate(e, &path, &entries))
+    let matches = Args::command().try_get_matches_from(merged).map_err(|e| locate(e, &path, &entries))?;
+    Ok((matches, colliders))
+}
+
+/// A usage error said of the scene file's line.
+fn file_error(path: &Path, line: usize, problem: String) -> clap::Error {
+    Args::command().error(ErrorKind::ValueValidation, format!("scene file {}, line {line}: {problem}", path.display()))
+}
+
+/// The file's `[[collider]]` tables, each checked; errors name the table's line and key.
+fn collider_tables(path: &Path, text: &str) -> Result<Vec<ColliderTable>, clap::Error> {
+    let tables: ColliderTables = toml::from_str(text).map_err(|e| {
+        let line = e.span().map_or(0, |s| line_at(text, s.start));
+        // The key set on that line, when the error is about a value.
+        let key = text
+            .lines()
+            .nth(line.saturating_sub(1))
+            .and_then(|l| l.split_once('='))
+            .map(|(k, _)| format!(", key `{}`", k.trim()))
+            .unwrap_or_default();
+        file_error(path, line, format!("in a [[collider]] table{key}: {}", e.message()))
+    })?;
+    let headers: Vec<usize> = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| l.trim_start().starts_with("[[collider]]"))
+        .map(|(i, _)| i + 1)
+        .collect();
+    for (i, table) in tables.collider.iter().enumerate() {
+        table.check().map_err(|problem| {
+            file_error(path, headers.get(i).copied().unwrap_or(0), format!("[[collider]] number {}: {problem}", i + 1))
+        })?;
+    }
+    Ok(tables.collider)
 }
 
 /// One key of a scene file as command-line arguments.
@@ -45,17 +91,17 @@ struct Entry {
 
 /// The scene file's keys as flags, in file order.
 fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
-    let usage = |line: usize, problem: String| {
-        Args::command()
-            .error(ErrorKind::ValueValidation, format!("scene file {}, line {line}: {problem}", path.display()))
-    };
+    let usage = |line: usize, problem: String| file_error(path, line, problem);
     let table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-        let line = e.span().map_or(0, |s| text[..s.start].lines().count().max(1));
+        let line = e.span().map_or(0, |s| line_at(text, s.start));
         usage(line, e.message().to_string())
     })?;
     let command = Args::command();
     let mut entries = Vec::new();
     for (key, value) in &table {
+        if key == "collider" && value.is_array() {
+            continue; // `[[collider]]` tables: read by `collider_tables`
+        }
         let id = key.replace('-', "_");
         let line = line_of(text, key);
         let arg = command
@@ -112,6 +158,12 @@ fn flag_value(value: &toml::Value) -> Option<String> {
     }
 }
 
+/// The 1-based line of byte `offset` (an error at the very end is said of the last line).
+fn line_at(text: &str, offset: usize) -> usize {
+    let line = text.get(..offset).unwrap_or(text).matches('\n').count() + 1;
+    line.min(text.lines().count().max(1))
+}
+
 /// The 1-based line where `key` is set (0 if not found).
 fn line_of(text: &str, key: &str) -> usize {
     let spellings = [key.to_string(), key.replace('_', "-"), key.replace('-', "_")];
@@ -143,7 +195,8 @@ fn locate(error: clap::Error, path: &Path, entries: &[Entry]) -> clap::Error {
 }
 
 /// The effective scene (the file's values, the flags over them, the defaults) as a scene file.
-/// A flag the scene does not use is written commented out, with the reason.
+/// A flag the scene does not use is written commented out, with the reason; the file's
+/// colliders follow as `[[collider]]` tables.
 pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
     let mut out = String::from("# drape scene: `drape --scene-file THIS.toml` runs it; flags override it.\n");
     for arg in Args::command().get_arguments() {
@@ -164,6 +217,13 @@ pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
         match unused(args, id) {
             Some(reason) => out += &format!("# {key} = {value}    # unused: {reason}\n"),
             None => out += &format!("{key} = {value}\n"),
+        }
+    }
+    if !args.colliders.is_empty() {
+        let tables = ColliderTables { collider: args.colliders.clone() };
+        match toml::to_string(&tables) {
+            Ok(text) => out += &format!("\n{text}"),
+            Err(e) => out += &format!("# the [[collider]] tables could not be written: {e}\n"),
         }
     }
     out
@@ -187,11 +247,11 @@ mod tests {
     use super::*;
 
     /// Scene files mutated at random (bytes flipped, dropped, duplicated, cut short) never
-    /// panic the reader: each is flags or an error.
+    /// panic the reader: each is flags and collider tables, or an error.
     #[test]
     fn mangled_scene_files_are_errors_not_panics() {
-        let valid =
-            "scene = \"pile\"\ngrid = 32\nwind = [-1, 0, 0.5]\nno-timestamps = true\npin-box = [0, 0, 0, 1, 1, 1]\n";
+        let valid = "scene = \"pile\"\ngrid = 32\nwind = [-1, 0, 0.5]\nno-timestamps = true\npin-box = [0, 0, 0, 1, 1, 1]\n\
+                     [[collider]]\nmesh = \"torus\"\nscale = [1, 2, 1]\nspin-rate = 1.5\nvelocity = [0, -1e3, 0]\n";
         let mut state = 0x2545_F491_4F6C_DD1Du64;
         let mut next = || {
             state ^= state << 13;
@@ -217,7 +277,8 @@ mod tests {
                 }
             }
             let text = String::from_utf8_lossy(&bytes);
-            match file_flags(Path::new("fuzz.toml"), &text) {
+            let path = Path::new("fuzz.toml");
+            match file_flags(path, &text).and_then(|_| collider_tables(path, &text)) {
                 Ok(_) => parsed += 1,
                 Err(_) => rejected += 1,
             }
