@@ -209,3 +209,45 @@ fn a_spike_does_not_pierce_a_cloth_cell() {
     assert!(tent > top, "the cloth must tent over the tip (highest particle {tent} m)");
     assert_validation_clean(&ctx);
 }
+
+/// Self-collision runs as many passes per frame as the cloth's motion needs (at most the
+/// thickness between two, at least `MIN_SELF_PASSES`), not one per substep: the 64 x 16 pile,
+/// falling, runs a pass at every substep (its motion raised the substeps); settled, fewer passes
+/// than its substeps; the count each frame is what the timing table lists; and it does not
+/// cross itself.
+#[test]
+fn self_collision_passes_follow_the_motion() {
+    let ctx = context();
+    let scene = drape::scenes::pile(64);
+    let cloth = scene.cloth.clone().self_collision(Some(0.005)).build().unwrap();
+    let ground = scene.triangle_collider();
+    let settings = SimSettings::default().with_sleep(None);
+    let model = Model::single(&cloth, std::slice::from_ref(&ground), settings).unwrap();
+    let mut sim = Solver::new(&ctx, &model).unwrap();
+    let (mut every_substep, mut fewer) = (0, 0);
+    for frame in 1..=240 {
+        let timings = sim.step().unwrap();
+        let substeps = sim.stability(CLOTH).unwrap().substeps;
+        let count = |label: &str| timings.by_label().iter().find(|(l, ..)| *l == label).map_or(0, |e| e.1);
+        let passes = count("self: vertex-triangle");
+        assert!((1..=substeps).contains(&passes), "frame {frame}: {passes} passes in {substeps} substeps");
+        assert_eq!(count("self: apply"), passes, "frame {frame}");
+        assert_eq!(count("rk4: k1"), substeps, "frame {frame}");
+        if frame % 20 == 0 {
+            println!("frame {frame}: {passes} passes in {substeps} substeps");
+        }
+        if passes == substeps && substeps > 1 {
+            every_substep += 1;
+        } else if passes < substeps {
+            fewer += 1;
+            assert!(passes >= drape::motion::MIN_SELF_PASSES, "frame {frame}: {passes} passes");
+        }
+        let x = sim.positions(CLOTH).unwrap();
+        let crossings = count_intersections(&x, &cloth.triangles, (&[], &[])).cloth_cloth;
+        assert_eq!(crossings, 0, "frame {frame}: {passes} passes in {substeps} substeps");
+    }
+    println!("frames with a pass every substep: {every_substep}, with fewer passes than substeps: {fewer}");
+    assert!(every_substep > 0, "falling, the strip needs a pass every substep");
+    assert!(fewer >= 30, "settled, it needs fewer passes than substeps ({fewer} frames)");
+    assert_validation_clean(&ctx);
+}

@@ -187,7 +187,10 @@ impl Controls {
 
     /// Each cloth's frame schedule for the current values.
     pub fn plans(&self) -> Vec<FramePlan> {
-        self.cloths.iter().map(|c| self.settings.plan(&c.params, &c.stability, c.motion.asleep)).collect()
+        self.cloths
+            .iter()
+            .map(|c| self.settings.plan(&c.params, &c.stability, c.motion.asleep, c.motion.contact_substeps))
+            .collect()
     }
 
     /// Whether the frame must be planned again (a cloth's substeps or sleep changed); clears it.
@@ -491,7 +494,8 @@ impl Controls {
             let near = moving.iter().any(|&(_, bounds)| c.motion.near(bounds));
             let change = c.motion.plan_frame(thickness, (collider_speed, near), settings.frame_dt, settings.sleep);
             if change.substeps {
-                self.replan |= c.apply_contact(&settings);
+                // A self-colliding cloth's passes follow the motion even when the substeps do not.
+                self.replan |= c.apply_contact(&settings) | c.self_collision.is_some();
                 log::debug!(
                     "contact needs {} substeps per frame: running {} (stability bound {})",
                     c.motion.contact_substeps,

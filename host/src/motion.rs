@@ -25,6 +25,11 @@ use glam::{Vec3, Vec4};
 pub const CONTACT_REACH: f32 = 1.0;
 /// Frames the motion must need fewer substeps before the count comes down.
 pub const LOWER_AFTER: u32 = 30;
+/// The fewest self-collision passes a frame runs (fewer when it has fewer substeps). Each pass
+/// is also one Jacobi iteration of the contacts it finds: a settled pile of 32 x 8 particles
+/// crossed itself (1 crossing from frame 164 on) with 1-2 passes per frame where 3 keep it
+/// clean, even though its motion needs only one.
+pub const MIN_SELF_PASSES: u32 = 4;
 
 /// When a still cloth sleeps.
 #[derive(Copy, Clone, Debug, PartialEq)]

@@ -45,7 +45,8 @@ pub struct SimSettings {
     /// Time every pass with GPU timestamp queries (costs ~tens of µs per pass on lavapipe).
     pub timestamps: bool,
     /// Automatic substeps are also enough that no particle moves more than the contact
-    /// thickness per substep (`motion`); no effect on a cloth without contact.
+    /// thickness per substep (`motion`), and self-collision runs as many passes per frame as
+    /// that needs (off: one per substep); no effect on a cloth without contact.
     pub contact_substeps: bool,
     /// When a still cloth stops running (`None`: never).
     pub sleep: Option<Sleep>,
@@ -102,8 +103,9 @@ impl SimSettings {
         self.timestamps = timestamps;
         self
     }
-    /// Raise automatic substeps so no particle moves more than the contact thickness per
-    /// substep.
+    /// Follow the motion: raise automatic substeps so no particle moves more than the contact
+    /// thickness per substep, and run self-collision only as many passes per frame as that
+    /// takes (off: a pass every substep, substeps from the stability bound alone).
     pub fn with_contact_substeps(mut self, on: bool) -> Self {
         self.contact_substeps = on;
         self
@@ -181,8 +183,23 @@ impl SimSettings {
     }
 
     /// The frame schedule for these settings.
-    pub(crate) fn plan(&self, params: &SimParams, stability: &Stability, asleep: bool) -> FramePlan {
-        FramePlan { substeps: stability.substeps, integrator: params.integrator, normals: self.normals, asleep }
+    /// The frame a cloth runs: `stability`'s substeps, and `motion_passes` self-collision passes
+    /// (what its motion needs, `motion`; at least `MIN_SELF_PASSES`) when contact substeps are
+    /// on, else one per substep.
+    pub(crate) fn plan(
+        &self,
+        params: &SimParams,
+        stability: &Stability,
+        asleep: bool,
+        motion_passes: u32,
+    ) -> FramePlan {
+        let substeps = stability.substeps;
+        let self_passes = if self.contact_substeps {
+            motion_passes.max(crate::motion::MIN_SELF_PASSES).clamp(1, substeps)
+        } else {
+            substeps
+        };
+        FramePlan { substeps, integrator: params.integrator, normals: self.normals, asleep, self_passes }
     }
 
     /// `base` (the stability bound's choice) raised to the substeps contact needs, when

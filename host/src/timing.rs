@@ -8,10 +8,12 @@ use std::time::Duration;
 /// Collects frames and reports medians.
 #[derive(Clone, Debug, Default)]
 pub struct TimingReport {
-    /// Labels in first-seen order, with dispatches per frame.
-    labels: Vec<(&'static str, u32)>,
-    /// Per label: GPU µs per frame, one entry per frame.
+    /// Labels in first-seen order.
+    labels: Vec<&'static str>,
+    /// Per label: GPU µs per frame, one entry per frame that ran it.
     samples: Vec<Vec<f64>>,
+    /// Per label: dispatches per frame (they vary when the substeps or passes do).
+    counts: Vec<Vec<f64>>,
     wall_ms: Vec<f64>,
     gpu_total: Vec<f64>,
     skipped: Vec<&'static str>,
@@ -32,15 +34,17 @@ impl TimingReport {
     /// Adds one frame: its GPU pass timings and its wall-clock time (submit to results).
     pub fn add(&mut self, frame: &FrameTimings, wall: Duration) {
         for (label, count, micros) in frame.by_label() {
-            let slot = match self.labels.iter().position(|(l, _)| *l == label) {
+            let slot = match self.labels.iter().position(|l| *l == label) {
                 Some(i) => i,
                 None => {
-                    self.labels.push((label, count));
+                    self.labels.push(label);
                     self.samples.push(Vec::new());
+                    self.counts.push(Vec::new());
                     self.labels.len() - 1
                 }
             };
             self.samples[slot].push(micros);
+            self.counts[slot].push(f64::from(count));
         }
         for s in &frame.skipped {
             if !self.skipped.contains(s) {
@@ -70,9 +74,14 @@ impl TimingReport {
     pub fn min_gpu_micros(&self) -> f64 {
         self.gpu_total.iter().copied().fold(f64::INFINITY, f64::min)
     }
-    /// (label, dispatches per frame, median µs per frame) for each pass label.
+    /// (label, median dispatches per frame, median µs per frame) for each pass label.
     pub fn rows(&self) -> Vec<(&'static str, u32, f64)> {
-        self.labels.iter().zip(&self.samples).map(|(&(l, n), s)| (l, n, median(s))).collect()
+        self.labels
+            .iter()
+            .zip(&self.samples)
+            .zip(&self.counts)
+            .map(|((&l, s), n)| (l, median(n).round() as u32, median(s)))
+            .collect()
     }
     pub fn skipped(&self) -> &[&'static str] {
         &self.skipped
@@ -83,7 +92,7 @@ impl TimingReport {
         let mut out = String::new();
         let _ = writeln!(out, "{:<34} {:>10} {:>14} {:>14}", "pass", "dispatches", "GPU µs/frame", "µs/dispatch");
         for (label, n, micros) in self.rows() {
-            let _ = writeln!(out, "{label:<34} {n:>10} {micros:>14.1} {:>14.1}", micros / n as f64);
+            let _ = writeln!(out, "{label:<34} {n:>10} {micros:>14.1} {:>14.1}", micros / n.max(1) as f64);
         }
         for label in &self.skipped {
             let _ = writeln!(out, "{label:<34} {:>10} {:>14} {:>14}", 0, "skipped", "-");
@@ -92,7 +101,7 @@ impl TimingReport {
             out,
             "{:<34} {:>10} {:>14.1}\nwall time per frame over {} frames: median {:.3} ms, min {:.3} ms",
             "total GPU",
-            self.labels.iter().map(|(_, n)| n).sum::<u32>(),
+            self.rows().iter().map(|r| r.1).sum::<u32>(),
             self.median_gpu_micros(),
             self.frames(),
             self.median_wall_ms(),

@@ -129,7 +129,8 @@ pub(crate) struct Args {
     #[arg(long, default_value_t = drape::Sleep::default().speed, value_parser = parse_sleep, allow_hyphen_values = true)]
     pub(crate) sleep: f32,
     /// Raise automatic substeps so no particle moves more than the contact thickness per
-    /// substep (from the last frame's fastest particle and the colliders' motion).
+    /// substep (from the last frame's fastest particle and the colliders' motion), and run
+    /// self-collision only as many passes per frame as that needs (off: one per substep).
     #[arg(long, value_enum, default_value = "on")]
     pub(crate) contact_substeps: OnOff,
     /// Print nothing on stdout and draw no progress bar (errors and warnings still go to

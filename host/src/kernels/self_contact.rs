@@ -1,12 +1,13 @@
 //! Self-collision kernels (`drape_kernels::self_contact`): the cloth's bounds for the tree's
-//! Morton box, its triangles' boxes and their tree order, the vertex-triangle pass and the
-//! application of its summed corrections.
+//! Morton box (and the frame's first pass's start), its triangles' boxes and their tree order,
+//! the vertex-triangle, edge-edge and collider-vertex passes and the application of their
+//! summed corrections (which also records where the next pass starts).
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::{
-    SCENE_THREADS, apply_self_contact_at, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
+    SCENE_THREADS, apply_self_contact_at, copy_start, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
     collider_vertex_contact_at, self_contact_at, self_edge_contact_at, write_scene,
 };
 use drape_kernels::contact::substep_motion;
@@ -23,9 +24,14 @@ const fn spec(entry: &'static str, bindings: &'static [BindingSpec], workgroup_s
     KernelSpec { entry, bindings, push_constant_size: 0, workgroup_size }
 }
 
-/// One workgroup: the cloth's bounds grown by the thickness, as the tree's Morton box.
+/// One workgroup: the cloth's bounds grown by the thickness, as the tree's Morton box; and the
+/// positions copied to where the frame's first pass sweeps from.
 pub static SELF_SCENE_BOUNDS: Kernel = Kernel {
-    spec: spec("self_contact::self_scene_bounds", &[read("params"), read("x"), write("self_params")], SCENE_THREADS),
+    spec: spec(
+        "self_contact::self_scene_bounds",
+        &[read("params"), read("x"), write("self_params"), write("start")],
+        SCENE_THREADS,
+    ),
     cpu: scene_cpu,
 };
 
@@ -116,7 +122,7 @@ pub static COLLIDER_VERTEX_CONTACT: Kernel = Kernel {
 pub static APPLY_SELF_CONTACT: Kernel = Kernel {
     spec: spec(
         "self_contact::apply_self_contact",
-        &[read("params"), write("x"), write("v"), read("delta")],
+        &[read("params"), write("x"), write("v"), read("delta"), write("start")],
         WORKGROUP_SIZE,
     ),
     cpu: apply_cpu,
@@ -124,8 +130,11 @@ pub static APPLY_SELF_CONTACT: Kernel = Kernel {
 
 /// The lanes' bounds reduced (min/max is exact in any order), as the kernel does.
 fn scene_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
-    let [params, x, self_params] = d.bindings()?;
+    let [params, x, self_params, start] = d.bindings()?;
     let p: SimParams = params.first()?;
+    for lane in 0..SCENE_THREADS {
+        copy_start(x.slice(), start.slice_mut(), p.particle_count, lane, SCENE_THREADS);
+    }
     let bounds = (0..SCENE_THREADS)
         .map(|lane| particle_bounds(x.slice(), p.particle_count, lane, SCENE_THREADS))
         .reduce(|a, b| Aabb { min: a.min.min(b.min), max: a.max.max(b.max) })
@@ -172,11 +181,13 @@ fn self_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [params, x, v, delta] = d.bindings()?;
+    let [params, x, v, delta, start] = d.bindings()?;
     let p: SimParams = params.first()?;
     let (x, v, delta) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>(), delta.slice::<u32>());
+    let start = start.slice_mut::<Vec4>();
     for i in 0..threads.min(p.particle_count) {
         apply_self_contact_at(i, x, v, delta);
+        start[i as usize] = x[i as usize];
     }
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! vertex normals and the blow-up check.
 
 use super::contact::{CONTACT_LABEL, ColliderBuffers, ContactBuffers};
-use super::self_contact::{SelfContactBuffers, SelfContactCloth};
+use super::self_contact::{SelfContactBuffers, SelfContactCloth, pass_due};
 use crate::cloth::{Cloth, ClothTopology};
 use crate::graph::{Dispatch, Handle, Kernel, Resources, Step};
 use crate::kernels::integrate::{INTEGRATE_STAGE, INTEGRATE_STAGE_SPRINGS};
@@ -88,7 +88,7 @@ impl ClothBuffers {
 
     /// What the self-collision passes bind of this cloth.
     fn self_contact_cloth(&self) -> SelfContactCloth {
-        SelfContactCloth { params: self.params, x: self.x, v: self.v, x_prev: self.x_prev, indices: self.indices }
+        SelfContactCloth { params: self.params, x: self.x, v: self.v, indices: self.indices }
     }
 
     fn stage(
@@ -169,6 +169,9 @@ pub struct FramePlan {
     pub normals: bool,
     /// The cloth sleeps: its frame runs nothing (`motion`).
     pub asleep: bool,
+    /// Self-collision passes in the frame (1..=substeps; `self_contact::pass_due` spreads
+    /// them): as many as the cloth's motion needs (`motion`), not one per substep.
+    pub self_passes: u32,
 }
 
 /// The timing table's line for a sleeping cloth's frame.
@@ -190,6 +193,8 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
     if let Some(s) = &cloth.self_contact {
         s.frame_start_steps(&cloth.self_contact_cloth(), &mut steps);
     }
+    // The substep after the last self-collision pass: where the next pass's sweep begins.
+    let mut pass_from = 0;
     for substep in 0..plan.substeps {
         if plan.integrator == integrator::SEMI_IMPLICIT_EULER {
             steps.push(cloth.stage("euler: evaluate", 0, b, a));
@@ -204,13 +209,15 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
         for (collider, contact) in colliders {
             contact.substep_steps(cloth, collider, (substep, plan.substeps), &mut steps);
         }
-        if let Some(s) = &cloth.self_contact {
+        if let Some(s) = &cloth.self_contact
+            && pass_due(substep, plan.substeps, plan.self_passes)
+        {
             let own = cloth.self_contact_cloth();
-            let features = colliders
-                .iter()
-                .filter_map(|(collider, _)| s.collider_vertex_step(&own, collider, (substep, plan.substeps)))
-                .collect();
+            let span = (pass_from, substep, plan.substeps);
+            let features =
+                colliders.iter().filter_map(|(collider, _)| s.collider_vertex_step(&own, collider, span)).collect();
             s.substep_steps(&own, features, &mut steps);
+            pass_from = substep + 1;
         }
         // A skipped pass is listed once, not once per substep.
         if colliders.is_empty() && substep == 0 {

@@ -1,7 +1,9 @@
 //! A cloth's self-collision as a sub-graph over handles: an LBVH over the cloth's own triangles
 //! (built by the generic builder at the frame's start, from a Morton box the GPU measures;
-//! refit every substep) and, each substep after the collider's response, the vertex-triangle
-//! pass and the application of its summed corrections (`drape_kernels::self_contact`).
+//! refit at each pass) and, in each pass (after the collider's response of the substep it
+//! ends), the vertex-triangle, edge-edge and collider-vertex searches and the application of
+//! their summed corrections (`drape_kernels::self_contact`). A pass sweeps from where the last
+//! one left the particles (`start`), so passes may be several substeps apart: `pass_due`.
 
 use super::contact::{ColliderBuffers, ColliderLeaves};
 use super::lbvh::LbvhBuffers;
@@ -21,6 +23,9 @@ pub struct SelfContactBuffers {
     pub sorted: Handle<UVec4>,
     /// Per particle: the summed corrections (3 fixed-point words) and their count.
     pub delta: Handle<u32>,
+    /// Where each particle was when the last pass ended (the frame's start before the first):
+    /// what a pass sweeps from.
+    pub start: Handle<Vec4>,
     /// The cloth's edges (ends in xy), and per triangle its three edges (xyz) with a bit per
     /// edge set when this triangle owns it (w), so each pair of edges is handled once.
     pub edges: Handle<UVec4>,
@@ -59,8 +64,16 @@ pub struct SelfContactCloth {
     pub params: Handle<SimParams>,
     pub x: Handle<Vec4>,
     pub v: Handle<Vec4>,
-    pub x_prev: Handle<Vec4>,
     pub indices: Handle<u32>,
+}
+
+/// Whether substep `substep` of `substeps` ends with one of a frame's `passes` self-collision
+/// passes: spread evenly, the last substep always one (so the frame ends resolved). `passes`
+/// is clamped to 1..=substeps.
+pub fn pass_due(substep: u32, substeps: u32, passes: u32) -> bool {
+    let passes = passes.clamp(1, substeps.max(1));
+    let done = |s: u32| (u64::from(s) * u64::from(passes)) / u64::from(substeps.max(1));
+    done(substep + 1) > done(substep)
 }
 
 impl SelfContactBuffers {
@@ -70,6 +83,7 @@ impl SelfContactBuffers {
             tree: LbvhBuffers::declare(resources, &name, triangles),
             sorted: resources.device(format!("{name}: sorted triangles"), triangles),
             delta: resources.device(format!("{name}: corrections"), 4 * particles),
+            start: resources.device(format!("{name}: pass start"), particles),
             edges: resources.device(format!("{name}: edges"), edges),
             triangle_edges: resources.device(format!("{name}: triangle edges"), triangles),
             edge_count: edges,
@@ -87,7 +101,7 @@ impl SelfContactBuffers {
         Step::run(
             "self: triangle boxes",
             &CLOTH_TRIANGLE_BOUNDS,
-            vec![t.collider.id(), cloth.x.id(), cloth.x_prev.id(), cloth.indices.id(), t.bounds.id()],
+            vec![t.collider.id(), cloth.x.id(), self.start.id(), cloth.indices.id(), t.bounds.id()],
             Dispatch::Threads(t.leaves),
         )
     }
@@ -99,7 +113,7 @@ impl SelfContactBuffers {
         steps.push(Step::run(
             "self: cloth bounds",
             &SELF_SCENE_BOUNDS,
-            vec![cloth.params.id(), cloth.x.id(), t.collider.id()],
+            vec![cloth.params.id(), cloth.x.id(), t.collider.id(), self.start.id()],
             Dispatch::Workgroups(1),
         ));
         let gather = Step::run(
@@ -111,23 +125,22 @@ impl SelfContactBuffers {
         steps.extend(t.build_around(self.triangle_bounds(cloth), gather));
     }
 
-    /// Substep `substep` of `substeps`: triangle collider `collider`'s surface vertices against
-    /// the cloth's faces (`None` for a sphere collider, whose spheres are smooth).
+    /// The pass that ends substep `to` of `substeps` and sweeps from the end of substep
+    /// `from - 1` (`from` = the substep after the last pass): triangle collider `collider`'s
+    /// surface vertices against the cloth's faces (`None` for a sphere collider, whose spheres
+    /// are smooth).
     pub fn collider_vertex_step(
         &self,
         cloth: &SelfContactCloth,
         collider: &ColliderBuffers,
-        (substep, substeps): (u32, u32),
+        (from, to, substeps): (u32, u32, u32),
     ) -> Option<Step> {
         let (ColliderLeaves::Triangles(mesh), Some((surface, count))) = (&collider.leaves, collider.surface_vertices)
         else {
             return None;
         };
-        let span = ContactPush {
-            from: substep as f32 / substeps as f32,
-            to: (substep + 1) as f32 / substeps as f32,
-            _pad: [0; 2],
-        };
+        let span =
+            ContactPush { from: from as f32 / substeps as f32, to: (to + 1) as f32 / substeps as f32, _pad: [0; 2] };
         let t = &self.tree;
         Some(Step::run_with(
             "self: collider vertices",
@@ -144,7 +157,7 @@ impl SelfContactBuffers {
                 t.sorted_bounds.id(),
                 self.sorted.id(),
                 cloth.x.id(),
-                cloth.x_prev.id(),
+                self.start.id(),
                 self.delta.id(),
             ],
             bytemuck::cast(span),
@@ -152,9 +165,10 @@ impl SelfContactBuffers {
         ))
     }
 
-    /// Every substep, after the collider's response: refit to where the triangles are now, find
-    /// the pairs (and run `features`, the colliders' vertices against the faces, into the same
-    /// sums), apply the corrections.
+    /// A pass, after the collider's response of the substep it ends: refit to the triangles
+    /// swept since the last pass, find the pairs (and run `features`, the colliders' vertices
+    /// against the faces, into the same sums), apply the corrections (which records the next
+    /// pass's start).
     pub fn substep_steps(&self, cloth: &SelfContactCloth, features: Vec<Step>, steps: &mut Vec<Step>) {
         let t = &self.tree;
         steps.push(self.triangle_bounds(cloth));
@@ -171,7 +185,7 @@ impl SelfContactBuffers {
                 t.sorted_bounds.id(),
                 self.sorted.id(),
                 cloth.x.id(),
-                cloth.x_prev.id(),
+                self.start.id(),
                 self.delta.id(),
             ],
             Dispatch::Threads(self.particles),
@@ -188,7 +202,7 @@ impl SelfContactBuffers {
                 self.edges.id(),
                 self.triangle_edges.id(),
                 cloth.x.id(),
-                cloth.x_prev.id(),
+                self.start.id(),
                 self.delta.id(),
             ],
             Dispatch::Threads(self.edge_count),
@@ -197,8 +211,32 @@ impl SelfContactBuffers {
         steps.push(Step::run(
             "self: apply",
             &APPLY_SELF_CONTACT,
-            vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.delta.id()],
+            vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.delta.id(), self.start.id()],
             Dispatch::Threads(self.particles),
         ));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pass_due;
+
+    /// The passes: as many as asked (clamped to 1..=substeps), the last substep always one, and
+    /// spread so no two are further apart than the even spacing rounded up.
+    #[test]
+    fn passes_are_spread_evenly_and_end_the_frame() {
+        for substeps in 1..40 {
+            for asked in 0..45 {
+                let due: Vec<u32> = (0..substeps).filter(|&s| pass_due(s, substeps, asked)).collect();
+                assert_eq!(due.len() as u32, asked.clamp(1, substeps), "{substeps} substeps, {asked} passes");
+                assert_eq!(due.last(), Some(&(substeps - 1)), "{substeps} substeps, {asked} passes: {due:?}");
+                let spacing = substeps.div_ceil(asked.clamp(1, substeps));
+                let mut from = 0;
+                for &s in &due {
+                    assert!(s + 1 - from <= spacing, "{substeps} substeps, {asked} passes: {due:?}");
+                    from = s + 1;
+                }
+            }
+        }
     }
 }

@@ -1,8 +1,8 @@
 //! Self-collision of a cloth (issue 8): an LBVH over the cloth's own triangles (built by the
-//! generic builder once per frame, refit every substep to the triangles swept over it), and per
-//! substep, after the collider's response:
+//! generic builder once per frame, refit at each pass to the triangles swept since the last),
+//! and in each self-collision pass, after the collider's response:
 //! - **vertex against triangle**: every particle finds the triangles (not its own) within the
-//!   thickness, or that it crossed since the substep began;
+//!   thickness, or that it crossed since the last pass;
 //! - **edge against edge**: every edge finds the edges (sharing no particle) of the triangles
 //!   near it, each pair once, within the thickness or crossed;
 //! - **collider vertices against cloth faces**: every vertex a triangle collider's surface
@@ -11,8 +11,12 @@
 //!   cell between particles;
 //!
 //! and each pair is pushed apart to the thickness along the direction it was apart at the
-//! substep's start (the face normal, to the particle's starting side, for vertex-triangle),
-//! split by pin weight (position-based dynamics). The corrections are summed as fixed-point
+//! pass's start (the face normal, to the particle's starting side, for vertex-triangle),
+//! split by pin weight (position-based dynamics). A pass sweeps from `start`: the positions the
+//! last pass left (or the frame's start, copied by `self_scene_bounds`), so passes may be
+//! spaced several substeps apart (the host runs as many per frame as the cloth's motion needs
+//! to move at most the thickness between two, and at least the last substep's). In the kernels
+//! below, `x_prev` is that start. The corrections are summed as fixed-point
 //! integers, so the order in which threads add them does not change the result: a run repeats
 //! bit for bit. (The CPU twin follows the GPU to rounding: a pair's f32 math occasionally
 //! rounds differently on llvmpipe.) Each particle then moves by the mean of its corrections and
@@ -20,7 +24,7 @@
 //!
 //! Not yet: collider edges against cloth edges (a sharp ridge can still cut a cell), and
 //! continuous collision of moving triangles beyond this start-side test (a pair that passes
-//! through each other within one substep and ends farther apart than the search reach is
+//! through each other within one pass and ends farther apart than the search reach is
 //! missed).
 
 use crate::atomics;
@@ -55,16 +59,28 @@ pub fn particle_bounds(x: &[Vec4], count: u32, lane: u32, stride: u32) -> Aabb {
     Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
 }
 
+/// Copies particles `lane, lane + stride, ...` of `x` into `start` (where the frame's first
+/// self-collision pass sweeps from).
+pub fn copy_start(x: &[Vec4], start: &mut [Vec4], count: u32, lane: u32, stride: u32) {
+    let mut i = lane;
+    while i < count {
+        start[i as usize] = x[i as usize];
+        i += stride;
+    }
+}
+
 #[spirv(compute(threads(256)))]
 pub fn self_scene_bounds(
     #[spirv(local_invocation_id)] lid: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] self_params: &mut ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] start: &mut [Vec4],
     #[spirv(workgroup)] lows: &mut [Vec4; 256],
     #[spirv(workgroup)] highs: &mut [Vec4; 256],
 ) {
     let lane = lid.x;
+    copy_start(x, start, params.particle_count, lane, SCENE_THREADS);
     let own = particle_bounds(x, params.particle_count, lane, SCENE_THREADS);
     let bounds = reduce_bounds(lane, own, lows, highs);
     if lane == 0 {
@@ -713,11 +729,14 @@ pub fn apply_self_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] delta: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] start: &mut [Vec4],
 ) {
     if id.x >= params.particle_count {
         return;
     }
     apply_self_contact_at(id.x, x, v, delta);
+    // The next pass sweeps from here.
+    start[id.x as usize] = x[id.x as usize];
 }
 
 #[cfg(test)]
