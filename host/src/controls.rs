@@ -43,20 +43,25 @@ pub(crate) struct ColliderStart {
 struct Extent {
     low: Vec3,
     high: Vec3,
+    /// The farthest any leaf reaches from the box's centre: a turn by `angle` about any axis
+    /// through the centre moves no point of the collider farther than `radius x angle`.
     radius: f32,
 }
 
 impl Extent {
     /// The extent of spheres (w = radius) or vertices (w = 0).
     fn of(leaves: &[Vec4]) -> Self {
-        leaves.iter().fold(Extent { low: Vec3::INFINITY, high: Vec3::NEG_INFINITY, radius: 0.0 }, |e, l| {
+        let (low, high) = leaves.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), l| {
             let (centre, r) = (l.truncate(), l.w.max(0.0));
-            Extent {
-                low: e.low.min(centre - Vec3::splat(r)),
-                high: e.high.max(centre + Vec3::splat(r)),
-                radius: e.radius.max(centre.length() + r),
-            }
-        })
+            (lo.min(centre - Vec3::splat(r)), hi.max(centre + Vec3::splat(r)))
+        });
+        let middle = 0.5 * (low + high);
+        let radius = leaves.iter().map(|l| (l.truncate() - middle).length() + l.w.max(0.0)).fold(0.0, f32::max);
+        Extent { low, high, radius }
+    }
+
+    fn centre(&self) -> Vec3 {
+        if self.low.cmple(self.high).all() { 0.5 * (self.low + self.high) } else { Vec3::ZERO }
     }
 }
 
@@ -189,7 +194,11 @@ impl Controls {
     pub fn plans(&self) -> Vec<FramePlan> {
         self.cloths
             .iter()
-            .map(|c| self.settings.plan(&c.params, &c.stability, c.motion.asleep, c.motion.contact_substeps))
+            .map(|c| {
+                // A cloth in contact with itself iterates its contacts every substep.
+                let passes = (!c.motion.self_contact).then_some(c.motion.contact_substeps);
+                self.settings.plan(&c.params, &c.stability, c.motion.asleep, passes)
+            })
             .collect()
     }
 
@@ -237,17 +246,31 @@ impl Controls {
         Ok(())
     }
 
+    /// `cloth` was given `velocities` (its start, a teleport): awake, and its next frame
+    /// planned for their speed.
+    pub fn set_moving(&mut self, cloth: ClothId, velocities: &[Vec4]) -> Result<()> {
+        self.wake(cloth)?;
+        let speed = velocities.iter().map(|v| v.truncate().length()).fold(0.0, f32::max);
+        self.cloth_mut(cloth)?.motion.set_moving(speed);
+        Ok(())
+    }
+
     /// After a frame: cloth `index`'s health check (its speed drives contact substeps and sleep).
     pub fn observe(&mut self, index: usize, health: &Health) {
         let sleep = self.settings.sleep;
         if let Some(c) = self.cloths.get_mut(index) {
             let substep = c.stability.substep;
             log::trace!(
-                "cloth {index}: fastest particle {} m/s, moving at {} m/s over the last substep",
+                "cloth {index}: fastest particle {} m/s, moving at {} m/s over the last substep, {} self-contact \
+                 corrections",
                 crate::motion::max_speed(health),
-                crate::motion::max_motion(health, substep)
+                crate::motion::max_motion(health, substep),
+                health.self_contacts
             );
+            let self_contact = c.motion.self_contact;
             c.motion.observe(health, substep, sleep);
+            // Its passes follow whether it touches itself.
+            self.replan |= c.self_collision.is_some() && c.motion.self_contact != self_contact;
         }
     }
 
@@ -517,7 +540,11 @@ impl ColliderControl {
     /// fastest point of its surface (m/s) and the world box its leaves sweep.
     fn frame_motion(&self, frame_dt: f32) -> Option<(f32, (Vec3, Vec3))> {
         let (from, to) = (self.end_of_last_frame, self.target);
-        let moved = (to.translation - from.translation).truncate().length();
+        // Any point's motion: its box centre's, plus the turn about the centre (a collider
+        // placed far from its own origin and spun about its middle moves slowly).
+        let pose_of = |p: RigidPose, x: Vec3| Quat::from_vec4(p.rotation) * x + p.translation.truncate();
+        let centre = self.extent.centre();
+        let moved = (pose_of(to, centre) - pose_of(from, centre)).length();
         let turn = Quat::from_vec4(to.rotation) * Quat::from_vec4(from.rotation).conjugate();
         let angle = 2.0 * turn.w.abs().min(1.0).acos();
         let (mut low, mut high) = (self.extent.low, self.extent.high);
@@ -534,7 +561,7 @@ impl ColliderControl {
         if moved == 0.0 && angle == 0.0 && deformed == 0.0 {
             return None;
         }
-        // Rotation moves a point at distance r from the collider's origin by r x angle.
+        // The turn moves a point at distance r from the centre by at most r x angle.
         let speed = (moved + angle * self.extent.radius + deformed) / frame_dt;
         let mut world = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         for pose in [from, to] {

@@ -85,7 +85,7 @@ impl CpuSolver {
     /// Teleports `cloth` (see `Solver::teleport`).
     pub fn teleport(&mut self, cloth: ClothId, positions: &[glam::Vec3], velocities: &[glam::Vec3]) -> Result<()> {
         let (x, v) = teleported(&self.positions(cloth)?, positions, velocities)?;
-        self.controls.wake(cloth)?;
+        self.controls.set_moving(cloth, &v)?;
         let b = &self.program.cloths[cloth.index()];
         self.executor.upload(b.x, &x)?;
         self.executor.upload(b.v, &v)

@@ -70,6 +70,10 @@ pub struct ClothMotion {
     frames_needing_fewer: u32,
     still_frames: u32,
     pub(crate) asleep: bool,
+    /// The last frame's self-collision corrected a particle (or no frame has run yet): the
+    /// next runs a self-collision pass every substep, since each pass is also an iteration of
+    /// the contacts (a settled, stiff pile crossed itself with 5 passes in 18 substeps).
+    pub(crate) self_contact: bool,
     /// Where the sleeping cloth lies (its particles' box), when the solver could read it: a
     /// collider moving outside it (grown by the contact reach) does not wake the cloth.
     pub(crate) resting_bounds: Option<(Vec3, Vec3)>,
@@ -84,7 +88,7 @@ pub(crate) struct Change {
 
 impl ClothMotion {
     pub(crate) fn new() -> Self {
-        ClothMotion { contact_substeps: 1, ..Default::default() }
+        ClothMotion { contact_substeps: 1, self_contact: true, ..Default::default() }
     }
 
     /// After a frame of substep `substep`: its health check's speed and motion.
@@ -93,9 +97,18 @@ impl ClothMotion {
             return; // a sleeping frame ran nothing; its health is the last awake frame's
         }
         self.last_speed = max_speed(health);
+        self.self_contact = health.self_contacts > 0;
         match sleep {
             Some(s) if max_motion(health, substep) < s.speed => self.still_frames += 1,
             _ => self.still_frames = 0,
+        }
+    }
+
+    /// The cloth was set moving at `speed` (m/s: its initial or teleported velocities): the next
+    /// frame's contact substeps and self-collision passes count on it, not on the last frame.
+    pub(crate) fn set_moving(&mut self, speed: f32) {
+        if speed.is_finite() {
+            self.last_speed = self.last_speed.max(speed);
         }
     }
 

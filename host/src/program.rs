@@ -144,7 +144,10 @@ impl SolverProgram {
             })
             .collect();
         let mut program = SolverProgram { resources, cloths, colliders, contacts, initial, frame: Vec::new() };
-        let controls = Controls::new(resolved, settings, starts);
+        let mut controls = Controls::new(resolved, settings, starts);
+        for (i, cloth) in model.cloths().iter().enumerate() {
+            controls.set_moving(crate::ClothId::new(i), &cloth.velocities)?;
+        }
         program.frame = program.frame_steps(&controls.plans());
         Ok((program, controls))
     }

@@ -182,22 +182,22 @@ impl SimSettings {
         Ok((params, stability))
     }
 
-    /// The frame schedule for these settings.
     /// The frame a cloth runs: `stability`'s substeps, and `motion_passes` self-collision passes
     /// (what its motion needs, `motion`; at least `MIN_SELF_PASSES`) when contact substeps are
-    /// on, else one per substep.
+    /// on, else (or for `None`: a cloth in contact with itself) one per substep.
     pub(crate) fn plan(
         &self,
         params: &SimParams,
         stability: &Stability,
         asleep: bool,
-        motion_passes: u32,
+        motion_passes: Option<u32>,
     ) -> FramePlan {
         let substeps = stability.substeps;
-        let self_passes = if self.contact_substeps {
-            motion_passes.max(crate::motion::MIN_SELF_PASSES).clamp(1, substeps)
-        } else {
-            substeps
+        let self_passes = match motion_passes {
+            Some(needed) if self.contact_substeps => {
+                crate::programs::self_contact::passes_for(substeps, needed.max(crate::motion::MIN_SELF_PASSES))
+            }
+            _ => substeps,
         };
         FramePlan { substeps, integrator: params.integrator, normals: self.normals, asleep, self_passes }
     }

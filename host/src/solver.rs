@@ -302,7 +302,7 @@ impl Solver {
     pub fn teleport(&mut self, cloth: ClothId, positions: &[glam::Vec3], velocities: &[glam::Vec3]) -> Result<()> {
         let old = self.positions(cloth)?;
         let (x, v) = teleported(&old, positions, velocities)?;
-        self.controls.wake(cloth)?;
+        self.controls.set_moving(cloth, &v)?;
         let b = &self.program.cloths[cloth.index()];
         self.engine.upload(b.x, &x)?;
         self.engine.upload(b.v, &v)

@@ -19,11 +19,17 @@ use std::path::Path;
 /// Flags a scene file cannot hold (they are about reading or printing scene files).
 const NOT_IN_FILES: [&str; 4] = ["help", "version", "scene_file", "print_scene"];
 
-/// The `[[collider]]` tables of a scene file.
-#[derive(Debug, Default, serde::Deserialize, serde::Serialize)]
+/// The `[[collider]]` tables of a scene file, each with where it is in the file.
+#[derive(Debug, Default, serde::Deserialize)]
 struct ColliderTables {
     #[serde(default)]
-    collider: Vec<ColliderTable>,
+    collider: Vec<toml::Spanned<ColliderTable>>,
+}
+
+/// The `[[collider]]` tables as `--print-scene` writes them.
+#[derive(serde::Serialize)]
+struct PrintedColliders<'a> {
+    collider: &'a [ColliderTable],
 }
 
 /// The command line's matches with the scene file's flags (if any) underneath, and the file's
@@ -58,27 +64,21 @@ fn file_error(path: &Path, line: usize, problem: String) -> clap::Error {
 fn collider_tables(path: &Path, text: &str) -> Result<Vec<ColliderTable>, clap::Error> {
     let tables: ColliderTables = toml::from_str(text).map_err(|e| {
         let line = e.span().map_or(0, |s| line_at(text, s.start));
-        // The key set on that line, when the error is about a value.
-        let key = text
-            .lines()
-            .nth(line.saturating_sub(1))
+        // The key set on that line, when the error is about a value (line 0: unknown).
+        let key = (line > 0)
+            .then(|| text.lines().nth(line - 1))
+            .flatten()
             .and_then(|l| l.split_once('='))
             .map(|(k, _)| format!(", key `{}`", k.trim()))
             .unwrap_or_default();
         file_error(path, line, format!("in a [[collider]] table{key}: {}", e.message()))
     })?;
-    let headers: Vec<usize> = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| l.trim_start().starts_with("[[collider]]"))
-        .map(|(i, _)| i + 1)
-        .collect();
     for (i, table) in tables.collider.iter().enumerate() {
-        table.check().map_err(|problem| {
-            file_error(path, headers.get(i).copied().unwrap_or(0), format!("[[collider]] number {}: {problem}", i + 1))
+        table.get_ref().check().map_err(|problem| {
+            file_error(path, line_at(text, table.span().start), format!("[[collider]] number {}: {problem}", i + 1))
         })?;
     }
-    Ok(tables.collider)
+    Ok(tables.collider.into_iter().map(toml::Spanned::into_inner).collect())
 }
 
 /// One key of a scene file as command-line arguments.
@@ -220,8 +220,7 @@ pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
         }
     }
     if !args.colliders.is_empty() {
-        let tables = ColliderTables { collider: args.colliders.clone() };
-        match toml::to_string(&tables) {
+        match toml::to_string(&PrintedColliders { collider: &args.colliders }) {
             Ok(text) => out += &format!("\n{text}"),
             Err(e) => out += &format!("# the [[collider]] tables could not be written: {e}\n"),
         }

@@ -7,11 +7,11 @@ use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::{
-    SCENE_THREADS, apply_self_contact_at, copy_start, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
+    SCENE_THREADS, apply_self_contact_at, copy_start, count_self_contact, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
     collider_vertex_contact_at, self_contact_at, self_edge_contact_at, write_scene,
 };
 use drape_kernels::contact::substep_motion;
-use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, SimParams};
+use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
 use glam::{UVec4, Vec4};
 
 const fn read(name: &'static str) -> BindingSpec {
@@ -122,7 +122,7 @@ pub static COLLIDER_VERTEX_CONTACT: Kernel = Kernel {
 pub static APPLY_SELF_CONTACT: Kernel = Kernel {
     spec: spec(
         "self_contact::apply_self_contact",
-        &[read("params"), write("x"), write("v"), read("delta"), write("start")],
+        &[read("params"), write("x"), write("v"), read("delta"), write("start"), write("health")],
         WORKGROUP_SIZE,
     ),
     cpu: apply_cpu,
@@ -181,11 +181,12 @@ fn self_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [params, x, v, delta, start] = d.bindings()?;
+    let [params, x, v, delta, start, health] = d.bindings()?;
     let p: SimParams = params.first()?;
     let (x, v, delta) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>(), delta.slice::<u32>());
-    let start = start.slice_mut::<Vec4>();
+    let (start, health) = (start.slice_mut::<Vec4>(), health.first_mut::<Health>()?);
     for i in 0..threads.min(p.particle_count) {
+        count_self_contact(i, delta, health);
         apply_self_contact_at(i, x, v, delta);
         start[i as usize] = x[i as usize];
     }

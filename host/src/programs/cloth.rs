@@ -88,7 +88,7 @@ impl ClothBuffers {
 
     /// What the self-collision passes bind of this cloth.
     fn self_contact_cloth(&self) -> SelfContactCloth {
-        SelfContactCloth { params: self.params, x: self.x, v: self.v, indices: self.indices }
+        SelfContactCloth { params: self.params, x: self.x, v: self.v, indices: self.indices, health: self.health }
     }
 
     fn stage(

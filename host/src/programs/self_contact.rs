@@ -13,7 +13,7 @@ use crate::kernels::self_contact::{
     SELF_EDGE_CONTACT, SELF_SCENE_BOUNDS,
 };
 use std::collections::HashMap;
-use drape_types::{ColliderParams, ContactPush, SimParams};
+use drape_types::{ColliderParams, ContactPush, Health, SimParams};
 use glam::{UVec4, Vec4};
 
 /// The buffers of one cloth's self-collision.
@@ -65,6 +65,16 @@ pub struct SelfContactCloth {
     pub x: Handle<Vec4>,
     pub v: Handle<Vec4>,
     pub indices: Handle<u32>,
+    /// The frame's health record (counts the self-contacts).
+    pub health: Handle<Health>,
+}
+
+/// The passes a frame of `substeps` runs when the motion needs `needed` (each may span at most
+/// 1/`needed` of the frame): at most `substeps / needed` substeps apart, so
+/// ceil(substeps / that) of them; `pass_due` spreads them.
+pub fn passes_for(substeps: u32, needed: u32) -> u32 {
+    let needed = needed.clamp(1, substeps.max(1));
+    substeps.max(1).div_ceil((substeps / needed).max(1))
 }
 
 /// Whether substep `substep` of `substeps` ends with one of a frame's `passes` self-collision
@@ -211,7 +221,7 @@ impl SelfContactBuffers {
         steps.push(Step::run(
             "self: apply",
             &APPLY_SELF_CONTACT,
-            vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.delta.id(), self.start.id()],
+            vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.delta.id(), self.start.id(), cloth.health.id()],
             Dispatch::Threads(self.particles),
         ));
     }
@@ -219,10 +229,11 @@ impl SelfContactBuffers {
 
 #[cfg(test)]
 mod tests {
-    use super::pass_due;
+    use super::{pass_due, passes_for};
 
     /// The passes: as many as asked (clamped to 1..=substeps), the last substep always one, and
-    /// spread so no two are further apart than the even spacing rounded up.
+    /// spread so no two are further apart than the even spacing rounded up; with the plan's
+    /// count (`SimSettings::plan`) no gap is longer than `substeps / needed` substeps.
     #[test]
     fn passes_are_spread_evenly_and_end_the_frame() {
         for substeps in 1..40 {
@@ -234,6 +245,16 @@ mod tests {
                 let mut from = 0;
                 for &s in &due {
                     assert!(s + 1 - from <= spacing, "{substeps} substeps, {asked} passes: {due:?}");
+                    from = s + 1;
+                }
+                // The plan's count for a motion that needs `asked` passes: gaps of at most
+                // substeps / asked substeps (each a 1/asked of the frame or less).
+                let needed = asked.clamp(1, substeps);
+                let planned = passes_for(substeps, asked);
+                assert!((needed..=substeps).contains(&planned));
+                let mut from = 0;
+                for s in (0..substeps).filter(|&s| pass_due(s, substeps, planned)) {
+                    assert!((s + 1 - from) * needed <= substeps, "{substeps} substeps, {needed} needed: gap at {s}");
                     from = s + 1;
                 }
             }

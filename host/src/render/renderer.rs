@@ -14,9 +14,6 @@ use drape_types::SurfacePush;
 use glam::{Vec3, Vec4};
 use std::sync::Arc;
 
-/// The largest picture side: beyond it the readback alone passes 256 MiB.
-pub const MAX_PICTURE_SIDE: u32 = 8192;
-
 /// The light's direction (towards it): above, a little in front and to the right.
 const LIGHT: Vec3 = Vec3::new(0.4, 1.0, 0.3);
 
@@ -87,12 +84,17 @@ pub struct Renderer {
 
 impl Renderer {
     /// A renderer of `width` x `height` pictures on `ctx`'s device, whose queue family must
-    /// draw (graphics).
+    /// draw (graphics); each side at most the device's image and framebuffer limits (4096 or
+    /// more on every device).
     pub fn new(ctx: &Arc<Context>, width: u32, height: u32) -> Result<Self> {
-        if !(1..=MAX_PICTURE_SIDE).contains(&width) || !(1..=MAX_PICTURE_SIDE).contains(&height) {
+        // SAFETY: plain query on the context's physical device.
+        let limits = unsafe { ctx.instance.get_physical_device_properties(ctx.physical_device) }.limits;
+        let max_side =
+            limits.max_image_dimension2_d.min(limits.max_framebuffer_width).min(limits.max_framebuffer_height);
+        if !(1..=max_side).contains(&width) || !(1..=max_side).contains(&height) {
             return Err(Error::InvalidParameter {
                 name: "picture size",
-                problem: format!("got {width}x{height}; each side must be 1..={MAX_PICTURE_SIDE} pixels"),
+                problem: format!("got {width}x{height}; each side must be 1..={max_side} pixels on this device"),
             });
         }
         // SAFETY: plain query on the context's physical device.
@@ -120,18 +122,24 @@ impl Renderer {
     /// Draws `draws` seen by `camera`, waits for the GPU and returns the picture.
     pub fn render(&mut self, camera: &Camera, draws: &[Draw<'_>]) -> Result<Picture> {
         let mut raw = Vec::with_capacity(draws.len());
+        let foreign = |name: &'static str| Error::InvalidParameter {
+            name,
+            problem: "made on another context than the renderer's; create both from one Context".into(),
+        };
         for draw in draws {
             raw.push(match *draw {
                 Draw::Cloth { solver, cloth, color } => {
                     if !Arc::ptr_eq(solver.context(), &self.ctx) {
-                        return Err(Error::InvalidParameter {
-                            name: "solver",
-                            problem: "made on another context than the renderer's; create both from one Context".into(),
-                        });
+                        return Err(foreign("solver"));
                     }
                     RawDraw::cloth(&solver.vertex_buffers(cloth)?, color)
                 }
-                Draw::Mesh { mesh, pose, color } => RawDraw::mesh(mesh, pose, color),
+                Draw::Mesh { mesh, pose, color } => {
+                    if !Arc::ptr_eq(&mesh.ctx, &self.ctx) {
+                        return Err(foreign("mesh"));
+                    }
+                    RawDraw::mesh(mesh, pose, color)
+                }
             });
         }
         let Renderer { target, pipeline, commands, .. } = self;
@@ -145,13 +153,16 @@ impl Renderer {
         unsafe { self.picture() }
     }
 
-    /// Records the picture into `cmd`: clear, draw `draws` with depth test, copy the colour to
-    /// the readback buffer visible to the host. A solver's vertex buffers are ready for vertex
-    /// input after its frame (its last barrier).
+    /// Records the picture into `cmd`: a barrier that makes earlier compute and transfer writes
+    /// (a solver's frame, an upload) visible to vertex input, clear, draw `draws` with depth
+    /// test, copy the colour to the readback buffer visible to the host.
     ///
     /// # Safety
-    /// `cmd` is recording on `ctx`'s device; the buffers of `draws` and this renderer stay
-    /// alive until it completes; no other submission using this renderer is pending.
+    /// `cmd` is recording on the renderer's device, for submission to drape's queue (the
+    /// images belong to its family, and the solver's frames are ordered with it by that queue);
+    /// the buffers of `draws` and this renderer stay alive, and the meshes unchanged
+    /// (`SurfaceMesh::set_vertices`), until it completes; no other submission using this
+    /// renderer is pending.
     pub unsafe fn record(&self, cmd: vk::CommandBuffer, camera: &Camera, draws: &[RawDraw]) {
         // SAFETY: forwarded from the caller.
         unsafe { record_into(&self.ctx.device, cmd, &self.pipeline, &self.target, camera, draws) }
@@ -226,6 +237,20 @@ unsafe fn record_into(
     // SAFETY: forwarded from the caller; the render pass leaves the colour image in
     // TRANSFER_SRC_OPTIMAL with its writes visible to the copy (its outgoing dependency).
     unsafe {
+        // A frame ends with this dependency already; an upload (initial state, teleport,
+        // set_state) ends with compute and transfer in mind only.
+        crate::gpu::commands::memory_barrier(
+            device,
+            cmd,
+            (
+                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags::VERTEX_INPUT,
+                vk::AccessFlags::VERTEX_ATTRIBUTE_READ | vk::AccessFlags::INDEX_READ,
+            ),
+        );
         device.cmd_begin_render_pass(cmd, &begin, vk::SubpassContents::INLINE);
         device.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.pipeline);
         for draw in draws {

@@ -10,6 +10,8 @@ use std::sync::Arc;
 
 /// A triangle mesh in GPU buffers, drawn by [`super::Renderer`].
 pub struct SurfaceMesh {
+    /// The device the buffers live on (a renderer draws only its own device's meshes).
+    pub(crate) ctx: Arc<Context>,
     pub(crate) positions: Buffer,
     pub(crate) normals: Buffer,
     pub(crate) indices: Buffer,
@@ -30,6 +32,7 @@ impl SurfaceMesh {
         let mut indices = Buffer::new(ctx, "surface indices", (triangles.len() * 12) as u64, MemoryLocation::CpuToGpu)?;
         write(&mut indices, bytemuck::cast_slice(triangles))?;
         let mut mesh = SurfaceMesh {
+            ctx: ctx.clone(),
             positions: Buffer::new(ctx, "surface positions", bytes, MemoryLocation::CpuToGpu)?,
             normals: Buffer::new(ctx, "surface normals", bytes, MemoryLocation::CpuToGpu)?,
             indices,
@@ -40,7 +43,8 @@ impl SurfaceMesh {
         Ok(mesh)
     }
 
-    /// New vertex positions (a deforming mesh); the normals follow.
+    /// New vertex positions (a deforming mesh); the normals follow. Not while a command buffer
+    /// that draws the mesh is pending (`Renderer::render` waits for its own).
     pub fn set_vertices(&mut self, vertices: &[Vec3], triangles: &[[u32; 3]]) -> Result<()> {
         if vertices.len() != self.vertex_count as usize || 3 * triangles.len() != self.index_count as usize {
             return Err(Error::InvalidParameter {

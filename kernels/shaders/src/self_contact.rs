@@ -32,7 +32,7 @@ use crate::contact::{reduce_bounds, substep_motion};
 use crate::lbvh::{TreeQuery, walk};
 use crate::pose::{SubstepMotion, to_world};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, SimParams};
+use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
 use spirv_std::spirv;
@@ -696,6 +696,14 @@ pub fn self_contact(
     self_contact_at(id.x, self_params, (nodes, aabbs, leaf_bounds, sorted), (x, x_prev), delta);
 }
 
+/// Counts particle `index` in the frame's self-contacts when a pass corrected it.
+#[inline]
+pub fn count_self_contact(index: u32, delta: &[u32], health: &mut Health) {
+    if delta[4 * index as usize + 3] > 0 {
+        atomics::add(&mut health.self_contacts, 1);
+    }
+}
+
 /// Moves particle `index` by the mean of its corrections and removes the velocity that points
 /// against that displacement (inelastic: the contact stops the approach, adds no speed).
 pub fn apply_self_contact_at(index: u32, x: &mut [Vec4], v: &mut [Vec4], delta: &[u32]) {
@@ -730,10 +738,12 @@ pub fn apply_self_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] delta: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] start: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] health: &mut Health,
 ) {
     if id.x >= params.particle_count {
         return;
     }
+    count_self_contact(id.x, delta, health);
     apply_self_contact_at(id.x, x, v, delta);
     // The next pass sweeps from here.
     start[id.x as usize] = x[id.x as usize];

@@ -75,6 +75,11 @@ pub struct Health {
     /// as `f32::to_bits` (sleeping: a particle resting on a collider has speed g h at a
     /// substep's end, but does not move).
     pub max_moved_bits: u32,
+    /// Self-collision corrections applied over the frame (particles moved, summed over its
+    /// passes; written by `apply_self_contact`): a cloth in contact with itself runs a pass
+    /// every substep (each pass is also an iteration of its contacts).
+    pub self_contacts: u32,
+    pub _pad: [u32; 3],
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
@@ -110,7 +115,7 @@ const _: () = assert!(core::mem::size_of::<SimParams>() == 96);
 const _: () = assert!(core::mem::size_of::<Spring>() == 16);
 const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
-const _: () = assert!(core::mem::size_of::<Health>() == 16);
+const _: () = assert!(core::mem::size_of::<Health>() == 32);
 
 /// Marks a child index in `BvhNode` as a leaf (sorted sphere index) rather than an internal node.
 pub const LEAF_BIT: u32 = 0x8000_0000;
