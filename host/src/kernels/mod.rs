@@ -15,7 +15,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 35] = [
+pub const ALL: [&Kernel; 34] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::VERTEX_NORMALS,
@@ -25,8 +25,7 @@ pub const ALL: [&Kernel; 35] = [
     &self_contact::SELF_SCENE_BOUNDS,
     &self_contact::CLOTH_TRIANGLE_BOUNDS,
     &self_contact::GATHER_CLOTH_TRIANGLES,
-    &self_contact::SELF_CONTACT,
-    &self_contact::SELF_EDGE_CONTACT,
+    &self_contact::SELF_TRIANGLE_CONTACT,
     &self_contact::COLLIDER_VERTEX_CONTACT,
     &self_contact::APPLY_SELF_CONTACT,
     &sort::RADIX_COUNT,

@@ -8,7 +8,7 @@ use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::{
     SCENE_THREADS, apply_self_contact_at, copy_start, count_self_contact, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
-    collider_vertex_contact_at, self_contact_at, self_edge_contact_at, write_scene,
+    collider_vertex_contact_at, self_triangle_contact_at, write_scene,
 };
 use drape_kernels::contact::substep_motion;
 use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
@@ -53,29 +53,11 @@ pub static GATHER_CLOTH_TRIANGLES: Kernel = Kernel {
     cpu: gather_cpu,
 };
 
-pub static SELF_CONTACT: Kernel = Kernel {
+/// Every cloth triangle's owned corners against the triangles near it and its owned edges
+/// against their owned edges (one walk per triangle).
+pub static SELF_TRIANGLE_CONTACT: Kernel = Kernel {
     spec: spec(
-        "self_contact::self_contact",
-        &[
-            read("params"),
-            read("self_params"),
-            read("nodes"),
-            read("aabbs"),
-            read("leaf_bounds"),
-            read("sorted"),
-            read("x"),
-            read("x_prev"),
-            write("delta"),
-        ],
-        CONTACT_THREADS,
-    ),
-    cpu: self_contact_cpu,
-};
-
-/// Every cloth edge against the edges of the triangles near it (each pair once).
-pub static SELF_EDGE_CONTACT: Kernel = Kernel {
-    spec: spec(
-        "self_contact::self_edge_contact",
+        "self_contact::self_triangle_contact",
         &[
             read("self_params"),
             read("nodes"),
@@ -90,7 +72,7 @@ pub static SELF_EDGE_CONTACT: Kernel = Kernel {
         ],
         CONTACT_THREADS,
     ),
-    cpu: self_edge_contact_cpu,
+    cpu: self_triangle_contact_cpu,
 };
 
 /// A triangle collider's surface vertices against the cloth's faces; push constants:
@@ -166,19 +148,6 @@ fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     Ok(())
 }
 
-fn self_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
-    let threads = d.invocations();
-    let [params, self_params, nodes, aabbs, leaf_bounds, sorted, x, x_prev, delta] = d.bindings()?;
-    let p: SimParams = params.first()?;
-    let c: ColliderParams = self_params.first()?;
-    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
-    let (x, x_prev, delta) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), delta.slice_mut::<u32>());
-    for i in 0..threads.min(p.particle_count) {
-        self_contact_at(i, &c, tree, (x, x_prev), delta);
-    }
-    Ok(())
-}
-
 fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
     let [params, x, v, delta, start, health] = d.bindings()?;
@@ -193,15 +162,15 @@ fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     Ok(())
 }
 
-fn self_edge_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+fn self_triangle_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
     let [self_params, nodes, aabbs, leaf_bounds, sorted, edges, triangle_edges, x, x_prev, delta] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let (edges, triangle_edges) = (edges.slice::<UVec4>(), triangle_edges.slice::<UVec4>());
     let (x, x_prev, delta) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), delta.slice_mut::<u32>());
-    for e in 0..threads.min(edges.len() as u32) {
-        self_edge_contact_at(e, &c, tree, (edges, triangle_edges), (x, x_prev), delta);
+    for leaf in 0..threads.min(c.leaf_count) {
+        self_triangle_contact_at(leaf, &c, tree, (edges, triangle_edges), (x, x_prev), delta);
     }
     Ok(())
 }

@@ -9,9 +9,10 @@ use super::contact::{ColliderBuffers, ColliderLeaves};
 use super::lbvh::LbvhBuffers;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_contact::{
-    APPLY_SELF_CONTACT, CLOTH_TRIANGLE_BOUNDS, COLLIDER_VERTEX_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_CONTACT,
-    SELF_EDGE_CONTACT, SELF_SCENE_BOUNDS,
+    APPLY_SELF_CONTACT, CLOTH_TRIANGLE_BOUNDS, COLLIDER_VERTEX_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
+    SELF_TRIANGLE_CONTACT,
 };
+use drape_kernels::self_contact::VERTEX_OWNED_BIT;
 use std::collections::HashMap;
 use drape_types::{ColliderParams, ContactPush, Health, SimParams};
 use glam::{UVec4, Vec4};
@@ -36,8 +37,10 @@ pub struct SelfContactBuffers {
 
 /// The edge tables of `triangles`: each edge once (`(i, j, 0, 0)`, i < j, in first-seen order)
 /// and per triangle its edges `(a, b)`, `(b, c)`, `(c, a)` with bit k of w set when the triangle
-/// is the first to have edge k.
+/// is the first to have edge k, and bit `VERTEX_OWNED_BIT << k` when it is the first to have
+/// corner k (so one walk per triangle covers each edge and each particle once).
 pub fn edge_tables(triangles: &[[u32; 3]]) -> (Vec<UVec4>, Vec<UVec4>) {
+    let mut vertex_owned = std::collections::HashSet::new();
     let mut ids: HashMap<(u32, u32), u32> = HashMap::new();
     let mut edges = Vec::new();
     let mut owned = Vec::with_capacity(triangles.len());
@@ -54,10 +57,18 @@ pub fn edge_tables(triangles: &[[u32; 3]]) -> (Vec<UVec4>, Vec<UVec4>) {
             });
             row[k] = id;
         }
+        for (k, corner) in [a, b, c].into_iter().enumerate() {
+            if vertex_owned.insert(corner) {
+                bits |= VERTEX_OWNED_BIT << k;
+            }
+        }
         owned.push(UVec4::new(row[0], row[1], row[2], bits));
     }
     (edges, owned)
 }
+
+/// The timing table's line of a pass's pair search (vertex-triangle and edge-edge).
+pub const SELF_PAIRS_LABEL: &str = "self: vertex-triangle + edge-edge";
 
 /// What the self-collision passes of one cloth read and write.
 pub struct SelfContactCloth {
@@ -184,25 +195,11 @@ impl SelfContactBuffers {
         steps.push(self.triangle_bounds(cloth));
         steps.extend(t.refit_steps());
         steps.push(Step::fill(self.delta, 0));
+        // One walk per triangle: its owned corners against the triangles it reaches, its owned
+        // edges against their owned edges.
         steps.push(Step::run(
-            "self: vertex-triangle",
-            &SELF_CONTACT,
-            vec![
-                cloth.params.id(),
-                t.collider.id(),
-                t.nodes.id(),
-                t.aabbs.id(),
-                t.sorted_bounds.id(),
-                self.sorted.id(),
-                cloth.x.id(),
-                self.start.id(),
-                self.delta.id(),
-            ],
-            Dispatch::Threads(self.particles),
-        ));
-        steps.push(Step::run(
-            "self: edge-edge",
-            &SELF_EDGE_CONTACT,
+            SELF_PAIRS_LABEL,
+            &SELF_TRIANGLE_CONTACT,
             vec![
                 t.collider.id(),
                 t.nodes.id(),
@@ -215,7 +212,7 @@ impl SelfContactBuffers {
                 self.start.id(),
                 self.delta.id(),
             ],
-            Dispatch::Threads(self.edge_count),
+            Dispatch::Threads(t.leaves),
         ));
         steps.extend(features);
         steps.push(Step::run(

@@ -5,6 +5,12 @@
 //!   thickness, or that it crossed since the last pass;
 //! - **edge against edge**: every edge finds the edges (sharing no particle) of the triangles
 //!   near it, each pair once, within the thickness or crossed;
+//!
+//! both from one walk per triangle (`self_triangle_contact`): each particle and each edge is
+//! owned by the first triangle that has it, and that triangle's walk, with its swept box grown
+//! by the thickness or its corners' motion, tests them (the walks, not the pair tests, are
+//! what self-collision costs on llvmpipe: one per triangle instead of one per particle and one
+//! per edge halves them);
 //! - **collider vertices against cloth faces**: every vertex a triangle collider's surface
 //!   uses, moving with the collider, finds the cloth triangles near it (the vertex does not
 //!   move; the cloth takes the whole correction), so a spike's tip cannot pass through a cloth
@@ -326,49 +332,6 @@ impl<V: LeafVisitor> TreeQuery for Overlapping<'_, V> {
     }
 }
 
-/// A particle's pairs with the triangles the walk reaches.
-struct VertexPairs<'a> {
-    index: u32,
-    sorted: &'a [UVec4],
-    x: &'a [Vec4],
-    x_prev: &'a [Vec4],
-    thickness: f32,
-    delta: &'a mut [u32],
-}
-
-impl LeafVisitor for VertexPairs<'_> {
-    #[inline]
-    fn visit(&mut self, leaf: u32) {
-        pair_at(self.index, self.sorted[leaf as usize], (self.x, self.x_prev), self.thickness, self.delta);
-    }
-}
-
-/// The box a particle's pairs are searched in: around its current position, as far as the
-/// thickness or its substep motion when longer (so a face it crossed is found).
-#[inline]
-fn vertex_query(index: u32, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32) -> (Vec3, Vec3) {
-    let i = index as usize;
-    let (p0, p1) = (x_prev[i].xyz(), x[i].xyz());
-    let reach = Vec3::splat(thickness.max((p1 - p0).length()));
-    (p1 - reach, p1 + reach)
-}
-
-/// Particle `index`'s pairs: every triangle not its own whose box meets its query box, each
-/// pair's correction added to its particles' sums. Returns whether the walk's stack overflowed
-/// (pairs may be missed).
-pub fn self_contact_at(
-    index: u32,
-    self_params: &ColliderParams,
-    (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
-    (x, x_prev): (&[Vec4], &[Vec4]),
-    delta: &mut [u32],
-) -> bool {
-    let thickness = self_params.thickness;
-    let query = vertex_query(index, (x, x_prev), thickness);
-    let mut pairs = VertexPairs { index, sorted, x, x_prev, thickness, delta };
-    walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, query, &mut pairs)
-}
-
 /// The parameters (`s` on `a`-`b`, `t` on `c`-`d`, both in [0, 1]) of the closest points of
 /// two segments (Ericson, Real-Time Collision Detection 5.1.9); degenerate segments count as
 /// points.
@@ -444,41 +407,6 @@ pub fn edge_pair_correction(then: [Vec3; 4], now: [Vec3; 4], w: Vec4, thickness:
     Some([dir * (w.x * ga * k), dir * (w.y * gb * k), dir * (w.z * gc * k), dir * (w.w * gd * k)])
 }
 
-/// An edge's pairs with the edges of the triangles the walk reaches: each pair of edges once
-/// (from the lower edge, through the triangle that owns the higher one), none sharing a
-/// particle.
-struct EdgePairs<'a> {
-    edge: u32,
-    ends: UVec4,
-    sorted: &'a [UVec4],
-    triangle_edges: &'a [UVec4],
-    edges: &'a [UVec4],
-    x: &'a [Vec4],
-    x_prev: &'a [Vec4],
-    thickness: f32,
-    delta: &'a mut [u32],
-}
-
-impl LeafVisitor for EdgePairs<'_> {
-    fn visit(&mut self, leaf: u32) {
-        let owned = self.triangle_edges[self.sorted[leaf as usize].w as usize];
-        let mut k = 0;
-        while k < 3 {
-            let other = if k == 0 {
-                owned.x
-            } else if k == 1 {
-                owned.y
-            } else {
-                owned.z
-            };
-            if owned.w & (1 << k) != 0 && other > self.edge {
-                edge_pair_at(self.ends, self.edges[other as usize], (self.x, self.x_prev), self.thickness, self.delta);
-            }
-            k += 1;
-        }
-    }
-}
-
 /// Edges `e` (ends `e.xy`) and `f` against each other (skipped when they share a particle).
 #[inline]
 pub fn edge_pair_at(e: UVec4, f: UVec4, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32, delta: &mut [u32]) {
@@ -497,58 +425,158 @@ pub fn edge_pair_at(e: UVec4, f: UVec4, (x, x_prev): (&[Vec4], &[Vec4]), thickne
     }
 }
 
-/// The box an edge's pairs are searched in: its ends now and at the substep's start, grown by
-/// the thickness.
-#[inline]
-fn edge_query(e: UVec4, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32) -> (Vec3, Vec3) {
-    let (i, j) = (e.x as usize, e.y as usize);
-    let lo = x[i].xyz().min(x[j].xyz()).min(x_prev[i].xyz()).min(x_prev[j].xyz());
-    let hi = x[i].xyz().max(x[j].xyz()).max(x_prev[i].xyz()).max(x_prev[j].xyz());
-    (lo - Vec3::splat(thickness), hi + Vec3::splat(thickness))
+/// Bit `VERTEX_OWNED_BIT << k` of a triangle's `triangle_edges[t].w`: the triangle is the first
+/// to have its corner k (bits 0-2 are the edges it owns), so each particle's vertex-triangle
+/// pairs are searched from one triangle.
+pub const VERTEX_OWNED_BIT: u32 = 8;
+
+/// A triangle's pairs with the triangles one walk reaches: the corners it owns against them
+/// (vertex-triangle) and the edges it owns against the edges they own (edge-edge, each pair once:
+/// from the lower edge). One walk per triangle instead of one per particle and one per edge: the
+/// walks, not the pair tests, are what self-collision costs.
+struct TrianglePairs<'a> {
+    triangle: u32,
+    corners: UVec4,
+    owned: UVec4,
+    sorted: &'a [UVec4],
+    triangle_edges: &'a [UVec4],
+    edges: &'a [UVec4],
+    x: &'a [Vec4],
+    x_prev: &'a [Vec4],
+    thickness: f32,
+    delta: &'a mut [u32],
 }
 
-/// Edge `edge`'s pairs through the tree. Returns whether the walk's stack overflowed.
+impl LeafVisitor for TrianglePairs<'_> {
+    fn visit(&mut self, leaf: u32) {
+        let other = self.sorted[leaf as usize];
+        if other.w == self.triangle {
+            return; // its own corners and edges share its particles
+        }
+        let positions = (self.x, self.x_prev);
+        let mut k = 0;
+        while k < 3 {
+            let corner = if k == 0 {
+                self.corners.x
+            } else if k == 1 {
+                self.corners.y
+            } else {
+                self.corners.z
+            };
+            if self.owned.w & (VERTEX_OWNED_BIT << k) != 0 {
+                pair_at(corner, other, positions, self.thickness, self.delta);
+            }
+            k += 1;
+        }
+        let theirs = self.triangle_edges[other.w as usize];
+        let mut k = 0;
+        while k < 3 {
+            let mine = if k == 0 {
+                self.owned.x
+            } else if k == 1 {
+                self.owned.y
+            } else {
+                self.owned.z
+            };
+            if self.owned.w & (1 << k) != 0 {
+                let ends = self.edges[mine as usize];
+                let mut m = 0;
+                while m < 3 {
+                    let other_edge = if m == 0 {
+                        theirs.x
+                    } else if m == 1 {
+                        theirs.y
+                    } else {
+                        theirs.z
+                    };
+                    if theirs.w & (1 << m) != 0 && other_edge > mine {
+                        edge_pair_at(ends, self.edges[other_edge as usize], positions, self.thickness, self.delta);
+                    }
+                    m += 1;
+                }
+            }
+            k += 1;
+        }
+    }
+}
+
+/// The box sorted leaf `leaf`'s pairs are searched in: its triangle's swept box, grown by the
+/// thickness or its corners' motion over the pass when longer (so it holds every query box of
+/// the particle and edge walks it replaces).
+#[inline]
+fn triangle_query(corners: UVec4, bounds: &Aabb, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32) -> (Vec3, Vec3) {
+    let motion = |i: u32| (x[i as usize].xyz() - x_prev[i as usize].xyz()).length();
+    let reach = Vec3::splat(thickness.max(motion(corners.x)).max(motion(corners.y)).max(motion(corners.z)));
+    (bounds.min.xyz() - reach, bounds.max.xyz() + reach)
+}
+
+/// Sorted leaf `leaf`'s pairs (its triangle's owned corners and edges) through the tree.
+/// Returns whether the walk's stack overflowed.
 #[allow(clippy::too_many_arguments)]
-pub fn self_edge_contact_at(
-    edge: u32,
+pub fn self_triangle_contact_at(
+    leaf: u32,
     self_params: &ColliderParams,
     (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
     (edges, triangle_edges): (&[UVec4], &[UVec4]),
     (x, x_prev): (&[Vec4], &[Vec4]),
     delta: &mut [u32],
 ) -> bool {
-    let ends = edges[edge as usize];
-    if ends.x == ends.y {
-        return false;
+    let corners = sorted[leaf as usize];
+    let owned = triangle_edges[corners.w as usize];
+    if owned.w == 0 {
+        return false; // owns no corner and no edge
     }
     let thickness = self_params.thickness;
-    let query = edge_query(ends, (x, x_prev), thickness);
-    let mut pairs = EdgePairs { edge, ends, sorted, triangle_edges, edges, x, x_prev, thickness, delta };
+    let query = triangle_query(corners, &leaf_bounds[leaf as usize], (x, x_prev), thickness);
+    let mut pairs = TrianglePairs {
+        triangle: corners.w,
+        corners,
+        owned,
+        sorted,
+        triangle_edges,
+        edges,
+        x,
+        x_prev,
+        thickness,
+        delta,
+    };
     walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, query, &mut pairs)
 }
 
-/// `self_edge_contact_at` without the tree: every leaf whose box meets the same query box.
-pub fn self_edge_contact_brute_force_at(
-    edge: u32,
+/// `self_triangle_contact_at` without the tree: every leaf whose box meets the same query box.
+pub fn self_triangle_contact_brute_force_at(
+    leaf: u32,
     self_params: &ColliderParams,
     (leaf_bounds, sorted): (&[Aabb], &[UVec4]),
     (edges, triangle_edges): (&[UVec4], &[UVec4]),
     (x, x_prev): (&[Vec4], &[Vec4]),
     delta: &mut [u32],
 ) {
-    let ends = edges[edge as usize];
-    if ends.x == ends.y {
+    let corners = sorted[leaf as usize];
+    let owned = triangle_edges[corners.w as usize];
+    if owned.w == 0 {
         return;
     }
     let thickness = self_params.thickness;
-    let query = edge_query(ends, (x, x_prev), thickness);
-    let mut pairs = EdgePairs { edge, ends, sorted, triangle_edges, edges, x, x_prev, thickness, delta };
+    let query = triangle_query(corners, &leaf_bounds[leaf as usize], (x, x_prev), thickness);
+    let mut pairs = TrianglePairs {
+        triangle: corners.w,
+        corners,
+        owned,
+        sorted,
+        triangle_edges,
+        edges,
+        x,
+        x_prev,
+        thickness,
+        delta,
+    };
     visit_overlapping_brute_force(leaf_bounds, self_params.leaf_count, query, &mut pairs);
 }
 
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
-pub fn self_edge_contact(
+pub fn self_triangle_contact(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
@@ -561,11 +589,11 @@ pub fn self_edge_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x_prev: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] delta: &mut [u32],
 ) {
-    if id.x as usize >= edges.len() {
+    if id.x >= self_params.leaf_count {
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    self_edge_contact_at(id.x, self_params, tree, (edges, triangle_edges), (x, x_prev), delta);
+    self_triangle_contact_at(id.x, self_params, tree, (edges, triangle_edges), (x, x_prev), delta);
 }
 
 /// A collider vertex's pairs with the cloth triangles the walk reaches: the vertex does not
@@ -642,21 +670,6 @@ pub fn collider_vertex_contact(
     collider_vertex_contact_at(local, &motion, (self_params, collider.thickness), tree, (x, x_prev), delta);
 }
 
-/// `self_contact_at` without the tree: every leaf whose box passes the same test (the
-/// baseline the tree must equal).
-pub fn self_contact_brute_force_at(
-    index: u32,
-    self_params: &ColliderParams,
-    (leaf_bounds, sorted): (&[Aabb], &[UVec4]),
-    (x, x_prev): (&[Vec4], &[Vec4]),
-    delta: &mut [u32],
-) {
-    let thickness = self_params.thickness;
-    let query = vertex_query(index, (x, x_prev), thickness);
-    let mut pairs = VertexPairs { index, sorted, x, x_prev, thickness, delta };
-    visit_overlapping_brute_force(leaf_bounds, self_params.leaf_count, query, &mut pairs);
-}
-
 /// Particle `index` against the triangle with corners `corners.xyz` (skipped when it is one).
 #[inline]
 pub fn pair_at(index: u32, corners: UVec4, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32, delta: &mut [u32]) {
@@ -674,26 +687,6 @@ pub fn pair_at(index: u32, corners: UVec4, (x, x_prev): (&[Vec4], &[Vec4]), thic
         accumulate(delta, corners.y, c.corners[1]);
         accumulate(delta, corners.z, c.corners[2]);
     }
-}
-
-#[allow(clippy::too_many_arguments)]
-#[spirv(compute(threads(64)))]
-pub fn self_contact(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] self_params: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] leaf_bounds: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sorted: &[UVec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] delta: &mut [u32],
-) {
-    if id.x >= params.particle_count {
-        return;
-    }
-    self_contact_at(id.x, self_params, (nodes, aabbs, leaf_bounds, sorted), (x, x_prev), delta);
 }
 
 /// Counts particle `index` in the frame's self-contacts when a pass corrected it.
