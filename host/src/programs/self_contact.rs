@@ -28,10 +28,10 @@ pub struct SelfContactBuffers {
     /// what a pass sweeps from.
     pub start: Handle<Vec4>,
     /// The cloth's edges (ends in xy), and per triangle its three edges (xyz) with a bit per
-    /// edge set when this triangle owns it (w), so each pair of edges is handled once.
+    /// edge (w bits 0-2) and per corner (bits 3-5) set when this triangle owns it, so each
+    /// particle and each pair of edges is handled once.
     pub edges: Handle<UVec4>,
     pub triangle_edges: Handle<UVec4>,
-    edge_count: u32,
     particles: u32,
 }
 
@@ -107,7 +107,6 @@ impl SelfContactBuffers {
             start: resources.device(format!("{name}: pass start"), particles),
             edges: resources.device(format!("{name}: edges"), edges),
             triangle_edges: resources.device(format!("{name}: triangle edges"), triangles),
-            edge_count: edges,
             particles,
         }
     }
