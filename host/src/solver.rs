@@ -71,7 +71,7 @@ impl Solver {
         let frame_commands = engine.encode(&bindings, &program.frame)?;
         let settings = controls.settings;
         let frame = RecordedFrame::new(ctx, bindings, &frame_commands, settings.timestamps)?;
-        let status = StatusRing::new(ctx, STATUS_SLOTS, 16 * program.status_buffers().len() as u64)?;
+        let status = StatusRing::new(ctx, STATUS_SLOTS, program.status_bytes())?;
         Ok(Solver {
             status,
             frame,
@@ -198,15 +198,22 @@ impl Solver {
             read += 1;
             self.frames_checked = frame;
             // Per cloth: its health, then its contact status with each collider.
-            let mut chunks = bytes.as_chunks::<16>().0.iter().map(|c| c.as_slice());
+            let mut rest = bytes.as_slice();
+            let mut take = |n: usize| {
+                let (head, tail) = rest.split_at_checked(n).unwrap_or((&[], &[]));
+                rest = tail;
+                (head.len() == n).then_some(head)
+            };
             for (i, contacts) in self.program.contacts.iter().enumerate() {
-                if let Some(health) = chunks.next() {
+                if let Some(health) = take(size_of::<Health>()) {
                     let health: Health = bytemuck::pod_read_unaligned(health);
                     check_health(&health, frame, i, &self.controls.settings, &self.controls.cloths[i])?;
                     self.controls.observe(i, &health);
                 }
-                for status in contacts.iter().filter_map(|_| chunks.next()) {
-                    check_collision(&bytemuck::pod_read_unaligned(status), frame)?;
+                for _ in contacts {
+                    if let Some(status) = take(size_of::<CollisionStatus>()) {
+                        check_collision(&bytemuck::pod_read_unaligned(status), frame)?;
+                    }
                 }
             }
         }

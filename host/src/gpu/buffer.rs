@@ -1,10 +1,10 @@
 //! GPU buffers that free their memory and handle on `Drop`.
 
 use super::context::Context;
-use crate::error::{Error, Result, VkContext};
+use crate::error::{Result, VkContext};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
-use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::vulkan::Allocation;
 use std::sync::Arc;
 
 /// A storage buffer (and transfer source/destination) with its memory.
@@ -37,19 +37,7 @@ impl Buffer {
         ctx.name_object(handle, name);
         // SAFETY: the buffer was just created on this device.
         let requirements = unsafe { ctx.device.get_buffer_memory_requirements(handle) };
-        let allocation = {
-            let mut guard = ctx.allocator();
-            let allocator = guard
-                .as_mut()
-                .ok_or_else(|| Error::Kernel { kernel: name.into(), problem: "allocator already destroyed".into() })?;
-            allocator.allocate(&AllocationCreateDesc {
-                name,
-                requirements,
-                location,
-                linear: true,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })?
-        };
+        let allocation = ctx.allocate(name, requirements, location, true)?;
         // SAFETY: memory from the same device, offset aligned per requirements.
         unsafe { ctx.device.bind_buffer_memory(handle, allocation.memory(), allocation.offset()) }
             .vk("vkBindBufferMemory")?;

@@ -353,6 +353,28 @@ impl Context {
         if errors.is_empty() { Ok(()) } else { Err(Error::Validation(errors.join("\n"))) }
     }
 
+    /// Memory for a resource named `name` with `requirements` in `location` (`linear`: a buffer
+    /// or a linear image; false for an optimal-tiling image).
+    pub(crate) fn allocate(
+        &self,
+        name: &str,
+        requirements: vk::MemoryRequirements,
+        location: gpu_allocator::MemoryLocation,
+        linear: bool,
+    ) -> Result<gpu_allocator::vulkan::Allocation> {
+        let mut guard = self.allocator();
+        let allocator = guard
+            .as_mut()
+            .ok_or_else(|| Error::Kernel { kernel: name.into(), problem: "allocator already destroyed".into() })?;
+        Ok(allocator.allocate(&gpu_allocator::vulkan::AllocationCreateDesc {
+            name,
+            requirements,
+            location,
+            linear,
+            allocation_scheme: gpu_allocator::vulkan::AllocationScheme::GpuAllocatorManaged,
+        })?)
+    }
+
     pub(crate) fn allocator(&self) -> MutexGuard<'_, Option<Allocator>> {
         // A poisoned lock only means another thread panicked mid-allocation; the allocator's
         // own state is still consistent, so keep going.

@@ -1,10 +1,10 @@
 //! 2D images (render targets) that free their view, handle and memory on `Drop`.
 
 use super::context::Context;
-use crate::error::{Error, Result, VkContext};
+use crate::error::{Result, VkContext};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
-use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::vulkan::Allocation;
 use std::sync::Arc;
 
 /// One 2D image in device memory with a view of all of it.
@@ -42,19 +42,7 @@ impl Image {
         ctx.name_object(handle, name);
         // SAFETY: the image was just created on this device.
         let requirements = unsafe { ctx.device.get_image_memory_requirements(handle) };
-        let allocation = {
-            let mut guard = ctx.allocator();
-            let allocator = guard
-                .as_mut()
-                .ok_or_else(|| Error::Kernel { kernel: name.into(), problem: "allocator already destroyed".into() })?;
-            allocator.allocate(&AllocationCreateDesc {
-                name,
-                requirements,
-                location: MemoryLocation::GpuOnly,
-                linear: false,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })?
-        };
+        let allocation = ctx.allocate(name, requirements, MemoryLocation::GpuOnly, false)?;
         // SAFETY: memory from the same device, offset aligned per requirements.
         unsafe { ctx.device.bind_image_memory(handle, allocation.memory(), allocation.offset()) }
             .vk("vkBindImageMemory")?;

@@ -447,6 +447,33 @@ struct TrianglePairs<'a> {
     delta: &'a mut [u32],
 }
 
+impl<'a> TrianglePairs<'a> {
+    /// The pairs of the triangle with `corners` (xyz; the triangle in w) and `owned` edges and
+    /// corners (its `triangle_edges` row).
+    #[inline]
+    fn of(
+        corners: UVec4,
+        owned: UVec4,
+        (sorted, edges, triangle_edges): (&'a [UVec4], &'a [UVec4], &'a [UVec4]),
+        (x, x_prev): (&'a [Vec4], &'a [Vec4]),
+        thickness: f32,
+        delta: &'a mut [u32],
+    ) -> Self {
+        TrianglePairs {
+            triangle: corners.w,
+            corners,
+            owned,
+            sorted,
+            triangle_edges,
+            edges,
+            x,
+            x_prev,
+            thickness,
+            delta,
+        }
+    }
+}
+
 impl LeafVisitor for TrianglePairs<'_> {
     fn visit(&mut self, leaf: u32) {
         let other = self.sorted[leaf as usize];
@@ -528,18 +555,7 @@ pub fn self_triangle_contact_at(
     }
     let thickness = self_params.thickness;
     let query = triangle_query(corners, &leaf_bounds[leaf as usize], (x, x_prev), thickness);
-    let mut pairs = TrianglePairs {
-        triangle: corners.w,
-        corners,
-        owned,
-        sorted,
-        triangle_edges,
-        edges,
-        x,
-        x_prev,
-        thickness,
-        delta,
-    };
+    let mut pairs = TrianglePairs::of(corners, owned, (sorted, edges, triangle_edges), (x, x_prev), thickness, delta);
     walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, query, &mut pairs)
 }
 
@@ -559,18 +575,7 @@ pub fn self_triangle_contact_brute_force_at(
     }
     let thickness = self_params.thickness;
     let query = triangle_query(corners, &leaf_bounds[leaf as usize], (x, x_prev), thickness);
-    let mut pairs = TrianglePairs {
-        triangle: corners.w,
-        corners,
-        owned,
-        sorted,
-        triangle_edges,
-        edges,
-        x,
-        x_prev,
-        thickness,
-        delta,
-    };
+    let mut pairs = TrianglePairs::of(corners, owned, (sorted, edges, triangle_edges), (x, x_prev), thickness, delta);
     visit_overlapping_brute_force(leaf_bounds, self_params.leaf_count, query, &mut pairs);
 }
 
