@@ -381,6 +381,15 @@ fn png_dir_writes_pictures_of_the_scene() {
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(report["pictures"].as_array().map(Vec::len), Some(2), "{}", report["pictures"]);
     assert!(!dir.join("frame_00005.png").exists(), "only every 10th frame is drawn");
+    // A run shorter than --png-every still draws its last frame.
+    std::fs::remove_dir_all(&dir).ok();
+    let output = Command::new(env!("CARGO_BIN_EXE_drape"))
+        .args(["--grid", "8", "--frames", "3", "--png-every", "10", "--png-size", "32x32", "--quiet", "--png-dir"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(dir.join("frame_00003.png").is_file(), "the last frame is drawn");
     std::fs::remove_dir_all(&dir).ok();
     std::fs::remove_file(&json).ok();
 }

@@ -184,7 +184,7 @@ pub(crate) struct Args {
     /// given). Checked writable before any work.
     #[arg(long, value_name = "DIR")]
     pub(crate) png_dir: Option<PathBuf>,
-    /// Draw every n-th frame (with --png-dir).
+    /// Draw every n-th frame, and the last (with --png-dir).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub(crate) png_every: Option<u32>,
     /// Picture size in pixels as WIDTHxHEIGHT, each 16..=4096 (with --png-dir).

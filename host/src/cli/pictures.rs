@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 pub(crate) struct Pictures {
     dir: PathBuf,
-    /// Every n-th frame; None: the last frame only.
+    /// Every n-th frame (and the last); None: the last frame only.
     every: Option<u32>,
     renderer: Renderer,
     camera: Camera,
@@ -55,10 +55,8 @@ impl Pictures {
         cloth: ClothId,
         collider_poses: &[RigidPose],
     ) -> drape::Result<()> {
-        let due = match self.every {
-            Some(n) => frame.is_multiple_of(n),
-            None => frame == frames,
-        };
+        // Every n-th frame and the last (a run shorter than n still gets its picture).
+        let due = frame == frames || self.every.is_some_and(|n| frame.is_multiple_of(n));
         if !due {
             return Ok(());
         }
