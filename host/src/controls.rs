@@ -12,6 +12,7 @@ use crate::program::SolverProgram;
 use crate::programs::cloth::FramePlan;
 use crate::settings::SimSettings;
 use crate::stability::{BoundInputs, Stability};
+use drape_kernels::pose::to_world;
 use drape_types::{ColliderParams, ColliderPose, Health, RigidPose, SimParams};
 use glam::{Quat, Vec3, Vec4};
 
@@ -542,9 +543,8 @@ impl ColliderControl {
         let (from, to) = (self.end_of_last_frame, self.target);
         // Any point's motion: its box centre's, plus the turn about the centre (a collider
         // placed far from its own origin and spun about its middle moves slowly).
-        let pose_of = |p: RigidPose, x: Vec3| Quat::from_vec4(p.rotation) * x + p.translation.truncate();
         let centre = self.extent.centre();
-        let moved = (pose_of(to, centre) - pose_of(from, centre)).length();
+        let moved = (to_world(&to, centre) - to_world(&from, centre)).length();
         let turn = Quat::from_vec4(to.rotation) * Quat::from_vec4(from.rotation).conjugate();
         let angle = 2.0 * turn.w.abs().min(1.0).acos();
         let (mut low, mut high) = (self.extent.low, self.extent.high);
@@ -565,14 +565,13 @@ impl ColliderControl {
         let speed = (moved + angle * self.extent.radius + deformed) / frame_dt;
         let mut world = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         for pose in [from, to] {
-            let (q, t) = (Quat::from_vec4(pose.rotation), pose.translation.truncate());
             for corner in 0..8 {
                 let c = Vec3::new(
                     if corner & 1 == 0 { low.x } else { high.x },
                     if corner & 2 == 0 { low.y } else { high.y },
                     if corner & 4 == 0 { low.z } else { high.z },
                 );
-                let p = q * c + t;
+                let p = to_world(&pose, c);
                 world = (world.0.min(p), world.1.max(p));
             }
         }

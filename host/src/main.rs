@@ -6,10 +6,7 @@ mod cli;
 use cli::say;
 
 use clap::{CommandFactory, FromArgMatches};
-use cli::args::{
-    Args, ContactArg, HolesArg, IntegratorArg, OnOff, SceneArg, SearchArg, check_flags, check_output_dir,
-    check_output_file,
-};
+use cli::args::{Args, ContactArg, HolesArg, IntegratorArg, OnOff, SceneArg, SearchArg, check_flags, check_outputs};
 use cli::colliders::{Motion, SceneCollider, load_mesh, union_at};
 use cli::pictures::Pictures;
 use cli::progress::Progress;
@@ -99,30 +96,7 @@ fn mesh_cloth(path: &std::path::Path, scene: Option<&DrapeScene>) -> drape::Resu
 
 fn run(args: &Args) -> drape::Result<()> {
     cli::set_quiet(args.quiet);
-    if let Some(path) = &args.json {
-        check_output_file(path).map_err(|e| drape::Error::InvalidParameter {
-            name: "--json",
-            problem: format!("cannot write the report there: {e}"),
-        })?;
-    }
-    if let Some(path) = &args.usd {
-        check_output_file(path).map_err(|e| drape::Error::InvalidParameter {
-            name: "--usd",
-            problem: format!("cannot write the USD cache there: {e}"),
-        })?;
-    }
-    if let Some(dir) = &args.obj_dir {
-        check_output_dir(dir).map_err(|e| drape::Error::InvalidParameter {
-            name: "--obj-dir",
-            problem: format!("cannot write the OBJ frames there: {e}"),
-        })?;
-    }
-    if let Some(dir) = &args.png_dir {
-        check_output_dir(dir).map_err(|e| drape::Error::InvalidParameter {
-            name: "--png-dir",
-            problem: format!("cannot write the pictures there: {e}"),
-        })?;
-    }
+    check_outputs(args)?;
     let validation = if args.validate { Validation::Required } else { Validation::from_env() };
     let ctx = Context::new(validation)?;
     let info = ctx.info();

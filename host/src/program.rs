@@ -174,13 +174,6 @@ impl SolverProgram {
 
     /// Each cloth's status buffers in the order a frame's status is laid out: its health, then
     /// its contact status with each collider.
-    /// Bytes of one frame's status: each buffer of `status_buffers`, in order.
-    pub fn status_bytes(&self) -> u64 {
-        let per_cloth =
-            |contacts: usize| size_of::<drape_types::Health>() + contacts * size_of::<drape_types::CollisionStatus>();
-        self.contacts.iter().map(|c| per_cloth(c.len()) as u64).sum()
-    }
-
     pub fn status_buffers(&self) -> Vec<BufferId> {
         let mut ids = Vec::new();
         for (cloth, contacts) in self.cloths.iter().zip(&self.contacts) {

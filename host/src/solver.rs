@@ -71,7 +71,10 @@ impl Solver {
         let frame_commands = engine.encode(&bindings, &program.frame)?;
         let settings = controls.settings;
         let frame = RecordedFrame::new(ctx, bindings, &frame_commands, settings.timestamps)?;
-        let status = StatusRing::new(ctx, STATUS_SLOTS, program.status_bytes())?;
+        // A slot holds every status buffer of a frame, back to back.
+        let slot_bytes =
+            program.status_buffers().into_iter().map(|id| engine.buffer(id).map(|b| b.size())).sum::<Result<u64>>()?;
+        let status = StatusRing::new(ctx, STATUS_SLOTS, slot_bytes)?;
         Ok(Solver {
             status,
             frame,

@@ -304,6 +304,27 @@ pub(crate) fn parse_stiffness(text: &str) -> Result<Vec3, String> {
     }
 }
 
+/// Every output the flags name can be written, checked before any setup; the error names the
+/// flag and what it writes.
+pub(crate) fn check_outputs(args: &Args) -> drape::Result<()> {
+    type Check = fn(&std::path::Path) -> drape::Result<()>;
+    let outputs: [(&Option<PathBuf>, &'static str, &str, Check); 4] = [
+        (&args.json, "--json", "the report", check_output_file),
+        (&args.usd, "--usd", "the USD cache", check_output_file),
+        (&args.obj_dir, "--obj-dir", "the OBJ frames", check_output_dir),
+        (&args.png_dir, "--png-dir", "the pictures", check_output_dir),
+    ];
+    for (path, name, what, check) in outputs {
+        if let Some(path) = path {
+            check(path).map_err(|e| drape::Error::InvalidParameter {
+                name,
+                problem: format!("cannot write {what} there: {e}"),
+            })?;
+        }
+    }
+    Ok(())
+}
+
 /// The output directory exists (created if needed) and takes files, checked before any setup.
 pub(crate) fn check_output_dir(dir: &std::path::Path) -> drape::Result<()> {
     let io = |source| drape::Error::Io { path: dir.to_path_buf(), source };
