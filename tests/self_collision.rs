@@ -7,7 +7,7 @@ mod common;
 use common::{assert_validation_clean, context};
 use drape::lbvh::{build_swept_mesh_cpu, mesh_collider_params};
 use drape::metrics::intersections::count_intersections;
-use drape::programs::self_contact::edge_tables;
+use drape::programs::self_contact::owned_primitives;
 use drape::{ClothId, Collider, CpuSolver, Model, SimSettings, Solver};
 use drape_kernels::self_contact::{
     gather_cloth_triangle_at, self_triangle_contact_at, self_triangle_contact_brute_force_at,
@@ -30,11 +30,17 @@ fn small_pile(self_collision: Option<f32>) -> (drape::Cloth, Collider) {
 #[test]
 fn the_tree_finds_the_pairs_the_brute_force_loop_finds() {
     let (cloth, ground) = small_pile(Some(0.005));
-    let (edges, owned) = edge_tables(&cloth.triangles);
-    let owned_edges: u32 = owned.iter().map(|o| (o.w & 7).count_ones()).sum();
-    let owned_corners: u32 = owned.iter().map(|o| (o.w >> 3).count_ones()).sum();
-    assert_eq!(owned_edges as usize, edges.len(), "each edge owned once");
-    assert_eq!(owned_corners as usize, cloth.particle_count(), "each particle owned once");
+    let owned = owned_primitives(&cloth.triangles);
+    let (mut edge_owners, mut corner_owners) = (std::collections::HashMap::new(), vec![0; cloth.particle_count()]);
+    for (corners, bits) in cloth.triangles.iter().zip(&owned) {
+        for k in 0..3 {
+            let (p, q) = (corners[k], corners[(k + 1) % 3]);
+            *edge_owners.entry((p.min(q), p.max(q))).or_insert(0) += (bits >> k) & 1;
+            corner_owners[corners[k] as usize] += (bits >> (3 + k)) & 1;
+        }
+    }
+    assert!(edge_owners.values().all(|&n| n == 1), "each edge owned once");
+    assert!(corner_owners.iter().all(|&n| n == 1), "each particle owned once");
     let model = Model::single(&cloth, std::slice::from_ref(&ground), SimSettings::default()).unwrap();
     let mut sim = CpuSolver::new(&model).unwrap();
     let n = cloth.particle_count();
@@ -55,7 +61,7 @@ fn the_tree_finds_the_pairs_the_brute_force_loop_finds() {
         let (mut walked, mut brute) = (vec![0u32; 4 * n], vec![0u32; 4 * n]);
         for leaf in 0..cloth.triangles.len() as u32 {
             let t = (tree.nodes.as_slice(), tree.aabbs.as_slice(), tree.leaf_bounds.as_slice(), sorted.as_slice());
-            let tables = (edges.as_slice(), owned.as_slice());
+            let tables = owned.as_slice();
             assert!(!self_triangle_contact_at(leaf, &params, t, tables, (&x, &before), &mut walked), "stack overflow");
             let leaves = (tree.leaf_bounds.as_slice(), sorted.as_slice());
             self_triangle_contact_brute_force_at(leaf, &params, leaves, tables, (&x, &before), &mut brute);

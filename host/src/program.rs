@@ -78,9 +78,8 @@ impl SolverProgram {
             if let (Some(s), Some(thickness)) = (&b.self_contact, cloth.self_collision) {
                 let params = SelfContactBuffers::initial_params(triangles.len() as u32, thickness);
                 initial.push((s.tree.collider.id(), bytemuck::bytes_of(&params).to_vec()));
-                let (edges, owned) = crate::programs::self_contact::edge_tables(triangles);
-                initial.push((s.edges.id(), bytemuck::cast_slice::<_, u8>(&edges).to_vec()));
-                initial.push((s.triangle_edges.id(), bytemuck::cast_slice::<_, u8>(&owned).to_vec()));
+                let owned = crate::programs::self_contact::owned_primitives(triangles);
+                initial.push((s.owned.id(), bytemuck::cast_slice::<_, u8>(&owned).to_vec()));
             }
             cloths.push(b);
         }

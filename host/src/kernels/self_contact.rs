@@ -64,8 +64,7 @@ pub static SELF_TRIANGLE_CONTACT: Kernel = Kernel {
             read("aabbs"),
             read("leaf_bounds"),
             read("sorted"),
-            read("edges"),
-            read("triangle_edges"),
+            read("owned"),
             read("x"),
             read("x_prev"),
             write("delta"),
@@ -164,13 +163,13 @@ fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn self_triangle_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, nodes, aabbs, leaf_bounds, sorted, edges, triangle_edges, x, x_prev, delta] = d.bindings()?;
+    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, x, x_prev, delta] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
-    let (edges, triangle_edges) = (edges.slice::<UVec4>(), triangle_edges.slice::<UVec4>());
+    let owned = owned.slice::<u32>();
     let (x, x_prev, delta) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), delta.slice_mut::<u32>());
     for leaf in 0..threads.min(c.leaf_count) {
-        self_triangle_contact_at(leaf, &c, tree, (edges, triangle_edges), (x, x_prev), delta);
+        self_triangle_contact_at(leaf, &c, tree, owned, (x, x_prev), delta);
     }
     Ok(())
 }

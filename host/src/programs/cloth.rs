@@ -79,10 +79,9 @@ impl ClothBuffers {
             indices: resources.device(format!("{name}: triangle indices"), 3 * triangles),
             health: resources.readback(format!("{name}: health")),
             springs,
-            self_contact: cloth.self_collision.map(|_| {
-                let edges = super::self_contact::edge_tables(&cloth.triangles).0.len() as u32;
-                SelfContactBuffers::declare(resources, name, particles, triangles, edges)
-            }),
+            self_contact: cloth
+                .self_collision
+                .map(|_| SelfContactBuffers::declare(resources, name, particles, triangles)),
         }
     }
 

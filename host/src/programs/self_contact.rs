@@ -13,7 +13,7 @@ use crate::kernels::self_contact::{
     SELF_TRIANGLE_CONTACT,
 };
 use drape_kernels::self_contact::VERTEX_OWNED_BIT;
-use std::collections::HashMap;
+use std::collections::HashSet;
 use drape_types::{ColliderParams, ContactPush, Health, SimParams};
 use glam::{UVec4, Vec4};
 
@@ -27,44 +27,34 @@ pub struct SelfContactBuffers {
     /// Where each particle was when the last pass ended (the frame's start before the first):
     /// what a pass sweeps from.
     pub start: Handle<Vec4>,
-    /// The cloth's edges (ends in xy), and per triangle its three edges (xyz) with a bit per
-    /// edge (w bits 0-2) and per corner (bits 3-5) set when this triangle owns it, so each
-    /// particle and each pair of edges is handled once.
-    pub edges: Handle<UVec4>,
-    pub triangle_edges: Handle<UVec4>,
+    /// Per triangle, which of its edges (bit k: edge k, from corner k to corner k + 1) and
+    /// corners (bit `VERTEX_OWNED_BIT << k`) it owns: each particle and each edge belongs to
+    /// the first triangle that has it, so each pair is handled once.
+    pub owned: Handle<u32>,
     particles: u32,
 }
 
-/// The edge tables of `triangles`: each edge once (`(i, j, 0, 0)`, i < j, in first-seen order)
-/// and per triangle its edges `(a, b)`, `(b, c)`, `(c, a)` with bit k of w set when the triangle
-/// is the first to have edge k, and bit `VERTEX_OWNED_BIT << k` when it is the first to have
-/// corner k (so one walk per triangle covers each edge and each particle once).
-pub fn edge_tables(triangles: &[[u32; 3]]) -> (Vec<UVec4>, Vec<UVec4>) {
-    let mut vertex_owned = std::collections::HashSet::new();
-    let mut ids: HashMap<(u32, u32), u32> = HashMap::new();
-    let mut edges = Vec::new();
+/// Per triangle, the edges (bit k: edge k, from corner k to corner k + 1) and corners (bit
+/// `VERTEX_OWNED_BIT << k`) it owns: those no earlier triangle has (so one walk per triangle
+/// covers each edge and each particle once).
+pub fn owned_primitives(triangles: &[[u32; 3]]) -> Vec<u32> {
+    let mut seen_corners = HashSet::new();
+    let mut seen_edges = HashSet::new();
     let mut owned = Vec::with_capacity(triangles.len());
-    for &[a, b, c] in triangles {
-        let mut row = [0u32; 3];
+    for corners in triangles {
         let mut bits = 0;
-        for (k, (p, q)) in [(a, b), (b, c), (c, a)].into_iter().enumerate() {
-            let key = (p.min(q), p.max(q));
-            let next = edges.len() as u32;
-            let id = *ids.entry(key).or_insert_with(|| {
-                edges.push(UVec4::new(key.0, key.1, 0, 0));
+        for k in 0..3 {
+            let (p, q) = (corners[k], corners[(k + 1) % 3]);
+            if seen_edges.insert((p.min(q), p.max(q))) {
                 bits |= 1 << k;
-                next
-            });
-            row[k] = id;
-        }
-        for (k, corner) in [a, b, c].into_iter().enumerate() {
-            if vertex_owned.insert(corner) {
+            }
+            if seen_corners.insert(corners[k]) {
                 bits |= VERTEX_OWNED_BIT << k;
             }
         }
-        owned.push(UVec4::new(row[0], row[1], row[2], bits));
+        owned.push(bits);
     }
-    (edges, owned)
+    owned
 }
 
 /// The timing table's line of a pass's pair search (vertex-triangle and edge-edge).
@@ -98,15 +88,14 @@ pub fn pass_due(substep: u32, substeps: u32, passes: u32) -> bool {
 }
 
 impl SelfContactBuffers {
-    pub fn declare(resources: &mut Resources, name: &str, particles: u32, triangles: u32, edges: u32) -> Self {
+    pub fn declare(resources: &mut Resources, name: &str, particles: u32, triangles: u32) -> Self {
         let name = format!("{name} self-collision");
         SelfContactBuffers {
             tree: LbvhBuffers::declare(resources, &name, triangles),
             sorted: resources.device(format!("{name}: sorted triangles"), triangles),
             delta: resources.device(format!("{name}: corrections"), 4 * particles),
             start: resources.device(format!("{name}: pass start"), particles),
-            edges: resources.device(format!("{name}: edges"), edges),
-            triangle_edges: resources.device(format!("{name}: triangle edges"), triangles),
+            owned: resources.device(format!("{name}: owned edges and corners"), triangles),
             particles,
         }
     }
@@ -205,8 +194,7 @@ impl SelfContactBuffers {
                 t.aabbs.id(),
                 t.sorted_bounds.id(),
                 self.sorted.id(),
-                self.edges.id(),
-                self.triangle_edges.id(),
+                self.owned.id(),
                 cloth.x.id(),
                 self.start.id(),
                 self.delta.id(),

@@ -59,6 +59,91 @@ pub fn walk<Q: TreeQuery>(nodes: &[BvhNode], aabbs: &[Aabb], leaf_count: u32, qu
     overflowed
 }
 
+/// Leaves a `PairWalk` hands over at a time.
+pub const WALK_BATCH: usize = 16;
+
+/// A walk that pairs a leaf with the later leaves (tree order) whose boxes meet a query box,
+/// handing them over in batches: the caller tests a batch's pairs between two stretches of the
+/// walk. On llvmpipe a shader's lanes run in lockstep, so a pair test inside the walk's loop
+/// would run (masked) at every step where any lane reached a leaf; after the walk it runs as
+/// often as the busiest lane has leaves.
+///
+/// Only leaves after `first` are wanted (each pair is handled from its earlier leaf): in
+/// Karras' layout an internal node's left child (leaf or internal node γ) covers leaves ending
+/// at γ, and its right child ends where the parent does, so a left child with γ <= `first`
+/// is not entered.
+pub struct PairWalk {
+    first: u32,
+    lo: Vec3,
+    hi: Vec3,
+    /// Pending entries: internal nodes whose boxes met the query, and leaves (`LEAF_BIT`) yet
+    /// to be tested.
+    stack: [u32; STACK_SIZE],
+    top: usize,
+    /// Whether the stack overflowed (subtrees were skipped).
+    pub overflowed: bool,
+}
+
+impl PairWalk {
+    /// A walk for leaf `first` of a tree of `leaf_count` leaves, with the query box `lo..=hi`.
+    pub fn new(first: u32, leaf_count: u32, (lo, hi): (Vec3, Vec3)) -> Self {
+        // A single leaf has no pairs (and no internal node).
+        let top = if leaf_count > 1 { 1 } else { 0 };
+        PairWalk { first, lo, hi, stack: [0u32; STACK_SIZE], top, overflowed: false }
+    }
+
+    /// Whether the walk is over.
+    pub fn done(&self) -> bool {
+        self.top == 0
+    }
+
+    /// Walks on until `found` holds `WALK_BATCH` leaves or the walk is over; returns how many
+    /// it holds (in tree order within the batch's stretch).
+    pub fn next_batch(
+        &mut self,
+        (nodes, aabbs, leaf_bounds): (&[BvhNode], &[Aabb], &[Aabb]),
+        found: &mut [u32; WALK_BATCH],
+    ) -> usize {
+        let mut count = 0;
+        while self.top > 0 && count < WALK_BATCH {
+            self.top -= 1;
+            let entry = self.stack[self.top];
+            if entry & LEAF_BIT != 0 {
+                let leaf = entry & !LEAF_BIT;
+                if box_meets(&leaf_bounds[leaf as usize], self.lo, self.hi) {
+                    found[count] = leaf;
+                    count += 1;
+                }
+                continue;
+            }
+            let node = nodes[entry as usize];
+            // Right first, so the left child is popped first (tree order).
+            let mut side = 0;
+            while side < 2 {
+                let child = if side == 0 { node.right } else { node.left };
+                let index = child & !LEAF_BIT;
+                let later = side == 0 || index > self.first;
+                if later && (child & LEAF_BIT != 0 || box_meets(&aabbs[child as usize], self.lo, self.hi)) {
+                    if self.top == STACK_SIZE {
+                        self.overflowed = true;
+                    } else {
+                        self.stack[self.top] = child;
+                        self.top += 1;
+                    }
+                }
+                side += 1;
+            }
+        }
+        count
+    }
+}
+
+/// Whether box `b` meets the box `lo..=hi`.
+#[inline]
+pub fn box_meets(b: &Aabb, lo: Vec3, hi: Vec3) -> bool {
+    lo.cmple(b.max.xyz()).all() && hi.cmpge(b.min.xyz()).all()
+}
+
 /// Spreads the low 10 bits of `v` to every third bit.
 #[inline]
 pub fn expand_bits(v: u32) -> u32 {

@@ -7,10 +7,12 @@
 //!   near it, each pair once, within the thickness or crossed;
 //!
 //! both from one walk per triangle (`self_triangle_contact`): each particle and each edge is
-//! owned by the first triangle that has it, and that triangle's walk, with its swept box grown
-//! by the thickness or its corners' motion, tests them (the walks, not the pair tests, are
-//! what self-collision costs on llvmpipe: one per triangle instead of one per particle and one
-//! per edge halves them);
+//! owned by the first triangle that has it, and each pair of triangles whose boxes (swept over
+//! the pass, grown by the thickness) meet is handled once, from the earlier of the two in the
+//! tree's leaf order, in both directions: the walk enters no subtree that ends before it
+//! (`PairWalk`), hands its leaves over in batches (so the pair tests do not run masked inside
+//! the walk's loop on lockstep lanes), and each pair loads the two triangles' corners once;
+//! every test first checks its primitives' swept boxes;
 //! - **collider vertices against cloth faces**: every vertex a triangle collider's surface
 //!   uses, moving with the collider, finds the cloth triangles near it (the vertex does not
 //!   move; the cloth takes the whole correction), so a spike's tip cannot pass through a cloth
@@ -35,7 +37,7 @@
 
 use crate::atomics;
 use crate::contact::{reduce_bounds, substep_motion};
-use crate::lbvh::{TreeQuery, walk};
+use crate::lbvh::{PairWalk, TreeQuery, WALK_BATCH, box_meets, walk};
 use crate::pose::{SubstepMotion, to_world};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
@@ -271,12 +273,6 @@ pub fn accumulate(delta: &mut [u32], i: u32, d: Vec3) {
 /// sorted triangles' corners) and the positions now and at the substep's start.
 pub type SelfTree<'a> = (&'a [BvhNode], &'a [Aabb], &'a [Aabb], &'a [UVec4]);
 
-/// Whether box `b` meets the box `lo..=hi`.
-#[inline]
-fn meets(b: &Aabb, lo: Vec3, hi: Vec3) -> bool {
-    lo.cmple(b.max.xyz()).all() && hi.cmpge(b.min.xyz()).all()
-}
-
 /// What a tree walk does with each leaf whose box meets the query box.
 pub trait LeafVisitor {
     fn visit(&mut self, leaf: u32);
@@ -291,6 +287,28 @@ pub fn walk_overlapping<V: LeafVisitor>(
     visitor: &mut V,
 ) -> bool {
     walk(nodes, aabbs, leaf_count, &mut Overlapping { leaf_bounds, lo, hi, visitor })
+}
+
+/// `walk_overlapping` over the leaves after `leaf` (in tree order) only, handed to the visitor
+/// in batches between stretches of the walk (`PairWalk`).
+pub fn walk_overlapping_after<V: LeafVisitor>(
+    leaf: u32,
+    tree: (&[BvhNode], &[Aabb], &[Aabb]),
+    leaf_count: u32,
+    query: (Vec3, Vec3),
+    visitor: &mut V,
+) -> bool {
+    let mut walk = PairWalk::new(leaf, leaf_count, query);
+    let mut found = [0u32; WALK_BATCH];
+    while !walk.done() {
+        let count = walk.next_batch(tree, &mut found);
+        let mut k = 0;
+        while k < count {
+            visitor.visit(found[k]);
+            k += 1;
+        }
+    }
+    walk.overflowed
 }
 
 /// `walk_overlapping` without the tree: every leaf in turn, under the same box test (the
@@ -320,12 +338,12 @@ struct Overlapping<'a, V: LeafVisitor> {
 impl<V: LeafVisitor> TreeQuery for Overlapping<'_, V> {
     #[inline]
     fn enters(&self, b: &Aabb) -> bool {
-        meets(b, self.lo, self.hi)
+        box_meets(b, self.lo, self.hi)
     }
 
     #[inline]
     fn leaf(&mut self, leaf: u32) -> bool {
-        if meets(&self.leaf_bounds[leaf as usize], self.lo, self.hi) {
+        if box_meets(&self.leaf_bounds[leaf as usize], self.lo, self.hi) {
             self.visitor.visit(leaf);
         }
         false
@@ -425,22 +443,140 @@ pub fn edge_pair_at(e: UVec4, f: UVec4, (x, x_prev): (&[Vec4], &[Vec4]), thickne
     }
 }
 
-/// Bit `VERTEX_OWNED_BIT << k` of a triangle's `triangle_edges[t].w`: the triangle is the first
-/// to have its corner k (bits 0-2 are the edges it owns), so each particle's vertex-triangle
+/// Bit `VERTEX_OWNED_BIT << k` of a triangle's `owned` bits: the triangle is the first to have
+/// its corner k (bits 0-2 are the edges it owns), so each particle's vertex-triangle
 /// pairs are searched from one triangle.
 pub const VERTEX_OWNED_BIT: u32 = 8;
 
-/// A triangle's pairs with the triangles one walk reaches: the corners it owns against them
-/// (vertex-triangle) and the edges it owns against the edges they own (edge-edge, each pair once:
-/// from the lower edge). One walk per triangle instead of one per particle and one per edge: the
-/// walks, not the pair tests, are what self-collision costs.
+/// Component `k` (0, 1 or 2) of `v`.
+#[inline]
+fn component(v: UVec4, k: u32) -> u32 {
+    if k == 0 {
+        v.x
+    } else if k == 1 {
+        v.y
+    } else {
+        v.z
+    }
+}
+
+/// A cloth triangle as the pair tests see it: its corners' particles (xyz), their positions at
+/// the pass's end (`now`) and start (`then`), and their pin weights. Loaded once per triangle
+/// and pair: on llvmpipe a load of a per-lane address is a loop over the lanes, and the tests
+/// of one triangle pair would otherwise load each corner several times.
+#[derive(Copy, Clone)]
+struct Corners {
+    ids: UVec4,
+    now: [Vec3; 3],
+    then: [Vec3; 3],
+    weights: Vec3,
+}
+
+impl Corners {
+    #[inline]
+    fn load(ids: UVec4, (x, x_prev): (&[Vec4], &[Vec4])) -> Self {
+        let (a, b, c) = (x[ids.x as usize], x[ids.y as usize], x[ids.z as usize]);
+        Corners {
+            ids,
+            now: [a.xyz(), b.xyz(), c.xyz()],
+            then: [x_prev[ids.x as usize].xyz(), x_prev[ids.y as usize].xyz(), x_prev[ids.z as usize].xyz()],
+            weights: Vec3::new(a.w, b.w, c.w),
+        }
+    }
+
+    #[inline]
+    fn weight(&self, k: u32) -> f32 {
+        if k == 0 {
+            self.weights.x
+        } else if k == 1 {
+            self.weights.y
+        } else {
+            self.weights.z
+        }
+    }
+
+    #[inline]
+    fn has(&self, id: u32) -> bool {
+        self.ids.x == id || self.ids.y == id || self.ids.z == id
+    }
+
+    /// The box of corners `k` and `m` over the pass (a corner's own when `k == m`).
+    #[inline]
+    fn swept_box(&self, k: usize, m: usize) -> (Vec3, Vec3) {
+        let lo = self.now[k].min(self.then[k]).min(self.now[m]).min(self.then[m]);
+        let hi = self.now[k].max(self.then[k]).max(self.now[m]).max(self.then[m]);
+        (lo, hi)
+    }
+}
+
+/// Corner `k` of `vertex` against triangle `face` (skipped when it is one of the face's).
+#[inline]
+fn vertex_face(vertex: &Corners, k: usize, face: &Corners, thickness: f32, delta: &mut [u32]) {
+    let id = component(vertex.ids, k as u32);
+    if face.has(id) {
+        return;
+    }
+    let weights = (vertex.weight(k as u32), face.weights);
+    if let Some(c) = pair_correction((vertex.then[k], vertex.now[k]), face.then, face.now, weights, thickness) {
+        accumulate(delta, id, c.vertex);
+        accumulate(delta, face.ids.x, c.corners[0]);
+        accumulate(delta, face.ids.y, c.corners[1]);
+        accumulate(delta, face.ids.z, c.corners[2]);
+    }
+}
+
+/// Edge `k` of triangle `e` (corners k and k + 1) against edge `m` of triangle `f` (skipped
+/// when they share a particle).
+#[inline]
+fn edge_edge(e: &Corners, k: usize, f: &Corners, m: usize, thickness: f32, delta: &mut [u32]) {
+    let (k1, m1) = ((k + 1) % 3, (m + 1) % 3);
+    let ids = [
+        component(e.ids, k as u32),
+        component(e.ids, k1 as u32),
+        component(f.ids, m as u32),
+        component(f.ids, m1 as u32),
+    ];
+    if ids[0] == ids[2] || ids[0] == ids[3] || ids[1] == ids[2] || ids[1] == ids[3] {
+        return;
+    }
+    let then = [e.then[k], e.then[k1], f.then[m], f.then[m1]];
+    let now = [e.now[k], e.now[k1], f.now[m], f.now[m1]];
+    let w = Vec4::new(e.weight(k as u32), e.weight(k1 as u32), f.weight(m as u32), f.weight(m1 as u32));
+    if let Some(d) = edge_pair_correction(then, now, w, thickness) {
+        accumulate(delta, ids[0], d[0]);
+        accumulate(delta, ids[1], d[1]);
+        accumulate(delta, ids[2], d[2]);
+        accumulate(delta, ids[3], d[3]);
+    }
+}
+
+/// Whether a box `(lo, hi)` meets another grown by `reach` on every side.
+#[inline]
+fn within(a: (Vec3, Vec3), b: (Vec3, Vec3), reach: f32) -> bool {
+    let r = Vec3::splat(reach);
+    a.0.cmple(b.1 + r).all() && a.1.cmpge(b.0 - r).all()
+}
+
+/// A triangle's pairs with the triangles after it (in the tree's leaf order) that one walk
+/// reaches, in both directions: the corners each owns against the other triangle
+/// (vertex-triangle) and the edges each owns against the edges the other owns (edge-edge). So
+/// every pair of triangles is handled once, by the first of the two, and every vertex-triangle
+/// and edge-edge pair once (each particle and edge belongs to the one triangle that owns it).
+/// Each test first checks its primitives' swept boxes, one grown by the thickness: a pair
+/// within the thickness at the pass's end, or crossing on the way (motion is linear over a
+/// pass), has meeting boxes; most pairs a walk reaches fail this, at a fraction of the exact
+/// test's cost.
 struct TrianglePairs<'a> {
-    triangle: u32,
-    corners: UVec4,
-    owned: UVec4,
+    leaf: u32,
+    mine: Corners,
+    /// Bits of the corners (`VERTEX_OWNED_BIT << k`) and edges (`1 << k`, edge k from corner k
+    /// to corner k + 1) this triangle owns.
+    owned: u32,
+    /// This triangle's swept box grown by the thickness.
+    reach_lo: Vec3,
+    reach_hi: Vec3,
     sorted: &'a [UVec4],
-    triangle_edges: &'a [UVec4],
-    edges: &'a [UVec4],
+    owned_bits: &'a [u32],
     x: &'a [Vec4],
     x_prev: &'a [Vec4],
     thickness: f32,
@@ -448,24 +584,25 @@ struct TrianglePairs<'a> {
 }
 
 impl<'a> TrianglePairs<'a> {
-    /// The pairs of the triangle with `corners` (xyz; the triangle in w) and `owned` edges and
-    /// corners (its `triangle_edges` row).
+    /// The pairs of sorted leaf `leaf` (whose corners and owned bits the tables give).
     #[inline]
     fn of(
-        corners: UVec4,
-        owned: UVec4,
-        (sorted, edges, triangle_edges): (&'a [UVec4], &'a [UVec4], &'a [UVec4]),
+        leaf: u32,
+        (leaf_bounds, sorted, owned_bits): (&'a [Aabb], &'a [UVec4], &'a [u32]),
         (x, x_prev): (&'a [Vec4], &'a [Vec4]),
         thickness: f32,
         delta: &'a mut [u32],
     ) -> Self {
+        let ids = sorted[leaf as usize];
+        let (reach_lo, reach_hi) = triangle_query(&leaf_bounds[leaf as usize], thickness);
         TrianglePairs {
-            triangle: corners.w,
-            corners,
-            owned,
+            leaf,
+            mine: Corners::load(ids, (x, x_prev)),
+            owned: owned_bits[ids.w as usize],
+            reach_lo,
+            reach_hi,
             sorted,
-            triangle_edges,
-            edges,
+            owned_bits,
             x,
             x_prev,
             thickness,
@@ -474,50 +611,41 @@ impl<'a> TrianglePairs<'a> {
     }
 }
 
+/// The corners `owned` marks of triangle `vertices` against triangle `face`.
+#[inline]
+fn corners_against(vertices: &Corners, owned: u32, face: &Corners, thickness: f32, delta: &mut [u32]) {
+    let face_box = (
+        face.now[0].min(face.now[1]).min(face.now[2]).min(face.then[0]).min(face.then[1]).min(face.then[2]),
+        face.now[0].max(face.now[1]).max(face.now[2]).max(face.then[0]).max(face.then[1]).max(face.then[2]),
+    );
+    let mut k = 0;
+    while k < 3 {
+        if owned & (VERTEX_OWNED_BIT << k) != 0 && within(vertices.swept_box(k, k), face_box, thickness) {
+            vertex_face(vertices, k, face, thickness, delta);
+        }
+        k += 1;
+    }
+}
+
 impl LeafVisitor for TrianglePairs<'_> {
     fn visit(&mut self, leaf: u32) {
-        let other = self.sorted[leaf as usize];
-        if other.w == self.triangle {
-            return; // its own corners and edges share its particles
+        if leaf <= self.leaf {
+            return; // the earlier triangle of a pair handles it (and a triangle's own corners and edges share its particles)
         }
-        let positions = (self.x, self.x_prev);
+        let ids = self.sorted[leaf as usize];
+        let theirs = Corners::load(ids, (self.x, self.x_prev));
+        let their_owned = self.owned_bits[ids.w as usize];
+        let thickness = self.thickness;
+        corners_against(&self.mine, self.owned, &theirs, thickness, self.delta);
+        corners_against(&theirs, their_owned, &self.mine, thickness, self.delta);
         let mut k = 0;
         while k < 3 {
-            let corner = if k == 0 {
-                self.corners.x
-            } else if k == 1 {
-                self.corners.y
-            } else {
-                self.corners.z
-            };
-            if self.owned.w & (VERTEX_OWNED_BIT << k) != 0 {
-                pair_at(corner, other, positions, self.thickness, self.delta);
-            }
-            k += 1;
-        }
-        let theirs = self.triangle_edges[other.w as usize];
-        let mut k = 0;
-        while k < 3 {
-            let mine = if k == 0 {
-                self.owned.x
-            } else if k == 1 {
-                self.owned.y
-            } else {
-                self.owned.z
-            };
-            if self.owned.w & (1 << k) != 0 {
-                let ends = self.edges[mine as usize];
+            if self.owned & (1 << k) != 0 {
+                let mine = self.mine.swept_box(k, (k + 1) % 3);
                 let mut m = 0;
                 while m < 3 {
-                    let other_edge = if m == 0 {
-                        theirs.x
-                    } else if m == 1 {
-                        theirs.y
-                    } else {
-                        theirs.z
-                    };
-                    if theirs.w & (1 << m) != 0 && other_edge > mine {
-                        edge_pair_at(ends, self.edges[other_edge as usize], positions, self.thickness, self.delta);
+                    if their_owned & (1 << m) != 0 && within(mine, theirs.swept_box(m, (m + 1) % 3), thickness) {
+                        edge_edge(&self.mine, k, &theirs, m, thickness, self.delta);
                     }
                     m += 1;
                 }
@@ -527,13 +655,12 @@ impl LeafVisitor for TrianglePairs<'_> {
     }
 }
 
-/// The box sorted leaf `leaf`'s pairs are searched in: its triangle's swept box, grown by the
-/// thickness or its corners' motion over the pass when longer (so it holds every query box of
-/// the particle and edge walks it replaces).
+/// The box sorted leaf `leaf`'s pairs are searched in: its triangle's swept box (over the
+/// pass), grown by the thickness. A pair within the thickness at the pass's end, or crossing
+/// on the way (motion is linear over a pass), has swept boxes that meet once grown by it.
 #[inline]
-fn triangle_query(corners: UVec4, bounds: &Aabb, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32) -> (Vec3, Vec3) {
-    let motion = |i: u32| (x[i as usize].xyz() - x_prev[i as usize].xyz()).length();
-    let reach = Vec3::splat(thickness.max(motion(corners.x)).max(motion(corners.y)).max(motion(corners.z)));
+fn triangle_query(bounds: &Aabb, thickness: f32) -> (Vec3, Vec3) {
+    let reach = Vec3::splat(thickness);
     (bounds.min.xyz() - reach, bounds.max.xyz() + reach)
 }
 
@@ -544,19 +671,14 @@ pub fn self_triangle_contact_at(
     leaf: u32,
     self_params: &ColliderParams,
     (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
-    (edges, triangle_edges): (&[UVec4], &[UVec4]),
+    owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
     delta: &mut [u32],
 ) -> bool {
-    let corners = sorted[leaf as usize];
-    let owned = triangle_edges[corners.w as usize];
-    if owned.w == 0 {
-        return false; // owns no corner and no edge
-    }
-    let thickness = self_params.thickness;
-    let query = triangle_query(corners, &leaf_bounds[leaf as usize], (x, x_prev), thickness);
-    let mut pairs = TrianglePairs::of(corners, owned, (sorted, edges, triangle_edges), (x, x_prev), thickness, delta);
-    walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, query, &mut pairs)
+    let tables = (leaf_bounds, sorted, owned);
+    let mut pairs = TrianglePairs::of(leaf, tables, (x, x_prev), self_params.thickness, delta);
+    let query = (pairs.reach_lo, pairs.reach_hi);
+    walk_overlapping_after(leaf, (nodes, aabbs, leaf_bounds), self_params.leaf_count, query, &mut pairs)
 }
 
 /// `self_triangle_contact_at` without the tree: every leaf whose box meets the same query box.
@@ -564,18 +686,13 @@ pub fn self_triangle_contact_brute_force_at(
     leaf: u32,
     self_params: &ColliderParams,
     (leaf_bounds, sorted): (&[Aabb], &[UVec4]),
-    (edges, triangle_edges): (&[UVec4], &[UVec4]),
+    owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
     delta: &mut [u32],
 ) {
-    let corners = sorted[leaf as usize];
-    let owned = triangle_edges[corners.w as usize];
-    if owned.w == 0 {
-        return;
-    }
-    let thickness = self_params.thickness;
-    let query = triangle_query(corners, &leaf_bounds[leaf as usize], (x, x_prev), thickness);
-    let mut pairs = TrianglePairs::of(corners, owned, (sorted, edges, triangle_edges), (x, x_prev), thickness, delta);
+    let tables = (leaf_bounds, sorted, owned);
+    let mut pairs = TrianglePairs::of(leaf, tables, (x, x_prev), self_params.thickness, delta);
+    let query = (pairs.reach_lo, pairs.reach_hi);
     visit_overlapping_brute_force(leaf_bounds, self_params.leaf_count, query, &mut pairs);
 }
 
@@ -588,17 +705,16 @@ pub fn self_triangle_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaf_bounds: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &[UVec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] edges: &[UVec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] triangle_edges: &[UVec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owned: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] delta: &mut [u32],
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    self_triangle_contact_at(id.x, self_params, tree, (edges, triangle_edges), (x, x_prev), delta);
+    self_triangle_contact_at(id.x, self_params, tree, owned, (x, x_prev), delta);
 }
 
 /// A collider vertex's pairs with the cloth triangles the walk reaches: the vertex does not
