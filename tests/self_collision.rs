@@ -24,8 +24,9 @@ fn small_pile(self_collision: Option<f32>) -> (drape::Cloth, Collider) {
 }
 
 /// States of the small pile as it folds, searched for vertex-triangle and edge-edge pairs
-/// through the tree (one walk per triangle, for the corners and edges it owns) and by the
-/// brute-force loop over every leaf: the summed corrections are equal word for word; and every
+/// through the tree (one walk per triangle, each pair of triangles from its earlier leaf) and by
+/// the brute-force loop over every pair of leaves: the summed corrections are equal word for
+/// word; and every
 /// particle and every edge is owned by exactly one triangle.
 #[test]
 fn the_tree_finds_the_pairs_the_brute_force_loop_finds() {

@@ -311,22 +311,6 @@ pub fn walk_overlapping_after<V: LeafVisitor>(
     walk.overflowed
 }
 
-/// `walk_overlapping` without the tree: every leaf in turn, under the same box test (the
-/// baseline the walk must equal).
-pub fn visit_overlapping_brute_force<V: LeafVisitor>(
-    leaf_bounds: &[Aabb],
-    leaf_count: u32,
-    (lo, hi): (Vec3, Vec3),
-    visitor: &mut V,
-) {
-    let mut query = Overlapping { leaf_bounds, lo, hi, visitor };
-    let mut leaf = 0;
-    while leaf < leaf_count {
-        query.leaf(leaf);
-        leaf += 1;
-    }
-}
-
 /// The leaves whose boxes meet a box, handed to a visitor.
 struct Overlapping<'a, V: LeafVisitor> {
     leaf_bounds: &'a [Aabb],
@@ -627,31 +611,35 @@ fn corners_against(vertices: &Corners, owned: u32, face: &Corners, thickness: f3
     }
 }
 
+/// Triangles `a` and `b` (with the corners and edges each owns) against each other, both ways.
+#[inline]
+fn triangle_pair((a, a_owned): (&Corners, u32), (b, b_owned): (&Corners, u32), thickness: f32, delta: &mut [u32]) {
+    corners_against(a, a_owned, b, thickness, delta);
+    corners_against(b, b_owned, a, thickness, delta);
+    let mut k = 0;
+    while k < 3 {
+        if a_owned & (1 << k) != 0 {
+            let edge = a.swept_box(k, (k + 1) % 3);
+            let mut m = 0;
+            while m < 3 {
+                if b_owned & (1 << m) != 0 && within(edge, b.swept_box(m, (m + 1) % 3), thickness) {
+                    edge_edge(a, k, b, m, thickness, delta);
+                }
+                m += 1;
+            }
+        }
+        k += 1;
+    }
+}
+
 impl LeafVisitor for TrianglePairs<'_> {
     fn visit(&mut self, leaf: u32) {
         if leaf <= self.leaf {
             return; // the earlier triangle of a pair handles it (and a triangle's own corners and edges share its particles)
         }
         let ids = self.sorted[leaf as usize];
-        let theirs = Corners::load(ids, (self.x, self.x_prev));
-        let their_owned = self.owned_bits[ids.w as usize];
-        let thickness = self.thickness;
-        corners_against(&self.mine, self.owned, &theirs, thickness, self.delta);
-        corners_against(&theirs, their_owned, &self.mine, thickness, self.delta);
-        let mut k = 0;
-        while k < 3 {
-            if self.owned & (1 << k) != 0 {
-                let mine = self.mine.swept_box(k, (k + 1) % 3);
-                let mut m = 0;
-                while m < 3 {
-                    if their_owned & (1 << m) != 0 && within(mine, theirs.swept_box(m, (m + 1) % 3), thickness) {
-                        edge_edge(&self.mine, k, &theirs, m, thickness, self.delta);
-                    }
-                    m += 1;
-                }
-            }
-            k += 1;
-        }
+        let theirs = (&Corners::load(ids, (self.x, self.x_prev)), self.owned_bits[ids.w as usize]);
+        triangle_pair((&self.mine, self.owned), theirs, self.thickness, self.delta);
     }
 }
 
@@ -681,7 +669,8 @@ pub fn self_triangle_contact_at(
     walk_overlapping_after(leaf, (nodes, aabbs, leaf_bounds), self_params.leaf_count, query, &mut pairs)
 }
 
-/// `self_triangle_contact_at` without the tree: every leaf whose box meets the same query box.
+/// The baseline `self_triangle_contact_at` must equal, without the tree: sorted leaf `leaf`'s
+/// triangle against every later leaf whose box meets its query box.
 pub fn self_triangle_contact_brute_force_at(
     leaf: u32,
     self_params: &ColliderParams,
@@ -690,10 +679,18 @@ pub fn self_triangle_contact_brute_force_at(
     (x, x_prev): (&[Vec4], &[Vec4]),
     delta: &mut [u32],
 ) {
-    let tables = (leaf_bounds, sorted, owned);
-    let mut pairs = TrianglePairs::of(leaf, tables, (x, x_prev), self_params.thickness, delta);
-    let query = (pairs.reach_lo, pairs.reach_hi);
-    visit_overlapping_brute_force(leaf_bounds, self_params.leaf_count, query, &mut pairs);
+    let thickness = self_params.thickness;
+    let ids = sorted[leaf as usize];
+    let mine = (&Corners::load(ids, (x, x_prev)), owned[ids.w as usize]);
+    let (lo, hi) = triangle_query(&leaf_bounds[leaf as usize], thickness);
+    let mut other = leaf + 1;
+    while other < self_params.leaf_count {
+        if box_meets(&leaf_bounds[other as usize], lo, hi) {
+            let theirs = sorted[other as usize];
+            triangle_pair(mine, (&Corners::load(theirs, (x, x_prev)), owned[theirs.w as usize]), thickness, delta);
+        }
+        other += 1;
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
