@@ -26,7 +26,7 @@ pub const ALL: [&Kernel; 34] = [
     &self_contact::CLOTH_TRIANGLE_BOUNDS,
     &self_contact::GATHER_CLOTH_TRIANGLES,
     &self_contact::SELF_TRIANGLE_CONTACT,
-    &self_contact::COLLIDER_VERTEX_CONTACT,
+    &self_contact::COLLIDER_FEATURE_CONTACT,
     &self_contact::APPLY_SELF_CONTACT,
     &sort::RADIX_COUNT,
     &sort::RADIX_SCATTER,

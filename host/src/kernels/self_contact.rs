@@ -8,7 +8,7 @@ use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::{
     SCENE_THREADS, apply_self_contact_at, copy_start, count_self_contact, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
-    collider_vertex_contact_at, self_triangle_contact_at, write_scene,
+    collider_feature_contact_at, self_triangle_contact_at, write_scene,
 };
 use drape_kernels::contact::substep_motion;
 use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
@@ -74,36 +74,39 @@ pub static SELF_TRIANGLE_CONTACT: Kernel = Kernel {
     cpu: self_triangle_contact_cpu,
 };
 
-/// A triangle collider's surface vertices against the cloth's faces; push constants:
-/// `ContactPush` (the substep's span of the frame).
-pub static COLLIDER_VERTEX_CONTACT: Kernel = Kernel {
+/// A triangle collider's triangles (the vertices and edges each owns) against the cloth's
+/// faces and edges; push constants: `ContactPush` (the pass's span of the frame).
+pub static COLLIDER_FEATURE_CONTACT: Kernel = Kernel {
     spec: KernelSpec {
-        entry: "self_contact::collider_vertex_contact",
+        entry: "self_contact::collider_feature_contact",
         bindings: &[
             read("params"),
             read("self_params"),
             read("collider"),
             read("pose"),
             read("vertices"),
-            read("surface_vertices"),
+            read("previous"),
+            read("indices"),
+            read("features"),
             read("nodes"),
             read("aabbs"),
             read("leaf_bounds"),
             read("sorted"),
+            read("owned"),
             read("x"),
             read("x_prev"),
-            write("delta"),
+            write("pushes"),
         ],
         push_constant_size: size_of::<ContactPush>() as u32,
         workgroup_size: CONTACT_THREADS,
     },
-    cpu: collider_vertex_contact_cpu,
+    cpu: collider_feature_contact_cpu,
 };
 
 pub static APPLY_SELF_CONTACT: Kernel = Kernel {
     spec: spec(
         "self_contact::apply_self_contact",
-        &[read("params"), write("x"), write("v"), read("delta"), write("start"), write("health")],
+        &[read("params"), write("x"), write("v"), read("delta"), read("pushes"), write("start"), write("health")],
         WORKGROUP_SIZE,
     ),
     cpu: apply_cpu,
@@ -149,13 +152,14 @@ fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [params, x, v, delta, start, health] = d.bindings()?;
+    let [params, x, v, delta, pushes, start, health] = d.bindings()?;
     let p: SimParams = params.first()?;
-    let (x, v, delta) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>(), delta.slice::<u32>());
+    let (x, v) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>());
+    let corrections = (delta.slice::<u32>(), pushes.slice::<u32>());
     let (start, health) = (start.slice_mut::<Vec4>(), health.first_mut::<Health>()?);
     for i in 0..threads.min(p.particle_count) {
-        count_self_contact(i, delta, health);
-        apply_self_contact_at(i, x, v, delta);
+        count_self_contact(i, corrections, health);
+        apply_self_contact_at(i, x, v, corrections);
         start[i as usize] = x[i as usize];
     }
     Ok(())
@@ -174,21 +178,38 @@ fn self_triangle_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     Ok(())
 }
 
-fn collider_vertex_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let push: ContactPush = d.push_as();
     let threads = d.invocations();
-    let [params, self_params, collider, pose, vertices, surface, nodes, aabbs, leaf_bounds, sorted, x, x_prev, delta] =
-        d.bindings()?;
+    let [
+        params,
+        self_params,
+        collider,
+        pose,
+        vertices,
+        previous,
+        indices,
+        features,
+        nodes,
+        aabbs,
+        leaf_bounds,
+        sorted,
+        owned,
+        x,
+        x_prev,
+        pushes,
+    ] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = self_params.first()?;
     let thickness = collider.first::<ColliderParams>()?.thickness;
     let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
-    let (vertices, surface) = (vertices.slice::<Vec4>(), surface.slice::<u32>());
-    let (x, x_prev, delta) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), delta.slice_mut::<u32>());
-    for v in 0..threads.min(surface.len() as u32) {
-        let local = vertices[surface[v as usize] as usize].truncate();
-        collider_vertex_contact_at(local, &motion, (&c, thickness), tree, (x, x_prev), delta);
+    let mesh = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
+    let (features, owned) = (features.slice::<u32>(), owned.slice::<u32>());
+    let (x, x_prev, pushes) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), pushes.slice_mut::<u32>());
+    for t in 0..threads.min(features.len() as u32) {
+        let mine = features[t as usize];
+        collider_feature_contact_at(t, mine, mesh, &motion, (&c, thickness), tree, owned, (x, x_prev), pushes);
     }
     Ok(())
 }

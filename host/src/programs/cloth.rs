@@ -214,7 +214,7 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
             let own = cloth.self_contact_cloth();
             let span = (pass_from, substep, plan.substeps);
             let features =
-                colliders.iter().filter_map(|(collider, _)| s.collider_vertex_step(&own, collider, span)).collect();
+                colliders.iter().filter_map(|(collider, _)| s.collider_feature_step(&own, collider, span)).collect();
             s.substep_steps(&own, features, &mut steps);
             pass_from = substep + 1;
         }

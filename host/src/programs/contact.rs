@@ -96,16 +96,17 @@ impl ColliderLeaves {
 pub struct ColliderBuffers {
     pub leaves: ColliderLeaves,
     pub pose: Handle<ColliderPose>,
-    /// A triangle collider's vertices that triangles use, and how many (what a self-colliding
-    /// cloth tests against its faces; a scan's stray points are left out).
-    pub surface_vertices: Option<(Handle<u32>, u32)>,
+    /// Per triangle of a triangle collider, the vertices and edges it owns (bits as a cloth's,
+    /// `owned_primitives`), and the triangle count: what a self-colliding cloth tests against
+    /// its faces and edges.
+    pub features: Option<(Handle<u32>, u32)>,
 }
 
 impl ColliderBuffers {
     /// Buffers of a collider with `leaves` (declared by its leaf kind); `name` prefixes their
     /// debug names.
     pub fn declare(resources: &mut Resources, name: &str, leaves: ColliderLeaves) -> Self {
-        ColliderBuffers { leaves, pose: resources.device(format!("{name}: pose"), 1), surface_vertices: None }
+        ColliderBuffers { leaves, pose: resources.device(format!("{name}: pose"), 1), features: None }
     }
 
     pub fn tree(&self) -> &LbvhBuffers {

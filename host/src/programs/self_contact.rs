@@ -9,10 +9,10 @@ use super::contact::{ColliderBuffers, ColliderLeaves};
 use super::lbvh::LbvhBuffers;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_contact::{
-    APPLY_SELF_CONTACT, CLOTH_TRIANGLE_BOUNDS, COLLIDER_VERTEX_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
+    APPLY_SELF_CONTACT, CLOTH_TRIANGLE_BOUNDS, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
     SELF_TRIANGLE_CONTACT,
 };
-use drape_kernels::self_contact::VERTEX_OWNED_BIT;
+use drape_kernels::self_contact::{PUSH_WORDS, VERTEX_OWNED_BIT};
 use std::collections::HashSet;
 use drape_types::{ColliderParams, ContactPush, Health, SimParams};
 use glam::{UVec4, Vec4};
@@ -24,6 +24,8 @@ pub struct SelfContactBuffers {
     pub sorted: Handle<UVec4>,
     /// Per particle: the summed corrections (3 fixed-point words) and their count.
     pub delta: Handle<u32>,
+    /// Per particle: the collider features' largest pushes per axis direction (`PUSH_WORDS`).
+    pub pushes: Handle<u32>,
     /// Where each particle was when the last pass ended (the frame's start before the first):
     /// what a pass sweeps from.
     pub start: Handle<Vec4>,
@@ -59,6 +61,9 @@ pub fn owned_primitives(triangles: &[[u32; 3]]) -> Vec<u32> {
 
 /// The timing table's line of a pass's pair search (vertex-triangle and edge-edge).
 pub const SELF_PAIRS_LABEL: &str = "self: vertex-triangle + edge-edge";
+/// The timing table's line of a pass's collider features (vertices and edges) against the
+/// cloth.
+pub const COLLIDER_FEATURES_LABEL: &str = "self: collider vertices + edges";
 
 /// What the self-collision passes of one cloth read and write.
 pub struct SelfContactCloth {
@@ -94,6 +99,7 @@ impl SelfContactBuffers {
             tree: LbvhBuffers::declare(resources, &name, triangles),
             sorted: resources.device(format!("{name}: sorted triangles"), triangles),
             delta: resources.device(format!("{name}: corrections"), 4 * particles),
+            pushes: resources.device(format!("{name}: collider pushes"), PUSH_WORDS * particles),
             start: resources.device(format!("{name}: pass start"), particles),
             owned: resources.device(format!("{name}: owned edges and corners"), triangles),
             particles,
@@ -136,38 +142,40 @@ impl SelfContactBuffers {
 
     /// The pass that ends substep `to` of `substeps` and sweeps from the end of substep
     /// `from - 1` (`from` = the substep after the last pass): triangle collider `collider`'s
-    /// surface vertices against the cloth's faces (`None` for a sphere collider, whose spheres
-    /// are smooth).
-    pub fn collider_vertex_step(
+    /// vertices and edges against the cloth's faces and edges (`None` for a sphere collider,
+    /// whose spheres are smooth).
+    pub fn collider_feature_step(
         &self,
         cloth: &SelfContactCloth,
         collider: &ColliderBuffers,
         (from, to, substeps): (u32, u32, u32),
     ) -> Option<Step> {
-        let (ColliderLeaves::Triangles(mesh), Some((surface, count))) = (&collider.leaves, collider.surface_vertices)
-        else {
+        let (ColliderLeaves::Triangles(mesh), Some((features, count))) = (&collider.leaves, collider.features) else {
             return None;
         };
         let span =
             ContactPush { from: from as f32 / substeps as f32, to: (to + 1) as f32 / substeps as f32, _pad: [0; 2] };
         let t = &self.tree;
         Some(Step::run_with(
-            "self: collider vertices",
-            &COLLIDER_VERTEX_CONTACT,
+            COLLIDER_FEATURES_LABEL,
+            &COLLIDER_FEATURE_CONTACT,
             vec![
                 cloth.params.id(),
                 t.collider.id(),
                 mesh.tree.collider.id(),
                 collider.pose.id(),
                 mesh.vertices.id(),
-                surface.id(),
+                mesh.previous.id(),
+                mesh.indices.id(),
+                features.id(),
                 t.nodes.id(),
                 t.aabbs.id(),
                 t.sorted_bounds.id(),
                 self.sorted.id(),
+                self.owned.id(),
                 cloth.x.id(),
                 self.start.id(),
-                self.delta.id(),
+                self.pushes.id(),
             ],
             bytemuck::cast(span),
             Dispatch::Threads(count),
@@ -183,6 +191,7 @@ impl SelfContactBuffers {
         steps.push(self.triangle_bounds(cloth));
         steps.extend(t.refit_steps());
         steps.push(Step::fill(self.delta, 0));
+        steps.push(Step::fill(self.pushes, 0));
         // One walk per triangle: its owned corners against the triangles it reaches, its owned
         // edges against their owned edges.
         steps.push(Step::run(
@@ -205,7 +214,15 @@ impl SelfContactBuffers {
         steps.push(Step::run(
             "self: apply",
             &APPLY_SELF_CONTACT,
-            vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.delta.id(), self.start.id(), cloth.health.id()],
+            vec![
+                cloth.params.id(),
+                cloth.x.id(),
+                cloth.v.id(),
+                self.delta.id(),
+                self.pushes.id(),
+                self.start.id(),
+                cloth.health.id(),
+            ],
             Dispatch::Threads(self.particles),
         ));
     }

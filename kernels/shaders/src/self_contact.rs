@@ -13,10 +13,12 @@
 //! (`PairWalk`), hands its leaves over in batches (so the pair tests do not run masked inside
 //! the walk's loop on lockstep lanes), and each pair loads the two triangles' corners once;
 //! every test first checks its primitives' swept boxes;
-//! - **collider vertices against cloth faces**: every vertex a triangle collider's surface
-//!   uses, moving with the collider, finds the cloth triangles near it (the vertex does not
-//!   move; the cloth takes the whole correction), so a spike's tip cannot pass through a cloth
-//!   cell between particles;
+//! - **collider features against the cloth**: every collider triangle, moving (and deforming)
+//!   with the collider, walks the cloth's tree with its swept box; the vertices it owns are
+//!   tested against the cloth triangles' faces and the edges it owns against their edges (each
+//!   collider vertex and edge belongs to one of its triangles, like the cloth's), so neither a
+//!   spike's tip nor a ridge can pass through a cloth cell between particles (the collider does
+//!   not move; the cloth takes the whole correction);
 //!
 //! and each pair is pushed apart to the thickness along the direction it was apart at the
 //! pass's start (the face normal, to the particle's starting side, for vertex-triangle),
@@ -30,8 +32,7 @@
 //! rounds differently on llvmpipe.) Each particle then moves by the mean of its corrections and
 //! loses the velocity that drove it into the contact (inelastic; no velocity is added).
 //!
-//! Not yet: collider edges against cloth edges (a sharp ridge can still cut a cell), and
-//! continuous collision of moving triangles beyond this start-side test (a pair that passes
+//! Not yet: continuous collision of moving triangles beyond this start-side test (a pair that passes
 //! through each other within one pass and ends farther apart than the search reach is
 //! missed).
 
@@ -484,6 +485,13 @@ impl Corners {
         self.ids.x == id || self.ids.y == id || self.ids.z == id
     }
 
+    /// The box of the whole triangle over the pass.
+    #[inline]
+    fn swept_box3(&self) -> (Vec3, Vec3) {
+        let (n, t) = (self.now, self.then);
+        (n[0].min(n[1]).min(n[2]).min(t[0]).min(t[1]).min(t[2]), n[0].max(n[1]).max(n[2]).max(t[0]).max(t[1]).max(t[2]))
+    }
+
     /// The box of corners `k` and `m` over the pass (a corner's own when `k == m`).
     #[inline]
     fn swept_box(&self, k: usize, m: usize) -> (Vec3, Vec3) {
@@ -598,10 +606,7 @@ impl<'a> TrianglePairs<'a> {
 /// The corners `owned` marks of triangle `vertices` against triangle `face`.
 #[inline]
 fn corners_against(vertices: &Corners, owned: u32, face: &Corners, thickness: f32, delta: &mut [u32]) {
-    let face_box = (
-        face.now[0].min(face.now[1]).min(face.now[2]).min(face.then[0]).min(face.then[1]).min(face.then[2]),
-        face.now[0].max(face.now[1]).max(face.now[2]).max(face.then[0]).max(face.then[1]).max(face.then[2]),
-    );
+    let face_box = face.swept_box3();
     let mut k = 0;
     while k < 3 {
         if owned & (VERTEX_OWNED_BIT << k) != 0 && within(vertices.swept_box(k, k), face_box, thickness) {
@@ -714,55 +719,118 @@ pub fn self_triangle_contact(
     self_triangle_contact_at(id.x, self_params, tree, owned, (x, x_prev), delta);
 }
 
-/// A collider vertex's pairs with the cloth triangles the walk reaches: the vertex does not
-/// move (weight 0); the triangle's corners take the whole correction.
-struct ColliderVertexPairs<'a> {
-    p0: Vec3,
-    p1: Vec3,
+/// A collider triangle's features (the vertices and edges it owns) against the cloth
+/// triangles one walk reaches: each owned vertex against the cloth triangle's face, each owned
+/// edge against the edges the cloth triangle owns. The collider does not move in response
+/// (weight 0): the cloth's particles take the whole correction.
+struct ColliderFeaturePairs<'a> {
+    /// The collider triangle in the world at the pass's start and end (weights 0).
+    feature: Corners,
+    owned: u32,
     sorted: &'a [UVec4],
+    owned_bits: &'a [u32],
     x: &'a [Vec4],
     x_prev: &'a [Vec4],
     thickness: f32,
-    delta: &'a mut [u32],
+    pushes: &'a mut [u32],
 }
 
-impl LeafVisitor for ColliderVertexPairs<'_> {
+/// Collider corner `k` of `feature` against cloth triangle `face`.
+#[inline]
+fn collider_vertex_face(feature: &Corners, k: usize, face: &Corners, thickness: f32, pushes: &mut [u32]) {
+    let weights = (0.0, face.weights);
+    if let Some(c) = pair_correction((feature.then[k], feature.now[k]), face.then, face.now, weights, thickness) {
+        push_out(pushes, face.ids.x, c.corners[0]);
+        push_out(pushes, face.ids.y, c.corners[1]);
+        push_out(pushes, face.ids.z, c.corners[2]);
+    }
+}
+
+/// Collider edge `k` of `feature` against edge `m` of cloth triangle `cloth`.
+#[inline]
+fn collider_edge_edge(feature: &Corners, k: usize, cloth: &Corners, m: usize, thickness: f32, pushes: &mut [u32]) {
+    let (k1, m1) = ((k + 1) % 3, (m + 1) % 3);
+    let then = [feature.then[k], feature.then[k1], cloth.then[m], cloth.then[m1]];
+    let now = [feature.now[k], feature.now[k1], cloth.now[m], cloth.now[m1]];
+    let w = Vec4::new(0.0, 0.0, cloth.weight(m as u32), cloth.weight(m1 as u32));
+    if let Some(d) = edge_pair_correction(then, now, w, thickness) {
+        push_out(pushes, component(cloth.ids, m as u32), d[2]);
+        push_out(pushes, component(cloth.ids, m1 as u32), d[3]);
+    }
+}
+
+impl LeafVisitor for ColliderFeaturePairs<'_> {
     fn visit(&mut self, leaf: u32) {
-        let corners = self.sorted[leaf as usize];
-        let (ia, ib, ic) = (corners.x as usize, corners.y as usize, corners.z as usize);
-        let (x, x_prev) = (self.x, self.x_prev);
-        let now = [x[ia].xyz(), x[ib].xyz(), x[ic].xyz()];
-        let then = [x_prev[ia].xyz(), x_prev[ib].xyz(), x_prev[ic].xyz()];
-        let weights = (0.0, Vec3::new(x[ia].w, x[ib].w, x[ic].w));
-        if let Some(c) = pair_correction((self.p0, self.p1), then, now, weights, self.thickness) {
-            accumulate(self.delta, corners.x, c.corners[0]);
-            accumulate(self.delta, corners.y, c.corners[1]);
-            accumulate(self.delta, corners.z, c.corners[2]);
+        let ids = self.sorted[leaf as usize];
+        let cloth = Corners::load(ids, (self.x, self.x_prev));
+        let cloth_owned = self.owned_bits[ids.w as usize];
+        let (feature, thickness) = (&self.feature, self.thickness);
+        let face_box = cloth.swept_box3();
+        let mut k = 0;
+        while k < 3 {
+            if self.owned & (VERTEX_OWNED_BIT << k) != 0 && within(feature.swept_box(k, k), face_box, thickness) {
+                collider_vertex_face(feature, k, &cloth, thickness, self.pushes);
+            }
+            if self.owned & (1 << k) != 0 {
+                let edge = feature.swept_box(k, (k + 1) % 3);
+                let mut m = 0;
+                while m < 3 {
+                    if cloth_owned & (1 << m) != 0 && within(edge, cloth.swept_box(m, (m + 1) % 3), thickness) {
+                        collider_edge_edge(feature, k, &cloth, m, thickness, self.pushes);
+                    }
+                    m += 1;
+                }
+            }
+            k += 1;
         }
     }
 }
 
-/// Collider vertex `local` (in the collider's frame, moving with it over the substep `motion`)
-/// against the cloth's faces: a spike's tip or a corner keeps the thickness from every cloth
-/// triangle, on the side it came from, so it cannot poke through a cloth cell between
-/// particles. Returns whether the walk's stack overflowed.
-pub fn collider_vertex_contact_at(
-    local: Vec3,
+/// Where a (possibly deforming) collider's vertex `local` moves over the pass: its frame-start
+/// position `previous` lerped to `local` at the pass's start and end fractions of the frame,
+/// each placed by the pose then.
+#[inline]
+fn collider_point(previous: Vec3, local: Vec3, motion: &SubstepMotion) -> (Vec3, Vec3) {
+    let step = local - previous;
+    (to_world(&motion.start, previous + step * motion.from), to_world(&motion.end, previous + step * motion.to))
+}
+
+/// Collider triangle `triangle` (its owned vertices and edges, `owned`), moving with the
+/// collider over the pass `motion`, against the cloth's faces and edges: a spike's tip or a
+/// ridge keeps the thickness from every cloth triangle and edge, on the side it came from, so
+/// it cannot poke through a cloth cell between particles. Returns whether the walk's stack
+/// overflowed.
+#[allow(clippy::too_many_arguments)]
+pub fn collider_feature_contact_at(
+    triangle: u32,
+    owned: u32,
+    (vertices, previous, indices): (&[Vec4], &[Vec4], &[u32]),
     motion: &SubstepMotion,
     (self_params, thickness): (&ColliderParams, f32),
     (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
+    cloth_owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
-    delta: &mut [u32],
+    pushes: &mut [u32],
 ) -> bool {
-    let (p0, p1) = (to_world(&motion.start, local), to_world(&motion.end, local));
-    let reach = Vec3::splat(thickness.max((p1 - p0).length()));
-    let mut pairs = ColliderVertexPairs { p0, p1, sorted, x, x_prev, thickness, delta };
-    walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (p1 - reach, p1 + reach), &mut pairs)
+    if owned == 0 {
+        return false;
+    }
+    let i = 3 * triangle as usize;
+    let (ia, ib, ic) = (indices[i] as usize, indices[i + 1] as usize, indices[i + 2] as usize);
+    let a = collider_point(previous[ia].xyz(), vertices[ia].xyz(), motion);
+    let b = collider_point(previous[ib].xyz(), vertices[ib].xyz(), motion);
+    let c = collider_point(previous[ic].xyz(), vertices[ic].xyz(), motion);
+    let feature = Corners { ids: UVec4::ZERO, now: [a.1, b.1, c.1], then: [a.0, b.0, c.0], weights: Vec3::ZERO };
+    let (lo, hi) = feature.swept_box3();
+    let reach = Vec3::splat(thickness);
+    let mut pairs =
+        ColliderFeaturePairs { feature, owned, sorted, owned_bits: cloth_owned, x, x_prev, thickness, pushes };
+    walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo - reach, hi + reach), &mut pairs)
 }
 
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
-pub fn collider_vertex_contact(
+pub fn collider_feature_contact(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(push_constant)] push: &ContactPush,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
@@ -770,63 +838,95 @@ pub fn collider_vertex_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] collider: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] pose: &ColliderPose,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] vertices: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] surface_vertices: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] leaf_bounds: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] sorted: &[UVec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] previous: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] features: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] owned: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] pushes: &mut [u32],
 ) {
-    if id.x as usize >= surface_vertices.len() {
+    if id.x as usize >= features.len() {
         return;
     }
-    let local = vertices[surface_vertices[id.x as usize] as usize].xyz();
     let motion = substep_motion(params, pose, push);
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    collider_vertex_contact_at(local, &motion, (self_params, collider.thickness), tree, (x, x_prev), delta);
+    let mesh = (vertices, previous, indices);
+    let limits = (self_params, collider.thickness);
+    let mine = features[id.x as usize];
+    collider_feature_contact_at(id.x, mine, mesh, &motion, limits, tree, owned, (x, x_prev), pushes);
 }
 
-/// Particle `index` against the triangle with corners `corners.xyz` (skipped when it is one).
+/// Words per particle of the collider features' pushes: the largest push along +x, +y, +z and
+/// along -x, -y, -z (fixed point, `FIXED_SCALE`).
+pub const PUSH_WORDS: u32 = 6;
+
+/// Records collider push `d` (m) on particle `i`: per axis direction, the largest so far.
+/// The collider does not give way, so its pushes are not averaged with each other or with the
+/// cloth's own (a mean would let a spike's tip or a ridge through while the pushes that hold
+/// it are diluted by ones along other directions): the particle moves by the per-axis
+/// extremes, which is the largest push when they agree and all of them when they are
+/// orthogonal. Maxima of integers: any order gives the same result.
 #[inline]
-pub fn pair_at(index: u32, corners: UVec4, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32, delta: &mut [u32]) {
-    if corners.x == index || corners.y == index || corners.z == index {
-        return;
+pub fn push_out(pushes: &mut [u32], i: u32, d: Vec3) {
+    let base = (PUSH_WORDS * i) as usize;
+    let mut axis = 0;
+    while axis < 3 {
+        let value = if axis == 0 {
+            d.x
+        } else if axis == 1 {
+            d.y
+        } else {
+            d.z
+        } * FIXED_SCALE;
+        if value > 0.0 {
+            atomics::max(&mut pushes[base + axis], value as u32);
+        } else if value < 0.0 {
+            atomics::max(&mut pushes[base + 3 + axis], (-value) as u32);
+        }
+        axis += 1;
     }
-    let (ia, ib, ic) = (corners.x as usize, corners.y as usize, corners.z as usize);
+}
+
+/// The collider features' push on particle `i` (m).
+#[inline]
+fn collider_push(pushes: &[u32], i: usize) -> Vec3 {
+    let base = PUSH_WORDS as usize * i;
+    let axis = |k: usize| (pushes[base + k] as f32 - pushes[base + 3 + k] as f32) * (1.0 / FIXED_SCALE);
+    Vec3::new(axis(0), axis(1), axis(2))
+}
+
+/// Counts particle `index` in the frame's self-contacts when a pass corrected it (its own
+/// pairs or a collider feature).
+#[inline]
+pub fn count_self_contact(index: u32, (delta, pushes): (&[u32], &[u32]), health: &mut Health) {
     let i = index as usize;
-    let now = [x[ia].xyz(), x[ib].xyz(), x[ic].xyz()];
-    let then = [x_prev[ia].xyz(), x_prev[ib].xyz(), x_prev[ic].xyz()];
-    let weights = (x[i].w, Vec3::new(x[ia].w, x[ib].w, x[ic].w));
-    if let Some(c) = pair_correction((x_prev[i].xyz(), x[i].xyz()), then, now, weights, thickness) {
-        accumulate(delta, index, c.vertex);
-        accumulate(delta, corners.x, c.corners[0]);
-        accumulate(delta, corners.y, c.corners[1]);
-        accumulate(delta, corners.z, c.corners[2]);
-    }
-}
-
-/// Counts particle `index` in the frame's self-contacts when a pass corrected it.
-#[inline]
-pub fn count_self_contact(index: u32, delta: &[u32], health: &mut Health) {
-    if delta[4 * index as usize + 3] > 0 {
+    let base = PUSH_WORDS as usize * i;
+    let pushed =
+        (pushes[base] | pushes[base + 1] | pushes[base + 2]) | (pushes[base + 3] | pushes[base + 4] | pushes[base + 5]);
+    if delta[4 * i + 3] > 0 || pushed != 0 {
         atomics::add(&mut health.self_contacts, 1);
     }
 }
 
-/// Moves particle `index` by the mean of its corrections and removes the velocity that points
-/// against that displacement (inelastic: the contact stops the approach, adds no speed).
-pub fn apply_self_contact_at(index: u32, x: &mut [Vec4], v: &mut [Vec4], delta: &[u32]) {
+/// Moves particle `index` by the mean of its corrections plus the collider features' push, and
+/// removes the velocity that points against that displacement (inelastic: the contact stops
+/// the approach, adds no speed).
+pub fn apply_self_contact_at(index: u32, x: &mut [Vec4], v: &mut [Vec4], (delta, pushes): (&[u32], &[u32])) {
     let i = index as usize;
     let base = 4 * i;
     let count = delta[base + 3];
-    if count == 0 || x[i].w == 0.0 {
+    if x[i].w == 0.0 {
         return;
     }
     // The mean in integers (exact on both sides), then scaled by a power of two (exact).
-    let mean = |word: u32| ((word as i32) / count as i32) as f32;
-    let d = Vec3::new(mean(delta[base]), mean(delta[base + 1]), mean(delta[base + 2])) * (1.0 / FIXED_SCALE);
+    let mean = |word: u32| if count == 0 { 0.0 } else { ((word as i32) / count as i32) as f32 };
+    let d = Vec3::new(mean(delta[base]), mean(delta[base + 1]), mean(delta[base + 2])) * (1.0 / FIXED_SCALE)
+        + collider_push(pushes, i);
     let length2 = d.length_squared();
     if length2 <= 0.0 {
         return;
@@ -848,14 +948,15 @@ pub fn apply_self_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] delta: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] start: &mut [Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] pushes: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] start: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] health: &mut Health,
 ) {
     if id.x >= params.particle_count {
         return;
     }
-    count_self_contact(id.x, delta, health);
-    apply_self_contact_at(id.x, x, v, delta);
+    count_self_contact(id.x, (delta, pushes), health);
+    apply_self_contact_at(id.x, x, v, (delta, pushes));
     // The next pass sweeps from here.
     start[id.x as usize] = x[id.x as usize];
 }
@@ -916,7 +1017,7 @@ mod tests {
         assert_eq!(a, b);
         let mut x = vec![Vec4::new(0.0, 0.0, 0.0, 1.0)];
         let mut v = vec![Vec4::new(0.0, -1.0, 0.0, 0.0)];
-        apply_self_contact_at(0, &mut x, &mut v, &a);
+        apply_self_contact_at(0, &mut x, &mut v, (&a, &[0; 6]));
         let mean = (ds[0] + ds[1] + ds[2]) / 3.0;
         assert!((x[0].truncate() - mean).length() < 1e-7);
         assert!(v[0].truncate().dot(mean.normalize()) >= -1e-6, "approach velocity removed: {}", v[0]);
