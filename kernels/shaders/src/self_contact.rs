@@ -941,6 +941,7 @@ pub fn apply_self_contact_at(index: u32, x: &mut [Vec4], v: &mut [Vec4], (delta,
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(256)))]
 pub fn apply_self_contact(
     #[spirv(global_invocation_id)] id: UVec3,
