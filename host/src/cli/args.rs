@@ -116,8 +116,9 @@ pub(crate) struct Args {
     /// cloth's own coordinates (a mesh's file coordinates), e.g. `--pin-box=-1,0.9,-1,1,1,1`.
     #[arg(long, value_parser = parse_box, allow_hyphen_values = true)]
     pub(crate) pin_box: Option<(Vec3, Vec3)>,
-    /// Self-collision: the cloth's particles keep `--thickness` from its own triangles (vertex
-    /// against triangle). Default: on in the pile scene, off elsewhere.
+    /// Self-collision: the cloth keeps `--thickness` from itself (vertex against triangle, edge
+    /// against edge), and from a triangle collider's vertices and edges (so no spike or ridge
+    /// cuts a cell between particles). Default: on in the pile and garment scenes, off elsewhere.
     #[arg(long, value_enum)]
     pub(crate) self_collision: Option<OnOff>,
     /// Build the grid with listed springs (the kernels of mesh cloths) instead of its fast path:

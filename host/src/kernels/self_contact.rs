@@ -95,6 +95,7 @@ pub static COLLIDER_FEATURE_CONTACT: Kernel = Kernel {
             read("owned"),
             read("x"),
             read("x_prev"),
+            write("delta"),
             write("pushes"),
         ],
         push_constant_size: size_of::<ContactPush>() as u32,
@@ -197,6 +198,7 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
         owned,
         x,
         x_prev,
+        delta,
         pushes,
     ] = d.bindings()?;
     let p: SimParams = params.first()?;
@@ -206,10 +208,11 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let mesh = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
     let (features, owned) = (features.slice::<u32>(), owned.slice::<u32>());
-    let (x, x_prev, pushes) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), pushes.slice_mut::<u32>());
+    let (x, x_prev) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>());
+    let (delta, pushes) = (delta.slice_mut::<u32>(), pushes.slice_mut::<u32>());
     for t in 0..threads.min(features.len() as u32) {
         let mine = features[t as usize];
-        collider_feature_contact_at(t, mine, mesh, &motion, (&c, thickness), tree, owned, (x, x_prev), pushes);
+        collider_feature_contact_at(t, mine, mesh, &motion, (&c, thickness), tree, owned, (x, x_prev), (&mut *delta, &mut *pushes));
     }
     Ok(())
 }

@@ -24,7 +24,7 @@ pub struct SelfContactBuffers {
     pub sorted: Handle<UVec4>,
     /// Per particle: the summed corrections (3 fixed-point words) and their count.
     pub delta: Handle<u32>,
-    /// Per particle: the collider features' largest pushes per axis direction (`PUSH_WORDS`).
+    /// Per particle: the collider edges' largest pushes per axis direction (`PUSH_WORDS`).
     pub pushes: Handle<u32>,
     /// Where each particle was when the last pass ended (the frame's start before the first):
     /// what a pass sweeps from.
@@ -175,6 +175,7 @@ impl SelfContactBuffers {
                 self.owned.id(),
                 cloth.x.id(),
                 self.start.id(),
+                self.delta.id(),
                 self.pushes.id(),
             ],
             bytemuck::cast(span),

@@ -213,6 +213,20 @@ pub fn pair_correction(
     (wp, w): (f32, Vec3),
     thickness: f32,
 ) -> Option<PairCorrection> {
+    pair_correction_within((p0, p1), then, now, (wp, w), (thickness, f32::INFINITY))
+}
+
+/// `pair_correction` that takes a crossing only up to `crossing_depth` beyond the face: a
+/// collider's vertex does not move, so in a pass that moves the cloth about a thickness a real
+/// crossing ends shallow, while a vertex deep under a cloth face that tilted or folded over it
+/// looks crossed too (pushed in full, those drove the cloth on the dragon unstable).
+pub fn pair_correction_within(
+    (p0, p1): (Vec3, Vec3),
+    then: [Vec3; 3],
+    now: [Vec3; 3],
+    (wp, w): (f32, Vec3),
+    (thickness, crossing_depth): (f32, f32),
+) -> Option<PairCorrection> {
     let [a, b, c] = now;
     let normal = (b - a).cross(c - a);
     let area2 = normal.length_squared();
@@ -244,7 +258,7 @@ pub fn pair_correction(
     let height_l = (p1 - q).dot(dir); // height x L
     let target_l = thickness * length; // thickness x L
     let interior = weights.x > 0.0 && weights.y > 0.0 && weights.z > 0.0;
-    let crossed = height_l < 0.0 && interior && start != 0.0;
+    let crossed = height_l < 0.0 && height_l > -crossing_depth * length && interior && start != 0.0;
     if !(distance < thickness || crossed) || height_l >= target_l {
         return None;
     }
@@ -368,10 +382,19 @@ pub fn closest_between_segments(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> (f32, f32
 
 /// The correction of edge `a`-`b` against edge `c`-`d` (their ends `then`, at the substep's
 /// start, and `now`; `w` their pin weights): none unless the edges come within `thickness`, or
-/// crossed (the vector between their closest points reversed while both stayed inside their
-/// edges); then they are pushed apart along the direction they were apart at the start, to
-/// `thickness`, split by weight. Returns the four ends' displacements.
-pub fn edge_pair_correction(then: [Vec3; 4], now: [Vec3; 4], w: Vec4, thickness: f32) -> Option<[Vec3; 4]> {
+/// crossed when `undo_crossing` (the vector between their closest points reversed while both
+/// stayed inside their edges); then they are pushed apart along the direction they were apart
+/// at the start, to `thickness`, split by weight. Returns the four ends' displacements. The
+/// crossing test is a heuristic (edges sliding past each other can reverse that vector too):
+/// a collider's edges use proximity alone, since on a dense scan its false crossings, each
+/// pushed in full, drove a cloth unstable (the dragon); the cloth's own keep it.
+pub fn edge_pair_correction(
+    then: [Vec3; 4],
+    now: [Vec3; 4],
+    w: Vec4,
+    thickness: f32,
+    undo_crossing: bool,
+) -> Option<[Vec3; 4]> {
     let [a, b, c, d] = now;
     let (s, t) = closest_between_segments(a, b, c, d);
     let gap = (a + (b - a) * s) - (c + (d - c) * t);
@@ -397,7 +420,7 @@ pub fn edge_pair_correction(then: [Vec3; 4], now: [Vec3; 4], w: Vec4, thickness:
     let height_l = gap.dot(dir); // height x |dir|
     let target_l = thickness * length;
     let inside = s > 0.0 && s < 1.0 && t > 0.0 && t < 1.0;
-    let crossed = height_l < 0.0 && inside;
+    let crossed = undo_crossing && height_l < 0.0 && inside;
     if !(distance < thickness || crossed) || height_l >= target_l {
         return None;
     }
@@ -408,24 +431,6 @@ pub fn edge_pair_correction(then: [Vec3; 4], now: [Vec3; 4], w: Vec4, thickness:
     }
     let k = (target_l - height_l) * (1.0 / (dir2 * denom));
     Some([dir * (w.x * ga * k), dir * (w.y * gb * k), dir * (w.z * gc * k), dir * (w.w * gd * k)])
-}
-
-/// Edges `e` (ends `e.xy`) and `f` against each other (skipped when they share a particle).
-#[inline]
-pub fn edge_pair_at(e: UVec4, f: UVec4, (x, x_prev): (&[Vec4], &[Vec4]), thickness: f32, delta: &mut [u32]) {
-    if e.x == f.x || e.x == f.y || e.y == f.x || e.y == f.y {
-        return;
-    }
-    let ids = [e.x as usize, e.y as usize, f.x as usize, f.y as usize];
-    let now = [x[ids[0]].xyz(), x[ids[1]].xyz(), x[ids[2]].xyz(), x[ids[3]].xyz()];
-    let then = [x_prev[ids[0]].xyz(), x_prev[ids[1]].xyz(), x_prev[ids[2]].xyz(), x_prev[ids[3]].xyz()];
-    let w = Vec4::new(x[ids[0]].w, x[ids[1]].w, x[ids[2]].w, x[ids[3]].w);
-    if let Some(d) = edge_pair_correction(then, now, w, thickness) {
-        accumulate(delta, e.x, d[0]);
-        accumulate(delta, e.y, d[1]);
-        accumulate(delta, f.x, d[2]);
-        accumulate(delta, f.y, d[3]);
-    }
 }
 
 /// Bit `VERTEX_OWNED_BIT << k` of a triangle's `owned` bits: the triangle is the first to have
@@ -534,7 +539,7 @@ fn edge_edge(e: &Corners, k: usize, f: &Corners, m: usize, thickness: f32, delta
     let then = [e.then[k], e.then[k1], f.then[m], f.then[m1]];
     let now = [e.now[k], e.now[k1], f.now[m], f.now[m1]];
     let w = Vec4::new(e.weight(k as u32), e.weight(k1 as u32), f.weight(m as u32), f.weight(m1 as u32));
-    if let Some(d) = edge_pair_correction(then, now, w, thickness) {
+    if let Some(d) = edge_pair_correction(then, now, w, thickness, true) {
         accumulate(delta, ids[0], d[0]);
         accumulate(delta, ids[1], d[1]);
         accumulate(delta, ids[2], d[2]);
@@ -732,17 +737,19 @@ struct ColliderFeaturePairs<'a> {
     x: &'a [Vec4],
     x_prev: &'a [Vec4],
     thickness: f32,
+    delta: &'a mut [u32],
     pushes: &'a mut [u32],
 }
 
-/// Collider corner `k` of `feature` against cloth triangle `face`.
+/// Collider corner `k` of `feature` against cloth triangle `face` (into the cloth's own mean).
 #[inline]
-fn collider_vertex_face(feature: &Corners, k: usize, face: &Corners, thickness: f32, pushes: &mut [u32]) {
+fn collider_vertex_face(feature: &Corners, k: usize, face: &Corners, thickness: f32, delta: &mut [u32]) {
     let weights = (0.0, face.weights);
-    if let Some(c) = pair_correction((feature.then[k], feature.now[k]), face.then, face.now, weights, thickness) {
-        push_out(pushes, face.ids.x, c.corners[0]);
-        push_out(pushes, face.ids.y, c.corners[1]);
-        push_out(pushes, face.ids.z, c.corners[2]);
+    let limits = (thickness, COLLIDER_CROSSING_DEPTH * thickness);
+    if let Some(c) = pair_correction_within((feature.then[k], feature.now[k]), face.then, face.now, weights, limits) {
+        accumulate(delta, face.ids.x, c.corners[0]);
+        accumulate(delta, face.ids.y, c.corners[1]);
+        accumulate(delta, face.ids.z, c.corners[2]);
     }
 }
 
@@ -753,9 +760,9 @@ fn collider_edge_edge(feature: &Corners, k: usize, cloth: &Corners, m: usize, th
     let then = [feature.then[k], feature.then[k1], cloth.then[m], cloth.then[m1]];
     let now = [feature.now[k], feature.now[k1], cloth.now[m], cloth.now[m1]];
     let w = Vec4::new(0.0, 0.0, cloth.weight(m as u32), cloth.weight(m1 as u32));
-    if let Some(d) = edge_pair_correction(then, now, w, thickness) {
-        push_out(pushes, component(cloth.ids, m as u32), d[2]);
-        push_out(pushes, component(cloth.ids, m1 as u32), d[3]);
+    if let Some(d) = edge_pair_correction(then, now, w, thickness, false) {
+        push_out(pushes, component(cloth.ids, m as u32), d[2], COLLIDER_PUSH_LIMIT * thickness);
+        push_out(pushes, component(cloth.ids, m1 as u32), d[3], COLLIDER_PUSH_LIMIT * thickness);
     }
 }
 
@@ -769,7 +776,7 @@ impl LeafVisitor for ColliderFeaturePairs<'_> {
         let mut k = 0;
         while k < 3 {
             if self.owned & (VERTEX_OWNED_BIT << k) != 0 && within(feature.swept_box(k, k), face_box, thickness) {
-                collider_vertex_face(feature, k, &cloth, thickness, self.pushes);
+                collider_vertex_face(feature, k, &cloth, thickness, self.delta);
             }
             if self.owned & (1 << k) != 0 {
                 let edge = feature.swept_box(k, (k + 1) % 3);
@@ -810,7 +817,7 @@ pub fn collider_feature_contact_at(
     (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
     cloth_owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
-    pushes: &mut [u32],
+    (delta, pushes): (&mut [u32], &mut [u32]),
 ) -> bool {
     if owned == 0 {
         return false;
@@ -824,7 +831,7 @@ pub fn collider_feature_contact_at(
     let (lo, hi) = feature.swept_box3();
     let reach = Vec3::splat(thickness);
     let mut pairs =
-        ColliderFeaturePairs { feature, owned, sorted, owned_bits: cloth_owned, x, x_prev, thickness, pushes };
+        ColliderFeaturePairs { feature, owned, sorted, owned_bits: cloth_owned, x, x_prev, thickness, delta, pushes };
     walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo - reach, hi + reach), &mut pairs)
 }
 
@@ -848,7 +855,8 @@ pub fn collider_feature_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] owned: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] x: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] pushes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] pushes: &mut [u32],
 ) {
     if id.x as usize >= features.len() {
         return;
@@ -858,21 +866,32 @@ pub fn collider_feature_contact(
     let mesh = (vertices, previous, indices);
     let limits = (self_params, collider.thickness);
     let mine = features[id.x as usize];
-    collider_feature_contact_at(id.x, mine, mesh, &motion, limits, tree, owned, (x, x_prev), pushes);
+    collider_feature_contact_at(id.x, mine, mesh, &motion, limits, tree, owned, (x, x_prev), (delta, pushes));
 }
 
-/// Words per particle of the collider features' pushes: the largest push along +x, +y, +z and
+/// How deep beyond a cloth face a collider vertex may be and still count as having crossed it
+/// in a pass, in thicknesses (`pair_correction_within`).
+pub const COLLIDER_CROSSING_DEPTH: f32 = 2.0;
+
+/// The most a collider edge pushes a particle along each axis in one pass, in thicknesses
+/// (`push_out`).
+pub const COLLIDER_PUSH_LIMIT: f32 = 1.0;
+
+/// Words per particle of the collider edges' pushes: the largest push along +x, +y, +z and
 /// along -x, -y, -z (fixed point, `FIXED_SCALE`).
 pub const PUSH_WORDS: u32 = 6;
 
-/// Records collider push `d` (m) on particle `i`: per axis direction, the largest so far.
-/// The collider does not give way, so its pushes are not averaged with each other or with the
-/// cloth's own (a mean would let a spike's tip or a ridge through while the pushes that hold
-/// it are diluted by ones along other directions): the particle moves by the per-axis
-/// extremes, which is the largest push when they agree and all of them when they are
-/// orthogonal. Maxima of integers: any order gives the same result.
+/// Records collider-edge push `d` (m) on particle `i`: per axis direction, the largest so far,
+/// at most `limit`. These pushes are not averaged with the particle's other corrections: in
+/// one mean with a collider vertex's push up against a cloth face, the pushes sideways from
+/// the edges around it diluted it and a spike's tip went through. So the particle moves by the
+/// mean of its pair corrections (its own pairs and the collider's vertices) plus the per-axis
+/// extremes of the edge pushes (the largest when they agree, all of them when they are
+/// orthogonal; integer maxima, so any order gives the same result). Bounded by a thickness per
+/// axis and pass, and proximity alone (`edge_pair_correction`): larger edge pushes made the
+/// cloth on the dense dragon scan unstable (frame 73-75 with limits of 2 and 3 thicknesses).
 #[inline]
-pub fn push_out(pushes: &mut [u32], i: u32, d: Vec3) {
+pub fn push_out(pushes: &mut [u32], i: u32, d: Vec3, limit: f32) {
     let base = (PUSH_WORDS * i) as usize;
     let mut axis = 0;
     while axis < 3 {
@@ -882,7 +901,9 @@ pub fn push_out(pushes: &mut [u32], i: u32, d: Vec3) {
             d.y
         } else {
             d.z
-        } * FIXED_SCALE;
+        }
+        .clamp(-limit, limit)
+            * FIXED_SCALE;
         if value > 0.0 {
             atomics::max(&mut pushes[base + axis], value as u32);
         } else if value < 0.0 {
@@ -892,7 +913,7 @@ pub fn push_out(pushes: &mut [u32], i: u32, d: Vec3) {
     }
 }
 
-/// The collider features' push on particle `i` (m).
+/// The collider edges' push on particle `i` (m).
 #[inline]
 fn collider_push(pushes: &[u32], i: usize) -> Vec3 {
     let base = PUSH_WORDS as usize * i;
