@@ -12,6 +12,7 @@ use crate::programs::contact::{ColliderBuffers, ColliderLeaves, ContactBuffers, 
 use crate::programs::self_contact::SelfContactBuffers;
 use crate::programs::spheres::SphereBvh;
 use crate::programs::triangles::TriangleBvh;
+use drape_kernels::self_contact::PUSH_WORDS;
 use drape_types::{ColliderParams, ColliderPose, RigidPose};
 
 pub(crate) struct SolverProgram {
@@ -80,6 +81,7 @@ impl SolverProgram {
                 initial.push((s.tree.collider.id(), bytemuck::bytes_of(&params).to_vec()));
                 let owned = crate::programs::self_contact::owned_primitives(triangles);
                 initial.push((s.owned.id(), bytemuck::cast_slice::<_, u8>(&owned).to_vec()));
+                initial.push((s.pushes.id(), vec![0; 4 * (PUSH_WORDS as usize) * cloth.positions.len()]));
             }
             cloths.push(b);
         }

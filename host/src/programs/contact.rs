@@ -91,6 +91,12 @@ impl ColliderLeaves {
 
 }
 
+/// The push constants of work spanning substeps `first..end` of a frame of `substeps`: the
+/// fractions of the frame where it starts and ends (what the colliders' poses interpolate at).
+pub fn substep_span(first: u32, end: u32, substeps: u32) -> ContactPush {
+    ContactPush { from: first as f32 / substeps as f32, to: end as f32 / substeps as f32, _pad: [0; 2] }
+}
+
 /// One collider's buffers: its LBVH (built in the collider's own frame) and its pose at the
 /// frame's start and end. Every cloth's contact with it reads them.
 pub struct ColliderBuffers {
@@ -193,11 +199,7 @@ impl ContactBuffers {
     ) {
         let (leaves, pose) = (collider.leaves.kind(), collider.pose);
         let tree = leaves.tree();
-        let span = ContactPush {
-            from: substep as f32 / substeps as f32,
-            to: (substep + 1) as f32 / substeps as f32,
-            _pad: [0; 2],
-        };
+        let span = substep_span(substep, substep + 1, substeps);
         let push: [u32; 4] = bytemuck::cast(span);
         let (params, collider) = (cloth.params.id(), tree.collider.id());
         let dispatch = match &self.search {

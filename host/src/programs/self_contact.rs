@@ -5,7 +5,7 @@
 //! their summed corrections (`drape_kernels::self_contact`). A pass sweeps from where the last
 //! one left the particles (`start`), so passes may be several substeps apart: `pass_due`.
 
-use super::contact::{ColliderBuffers, ColliderLeaves};
+use super::contact::{ColliderBuffers, ColliderLeaves, substep_span};
 use super::lbvh::LbvhBuffers;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_contact::{
@@ -14,7 +14,7 @@ use crate::kernels::self_contact::{
 };
 use drape_kernels::self_contact::{PUSH_WORDS, VERTEX_OWNED_BIT};
 use std::collections::HashSet;
-use drape_types::{ColliderParams, ContactPush, Health, SimParams};
+use drape_types::{ColliderParams, Health, SimParams};
 use glam::{UVec4, Vec4};
 
 /// The buffers of one cloth's self-collision.
@@ -153,8 +153,7 @@ impl SelfContactBuffers {
         let (ColliderLeaves::Triangles(mesh), Some((features, count))) = (&collider.leaves, collider.features) else {
             return None;
         };
-        let span =
-            ContactPush { from: from as f32 / substeps as f32, to: (to + 1) as f32 / substeps as f32, _pad: [0; 2] };
+        let span = substep_span(from, to + 1, substeps);
         let t = &self.tree;
         Some(Step::run_with(
             COLLIDER_FEATURES_LABEL,
@@ -192,7 +191,11 @@ impl SelfContactBuffers {
         steps.push(self.triangle_bounds(cloth));
         steps.extend(t.refit_steps());
         steps.push(Step::fill(self.delta, 0));
-        steps.push(Step::fill(self.pushes, 0));
+        if !features.is_empty() {
+            // Only the colliders' edges push; without a triangle collider the pushes stay the
+            // zeros they start as.
+            steps.push(Step::fill(self.pushes, 0));
+        }
         // One walk per triangle: its owned corners against the triangles it reaches, its owned
         // edges against their owned edges.
         steps.push(Step::run(

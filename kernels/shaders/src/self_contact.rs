@@ -522,6 +522,14 @@ fn vertex_face(vertex: &Corners, k: usize, face: &Corners, thickness: f32, delta
     }
 }
 
+/// The ends of edge `k` of triangle `e` (corners k and k + 1) and of edge `m` of triangle `f`,
+/// at the pass's start and end: what `edge_pair_correction` takes.
+#[inline]
+fn edge_ends(e: &Corners, k: usize, f: &Corners, m: usize) -> ([Vec3; 4], [Vec3; 4]) {
+    let (k1, m1) = ((k + 1) % 3, (m + 1) % 3);
+    ([e.then[k], e.then[k1], f.then[m], f.then[m1]], [e.now[k], e.now[k1], f.now[m], f.now[m1]])
+}
+
 /// Edge `k` of triangle `e` (corners k and k + 1) against edge `m` of triangle `f` (skipped
 /// when they share a particle).
 #[inline]
@@ -536,8 +544,7 @@ fn edge_edge(e: &Corners, k: usize, f: &Corners, m: usize, thickness: f32, delta
     if ids[0] == ids[2] || ids[0] == ids[3] || ids[1] == ids[2] || ids[1] == ids[3] {
         return;
     }
-    let then = [e.then[k], e.then[k1], f.then[m], f.then[m1]];
-    let now = [e.now[k], e.now[k1], f.now[m], f.now[m1]];
+    let (then, now) = edge_ends(e, k, f, m);
     let w = Vec4::new(e.weight(k as u32), e.weight(k1 as u32), f.weight(m as u32), f.weight(m1 as u32));
     if let Some(d) = edge_pair_correction(then, now, w, thickness, true) {
         accumulate(delta, ids[0], d[0]);
@@ -756,9 +763,8 @@ fn collider_vertex_face(feature: &Corners, k: usize, face: &Corners, thickness: 
 /// Collider edge `k` of `feature` against edge `m` of cloth triangle `cloth`.
 #[inline]
 fn collider_edge_edge(feature: &Corners, k: usize, cloth: &Corners, m: usize, thickness: f32, pushes: &mut [u32]) {
-    let (k1, m1) = ((k + 1) % 3, (m + 1) % 3);
-    let then = [feature.then[k], feature.then[k1], cloth.then[m], cloth.then[m1]];
-    let now = [feature.now[k], feature.now[k1], cloth.now[m], cloth.now[m1]];
+    let m1 = (m + 1) % 3;
+    let (then, now) = edge_ends(feature, k, cloth, m);
     let w = Vec4::new(0.0, 0.0, cloth.weight(m as u32), cloth.weight(m1 as u32));
     if let Some(d) = edge_pair_correction(then, now, w, thickness, false) {
         push_out(pushes, component(cloth.ids, m as u32), d[2], COLLIDER_PUSH_LIMIT * thickness);
