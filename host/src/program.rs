@@ -107,10 +107,10 @@ impl SolverProgram {
             };
             let mut b = ColliderBuffers::declare(&mut resources, &name, leaves);
             if let ColliderShape::Triangles { triangles, .. } = &c.shape {
-                let owned = crate::programs::self_contact::owned_primitives(triangles);
-                let handle = resources.device(format!("{name}: owned vertices and edges"), owned.len() as u32);
-                initial.push((handle.id(), bytemuck::cast_slice::<_, u8>(&owned).to_vec()));
-                b.features = Some((handle, owned.len() as u32));
+                let features = crate::programs::self_contact::collider_features(triangles);
+                let handle = resources.device(format!("{name}: features"), features.len() as u32);
+                initial.push((handle.id(), bytemuck::cast_slice::<_, u8>(&features).to_vec()));
+                b.features = Some((handle, features.len() as u32));
             }
             initial.push((b.tree().collider.id(), bytemuck::bytes_of(&params).to_vec()));
             let pose = ColliderPose { previous: c.pose, current: c.pose };

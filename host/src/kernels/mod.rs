@@ -15,7 +15,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 34] = [
+pub const ALL: [&Kernel; 35] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::VERTEX_NORMALS,
@@ -28,6 +28,7 @@ pub const ALL: [&Kernel; 34] = [
     &self_contact::SELF_TRIANGLE_CONTACT,
     &self_contact::COLLIDER_FEATURE_CONTACT,
     &self_contact::APPLY_SELF_CONTACT,
+    &self_contact::APPLY_COLLIDER_PUSHES,
     &sort::RADIX_COUNT,
     &sort::RADIX_SCATTER,
     &sort::SCAN_BLOCKS,

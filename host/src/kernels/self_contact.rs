@@ -7,7 +7,7 @@ use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::{
-    SCENE_THREADS, apply_self_contact_at, copy_start, count_self_contact, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
+    SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, copy_start, count_self_contact, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
     collider_feature_contact_at, self_triangle_contact_at, write_scene,
 };
 use drape_kernels::contact::substep_motion;
@@ -113,6 +113,16 @@ pub static APPLY_SELF_CONTACT: Kernel = Kernel {
     cpu: apply_cpu,
 };
 
+/// The collider edges' pushes moved into the positions, before the pass's pair search.
+pub static APPLY_COLLIDER_PUSHES: Kernel = Kernel {
+    spec: spec(
+        "self_contact::apply_collider_pushes",
+        &[read("params"), write("x"), write("v"), read("pushes")],
+        WORKGROUP_SIZE,
+    ),
+    cpu: apply_pushes_cpu,
+};
+
 /// The lanes' bounds reduced (min/max is exact in any order), as the kernel does.
 fn scene_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let [params, x, self_params, start] = d.bindings()?;
@@ -160,8 +170,19 @@ fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (start, health) = (start.slice_mut::<Vec4>(), health.first_mut::<Health>()?);
     for i in 0..threads.min(p.particle_count) {
         count_self_contact(i, corrections, health);
-        apply_self_contact_at(i, x, v, corrections);
+        apply_self_contact_at(i, x, v, corrections.0);
         start[i as usize] = x[i as usize];
+    }
+    Ok(())
+}
+
+fn apply_pushes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [params, x, v, pushes] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let (x, v, pushes) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>(), pushes.slice::<u32>());
+    for i in 0..threads.min(p.particle_count) {
+        apply_collider_push_at(i, x, v, pushes);
     }
     Ok(())
 }
@@ -207,7 +228,7 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
     let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let mesh = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
-    let (features, owned) = (features.slice::<u32>(), owned.slice::<u32>());
+    let (features, owned) = (features.slice::<UVec4>(), owned.slice::<u32>());
     let (x, x_prev) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>());
     let (delta, pushes) = (delta.slice_mut::<u32>(), pushes.slice_mut::<u32>());
     for t in 0..threads.min(features.len() as u32) {

@@ -102,10 +102,10 @@ pub fn substep_span(first: u32, end: u32, substeps: u32) -> ContactPush {
 pub struct ColliderBuffers {
     pub leaves: ColliderLeaves,
     pub pose: Handle<ColliderPose>,
-    /// Per triangle of a triangle collider, the vertices and edges it owns (bits as a cloth's,
-    /// `owned_primitives`), and the triangle count: what a self-colliding cloth tests against
-    /// its faces and edges.
-    pub features: Option<(Handle<u32>, u32)>,
+    /// Per triangle of a triangle collider, its neighbours' apexes and the vertices and edges
+    /// it owns (`self_contact::collider_features`), and the triangle count: what a
+    /// self-colliding cloth tests against its faces and edges.
+    pub features: Option<(Handle<glam::UVec4>, u32)>,
 }
 
 impl ColliderBuffers {

@@ -1,19 +1,20 @@
 //! A cloth's self-collision as a sub-graph over handles: an LBVH over the cloth's own triangles
 //! (built by the generic builder at the frame's start, from a Morton box the GPU measures;
 //! refit at each pass) and, in each pass (after the collider's response of the substep it
-//! ends), the vertex-triangle, edge-edge and collider-vertex searches and the application of
-//! their summed corrections (`drape_kernels::self_contact`). A pass sweeps from where the last
+//! ends), the collider features (vertices into the pass's sums, edges' pushes applied at once),
+//! the vertex-triangle and edge-edge searches and the application of the summed corrections
+//! (`drape_kernels::self_contact`). A pass sweeps from where the last
 //! one left the particles (`start`), so passes may be several substeps apart: `pass_due`.
 
 use super::contact::{ColliderBuffers, ColliderLeaves, substep_span};
 use super::lbvh::LbvhBuffers;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_contact::{
-    APPLY_SELF_CONTACT, CLOTH_TRIANGLE_BOUNDS, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
+    APPLY_COLLIDER_PUSHES, APPLY_SELF_CONTACT, CLOTH_TRIANGLE_BOUNDS, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
     SELF_TRIANGLE_CONTACT,
 };
-use drape_kernels::self_contact::{PUSH_WORDS, VERTEX_OWNED_BIT};
-use std::collections::HashSet;
+use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
+use std::collections::{HashMap, HashSet};
 use drape_types::{ColliderParams, Health, SimParams};
 use glam::{UVec4, Vec4};
 
@@ -57,6 +58,36 @@ pub fn owned_primitives(triangles: &[[u32; 3]]) -> Vec<u32> {
         owned.push(bits);
     }
     owned
+}
+
+/// Per collider triangle: the apex of its neighbour across each edge (xyz; `NO_NEIGHBOUR` at a
+/// boundary or an edge shared by more than two triangles) and the vertices and edges it owns
+/// (w, as `owned_primitives`): what the collider's features are tested with, each edge pushing
+/// only where the surface folds enough at it (`drape_kernels::self_contact::sharp_for`).
+pub fn collider_features(triangles: &[[u32; 3]]) -> Vec<UVec4> {
+    let mut sides: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    for corners in triangles {
+        for k in 0..3 {
+            let (p, q) = (corners[k], corners[(k + 1) % 3]);
+            sides.entry((p.min(q), p.max(q))).or_default().push(corners[(k + 2) % 3]);
+        }
+    }
+    let owned = owned_primitives(triangles);
+    triangles
+        .iter()
+        .zip(owned)
+        .map(|(corners, bits)| {
+            let across = |k: usize| {
+                let (p, q, apex) = (corners[k], corners[(k + 1) % 3], corners[(k + 2) % 3]);
+                match sides.get(&(p.min(q), p.max(q))).map(Vec::as_slice) {
+                    Some(&[a, b]) if a == apex => b,
+                    Some(&[a, b]) if b == apex => a,
+                    _ => NO_NEIGHBOUR,
+                }
+            };
+            UVec4::new(across(0), across(1), across(2), bits)
+        })
+        .collect()
 }
 
 /// The timing table's line of a pass's pair search (vertex-triangle and edge-edge).
@@ -183,9 +214,11 @@ impl SelfContactBuffers {
     }
 
     /// A pass, after the collider's response of the substep it ends: refit to the triangles
-    /// swept since the last pass, find the pairs (and run `features`, the colliders' vertices
-    /// against the faces, into the same sums), apply the corrections (which records the next
-    /// pass's start).
+    /// swept since the last pass; `features` (the colliders' vertices and edges against the
+    /// cloth: vertex corrections into the pass's sums, edge pushes applied at once and the tree
+    /// refit again); then the pairs, and the mean of all corrections applied (which records the
+    /// next pass's start). The pairs sweep the pushes with the rest of the pass's motion, so a
+    /// push through a layer of cloth is a crossing they undo.
     pub fn substep_steps(&self, cloth: &SelfContactCloth, features: Vec<Step>, steps: &mut Vec<Step>) {
         let t = &self.tree;
         steps.push(self.triangle_bounds(cloth));
@@ -195,6 +228,15 @@ impl SelfContactBuffers {
             // Only the colliders' edges push; without a triangle collider the pushes stay the
             // zeros they start as.
             steps.push(Step::fill(self.pushes, 0));
+            steps.extend(features);
+            steps.push(Step::run(
+                "self: collider pushes",
+                &APPLY_COLLIDER_PUSHES,
+                vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.pushes.id()],
+                Dispatch::Threads(self.particles),
+            ));
+            steps.push(self.triangle_bounds(cloth));
+            steps.extend(t.refit_steps());
         }
         // One walk per triangle: its owned corners against the triangles it reaches, its owned
         // edges against their owned edges.
@@ -214,7 +256,6 @@ impl SelfContactBuffers {
             ],
             Dispatch::Threads(t.leaves),
         ));
-        steps.extend(features);
         steps.push(Step::run(
             "self: apply",
             &APPLY_SELF_CONTACT,
@@ -234,7 +275,31 @@ impl SelfContactBuffers {
 
 #[cfg(test)]
 mod tests {
-    use super::{pass_due, passes_for};
+    use super::{collider_features, pass_due, passes_for};
+    use drape_kernels::self_contact::NO_NEIGHBOUR;
+    use glam::UVec4;
+
+    /// Each edge's neighbour apex: the other triangle's third corner across a shared edge, none
+    /// at a boundary or where three triangles share the edge; owned bits as a cloth's.
+    #[test]
+    fn collider_features_name_the_apex_across_each_edge() {
+        // A quad split along 0-2: the diagonal has a neighbour, the border none.
+        let quad = [[0, 1, 2], [0, 2, 3]];
+        let f = collider_features(&quad);
+        assert_eq!(f[0], UVec4::new(NO_NEIGHBOUR, NO_NEIGHBOUR, 3, 0b111_111));
+        assert_eq!(f[1], UVec4::new(1, NO_NEIGHBOUR, NO_NEIGHBOUR, (0b100 << 3) | 0b110));
+        // A tetrahedron: every edge between two faces.
+        let tetra = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]];
+        for (t, f) in tetra.iter().zip(collider_features(&tetra)) {
+            for k in 0..3 {
+                let across = [f.x, f.y, f.z][k];
+                assert!(across != NO_NEIGHBOUR && !t.contains(&across), "{t:?}: {f}");
+            }
+        }
+        // Three triangles on one edge (0-1): no single neighbour.
+        let fan = [[0, 1, 2], [1, 0, 3], [0, 1, 4]];
+        assert!(collider_features(&fan).iter().all(|f| f.x == NO_NEIGHBOUR));
+    }
 
     /// The passes: as many as asked (clamped to 1..=substeps), the last substep always one, and
     /// spread so no two are further apart than the even spacing rounded up; with the plan's
