@@ -888,6 +888,12 @@ pub fn collider_feature_contact_at(
     let b = collider_point(previous[ib].xyz(), vertices[ib].xyz(), motion);
     let c = collider_point(previous[ic].xyz(), vertices[ic].xyz(), motion);
     let corners = [a.1, b.1, c.1];
+    let (lo, hi) = (a.0.min(b.0).min(c.0).min(a.1).min(b.1).min(c.1), a.0.max(b.0).max(c.0).max(a.1).max(b.1).max(c.1));
+    let reach = Vec3::splat(thickness);
+    let (lo, hi) = (lo - reach, hi + reach);
+    if self_params.leaf_count > 1 && !box_meets(&aabbs[0], lo, hi) {
+        return false; // away from the whole cloth (the tree's root): no folds to measure
+    }
     // The folds at the pass's end (a deforming collider's change).
     let mesh = (vertices, previous);
     let folds = Vec3::new(
@@ -896,8 +902,6 @@ pub fn collider_feature_contact_at(
         edge_fold((2, feature.z), corners, mesh, motion),
     );
     let feature = Corners { ids: UVec4::ZERO, now: corners, then: [a.0, b.0, c.0], weights: Vec3::ZERO };
-    let (lo, hi) = feature.swept_box3();
-    let reach = Vec3::splat(thickness);
     let mut pairs = ColliderFeaturePairs {
         feature,
         owned,
@@ -910,7 +914,7 @@ pub fn collider_feature_contact_at(
         delta,
         pushes,
     };
-    walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo - reach, hi + reach), &mut pairs)
+    walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo, hi), &mut pairs)
 }
 
 #[allow(clippy::too_many_arguments)]
