@@ -977,14 +977,14 @@ pub fn fold(a: Vec3, b: Vec3, apex: Vec3, across: Vec3) -> f32 {
     }
     let off_edge = |p: Vec3| {
         let r = p - a;
-        r - edge * (r.dot(edge) / length2)
+        r - edge * (r.dot(edge) * (1.0 / length2))
     };
     let (u, w) = (off_edge(apex), off_edge(across));
     let norms = (u.length_squared() * w.length_squared()).sqrt();
     if norms <= 0.0 {
         return 2.0;
     }
-    1.0 + u.dot(w) / norms
+    1.0 + u.dot(w) * (1.0 / norms)
 }
 
 /// Whether a collider edge folded by `fold` can come near a cloth edge of squared length
