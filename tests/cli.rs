@@ -16,6 +16,7 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
     let cases: &[(&[&str], i32, &str)] = &[
         (&["--scene", "swing", "--mesh", "bunny"], usage, "--mesh does nothing in the swing scene"),
         (&["--scene", "swing", "--friction", "0.1"], usage, "--friction does nothing in the swing scene"),
+        (&["--scene", "swing", "--thickness", "0.002"], usage, "--thickness does nothing in the swing scene"),
         (&["--wind", "1,0,0"], usage, "--wind only applies to the swing scene"),
         (&["--scene", "pile", "--holes", "keep"], usage, "--holes does nothing in the pile scene"),
         (&["--voxels", "8"], usage, "--voxels only applies with --contact spheres"),
@@ -51,6 +52,17 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         assert!(stderr.contains(needle), "{args:?}: the message must say `{needle}`:\n{stderr}");
         assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
     }
+}
+
+/// `--thickness` is what a self-colliding cloth keeps from itself, so the swing scene (no
+/// collider) takes it with `--self-collision on` (and refuses it without, above).
+#[test]
+fn thickness_sets_the_swing_scene_self_collision() {
+    let output =
+        drape(&["--scene", "swing", "--grid", "8", "--frames", "2", "--self-collision", "on", "--thickness", "0.002"]);
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
+    assert!(stdout.contains("self-collision on (2.0 mm)"), "{stdout}");
 }
 
 /// `--wind -1,0,0` and `--stiffness 40,10,2`: vectors as X,Y,Z, negatives included (the swing

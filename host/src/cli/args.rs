@@ -86,7 +86,8 @@ pub(crate) struct Args {
     /// Collider voxels per axis (one sphere per non-empty voxel; `--contact spheres`).
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=256))]
     pub(crate) voxels: u32,
-    /// Contact thickness (m), in (0, 0.5].
+    /// Contact thickness (m), in (0, 0.5]: kept from the colliders and, with
+    /// `--self-collision on`, by the cloth from itself.
     #[arg(long, default_value_t = drape::scenes::DEFAULT_THICKNESS, value_parser = parse_thickness, allow_hyphen_values = true)]
     pub(crate) thickness: f32,
     /// Coulomb friction coefficient of the contact, in [0, 10] (0 = the paper's frictionless
@@ -234,7 +235,9 @@ pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), Strin
 pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
     let collider_flags = ["mesh", "contact", "holes", "voxels", "thickness", "friction", "search", "brute_force"];
     let flag = format!("--{}", id.replace('_', "-"));
-    if args.scene == SceneArg::Swing && args.colliders.is_empty() && collider_flags.contains(&id) {
+    // The thickness is also what a self-colliding cloth keeps from itself.
+    let self_thickness = id == "thickness" && args.self_collision == Some(OnOff::On);
+    if args.scene == SceneArg::Swing && args.colliders.is_empty() && collider_flags.contains(&id) && !self_thickness {
         return Some(format!(
             "{flag} does nothing in the swing scene, which has no collider: drop it, use --scene drape or pile, \
              or add colliders with [[collider]] tables in a --scene-file"
