@@ -7,7 +7,7 @@ use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::{
-    SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, copy_start, count_self_contact, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
+    SCENE_THREADS, apply_collider_push_at, longest_edge2, apply_self_contact_at, copy_start, count_self_contact, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
     collider_feature_contact_at, self_triangle_contact_at, write_scene,
 };
 use drape_kernels::contact::substep_motion;
@@ -29,7 +29,7 @@ const fn spec(entry: &'static str, bindings: &'static [BindingSpec], workgroup_s
 pub static SELF_SCENE_BOUNDS: Kernel = Kernel {
     spec: spec(
         "self_contact::self_scene_bounds",
-        &[read("params"), read("x"), write("self_params"), write("start")],
+        &[read("params"), read("x"), read("indices"), write("self_params"), write("start")],
         SCENE_THREADS,
     ),
     cpu: scene_cpu,
@@ -125,13 +125,18 @@ pub static APPLY_COLLIDER_PUSHES: Kernel = Kernel {
 
 /// The lanes' bounds reduced (min/max is exact in any order), as the kernel does.
 fn scene_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
-    let [params, x, self_params, start] = d.bindings()?;
+    let [params, x, indices, self_params, start] = d.bindings()?;
     let p: SimParams = params.first()?;
+    let triangles = self_params.first::<ColliderParams>()?.leaf_count;
     for lane in 0..SCENE_THREADS {
         copy_start(x.slice(), start.slice_mut(), p.particle_count, lane, SCENE_THREADS);
     }
     let bounds = (0..SCENE_THREADS)
-        .map(|lane| particle_bounds(x.slice(), p.particle_count, lane, SCENE_THREADS))
+        .map(|lane| {
+            let mut own = particle_bounds(x.slice(), p.particle_count, lane, SCENE_THREADS);
+            own.max.w = longest_edge2(x.slice(), indices.slice(), triangles, lane, SCENE_THREADS);
+            own
+        })
         .reduce(|a, b| Aabb { min: a.min.min(b.min), max: a.max.max(b.max) })
         .ok_or("self scene bounds: no lanes")?;
     write_scene(self_params.first_mut::<ColliderParams>()?, &bounds);

@@ -159,7 +159,7 @@ impl SelfContactBuffers {
         steps.push(Step::run(
             "self: cloth bounds",
             &SELF_SCENE_BOUNDS,
-            vec![cloth.params.id(), cloth.x.id(), t.collider.id(), self.start.id()],
+            vec![cloth.params.id(), cloth.x.id(), cloth.indices.id(), t.collider.id(), self.start.id()],
             Dispatch::Workgroups(1),
         ));
         let gather = Step::run(

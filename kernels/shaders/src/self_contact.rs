@@ -83,26 +83,50 @@ pub fn self_scene_bounds(
     #[spirv(local_invocation_id)] lid: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] self_params: &mut ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] start: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] self_params: &mut ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] start: &mut [Vec4],
     #[spirv(workgroup)] lows: &mut [Vec4; 256],
     #[spirv(workgroup)] highs: &mut [Vec4; 256],
 ) {
     let lane = lid.x;
     copy_start(x, start, params.particle_count, lane, SCENE_THREADS);
-    let own = particle_bounds(x, params.particle_count, lane, SCENE_THREADS);
+    let mut own = particle_bounds(x, params.particle_count, lane, SCENE_THREADS);
+    // The longest edge rides in the box's w (reduced by the same max).
+    own.max.w = longest_edge2(x, indices, self_params.leaf_count, lane, SCENE_THREADS);
     let bounds = reduce_bounds(lane, own, lows, highs);
     if lane == 0 {
         write_scene(self_params, &bounds);
     }
 }
 
-/// Stores the cloth's bounds, grown by the thickness, as the tree's Morton box.
+/// The longest squared edge of triangles `lane, lane + stride, ...` of `count` (corners
+/// `indices[3t..3t + 3]`).
+pub fn longest_edge2(x: &[Vec4], indices: &[u32], count: u32, lane: u32, stride: u32) -> f32 {
+    let mut longest = 0.0f32;
+    let mut t = lane;
+    while t < count {
+        let i = 3 * t as usize;
+        let (a, b, c) =
+            (x[indices[i] as usize].xyz(), x[indices[i + 1] as usize].xyz(), x[indices[i + 2] as usize].xyz());
+        longest = longest.max((b - a).length_squared()).max((c - b).length_squared()).max((a - c).length_squared());
+        t += stride;
+    }
+    longest
+}
+
+/// How much longer than at the frame's start a cloth edge is assumed to grow within the frame
+/// (squared: 2x longer), for the collider triangles that can skip their walk
+/// (`collider_feature_contact_at`).
+pub const EDGE_GROWTH2: f32 = 4.0;
+
+/// Stores the cloth's bounds, grown by the thickness, as the tree's Morton box, and its
+/// longest squared edge (`bounds.max.w`) in `scene_max.w`.
 #[inline]
 pub fn write_scene(self_params: &mut ColliderParams, bounds: &Aabb) {
     let grow = Vec3::splat(self_params.thickness);
     self_params.scene_min = (bounds.min.xyz() - grow).extend(0.0);
-    self_params.scene_max = (bounds.max.xyz() + grow).extend(0.0);
+    self_params.scene_max = (bounds.max.xyz() + grow).extend(bounds.max.w);
 }
 
 /// The box of cloth triangle `t` (corners `indices[3t..3t + 3]`) over the substep: at the
@@ -901,6 +925,21 @@ pub fn collider_feature_contact_at(
         edge_fold((1, feature.y), corners, mesh, motion),
         edge_fold((2, feature.z), corners, mesh, motion),
     );
+    // No feature sharp enough for the cloth's longest edge (at the frame's start, grown by
+    // `EDGE_GROWTH2`): nothing this triangle could test (most of a smooth body).
+    let longest2 = self_params.scene_max.w * EDGE_GROWTH2;
+    let mut any = false;
+    let mut k = 0;
+    while k < 3 {
+        let edge = owned & (1 << k) != 0 && sharp_for(component_f(folds, k), longest2, thickness);
+        let vertex_fold = component_f(folds, k).max(component_f(folds, (k + 2) % 3));
+        let vertex = owned & (VERTEX_OWNED_BIT << k) != 0 && sharp_for(vertex_fold, longest2, thickness);
+        any = any || edge || vertex;
+        k += 1;
+    }
+    if !any {
+        return false;
+    }
     let feature = Corners { ids: UVec4::ZERO, now: corners, then: [a.0, b.0, c.0], weights: Vec3::ZERO };
     let mut pairs = ColliderFeaturePairs {
         feature,
