@@ -78,6 +78,7 @@ pub fn copy_start(x: &[Vec4], start: &mut [Vec4], count: u32, lane: u32, stride:
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(256)))]
 pub fn self_scene_bounds(
     #[spirv(local_invocation_id)] lid: UVec3,
