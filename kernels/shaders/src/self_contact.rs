@@ -463,28 +463,29 @@ pub fn edge_pair_correction(
 /// pairs are searched from one triangle.
 pub const VERTEX_OWNED_BIT: u32 = 8;
 
-/// Component `k` (0, 1 or 2) of `v`.
+/// `x`, `y` or `z` for `k` = 0, 1 or 2 (a branch, not an indexed private array: those are
+/// slow on llvmpipe).
 #[inline]
-fn component_f(v: Vec3, k: u32) -> f32 {
+fn pick<T: Copy>(x: T, y: T, z: T, k: u32) -> T {
     if k == 0 {
-        v.x
+        x
     } else if k == 1 {
-        v.y
+        y
     } else {
-        v.z
+        z
     }
 }
 
 /// Component `k` (0, 1 or 2) of `v`.
 #[inline]
+fn component_f(v: Vec3, k: u32) -> f32 {
+    pick(v.x, v.y, v.z, k)
+}
+
+/// Component `k` (0, 1 or 2) of `v`.
+#[inline]
 fn component(v: UVec4, k: u32) -> u32 {
-    if k == 0 {
-        v.x
-    } else if k == 1 {
-        v.y
-    } else {
-        v.z
-    }
+    pick(v.x, v.y, v.z, k)
 }
 
 /// A cloth triangle as the pair tests see it: its corners' particles (xyz), their positions at
@@ -513,13 +514,7 @@ impl Corners {
 
     #[inline]
     fn weight(&self, k: u32) -> f32 {
-        if k == 0 {
-            self.weights.x
-        } else if k == 1 {
-            self.weights.y
-        } else {
-            self.weights.z
-        }
+        component_f(self.weights, k)
     }
 
     #[inline]
