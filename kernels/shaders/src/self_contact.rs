@@ -110,10 +110,16 @@ pub fn longest_edge2(x: &[Vec4], indices: &[u32], count: u32, lane: u32, stride:
         let i = 3 * t as usize;
         let (a, b, c) =
             (x[indices[i] as usize].xyz(), x[indices[i + 1] as usize].xyz(), x[indices[i + 2] as usize].xyz());
-        longest = longest.max((b - a).length_squared()).max((c - b).length_squared()).max((a - c).length_squared());
+        longest = longest.max(longest_side2(a, b, c));
         t += stride;
     }
     longest
+}
+
+/// The squared length of the longest side of triangle `a`, `b`, `c`.
+#[inline]
+pub fn longest_side2(a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    (b - a).length_squared().max((c - a).length_squared()).max((c - b).length_squared())
 }
 
 /// How much longer than at the frame's start a cloth edge is assumed to grow within the frame
@@ -255,7 +261,7 @@ pub fn pair_correction_within(
     let [a, b, c] = now;
     let normal = (b - a).cross(c - a);
     let area2 = normal.length_squared();
-    let longest = (b - a).length_squared().max((c - a).length_squared()).max((c - b).length_squared());
+    let longest = longest_side2(a, b, c);
     if area2 <= 1e-8 * longest * longest {
         return None; // a collapsed triangle has no side to keep
     }
@@ -771,10 +777,12 @@ struct ColliderFeaturePairs<'a> {
     /// The collider triangle in the world at the pass's start and end (weights 0).
     feature: Corners,
     owned: u32,
-    /// How far the surface folds at each of its edges (`fold`): an edge pushes, and a vertex
-    /// corrects, only a cloth edge or face its fold could bring within half the thickness
-    /// (`sharp_for`).
+    /// How far the surface folds at each of its edges (`fold`) and at each corner (the sharper
+    /// of the two edges at it: a spike's tip folds every edge around it, a smooth body's
+    /// vertex none): an edge pushes, and a vertex corrects, only a cloth edge or face its fold
+    /// could bring within half the thickness (`sharp_for`).
     folds: Vec3,
+    vertex_folds: Vec3,
     sorted: &'a [UVec4],
     owned_bits: &'a [u32],
     x: &'a [Vec4],
@@ -825,15 +833,11 @@ impl LeafVisitor for ColliderFeaturePairs<'_> {
         let cloth_owned = self.owned_bits[ids.w as usize];
         let (feature, thickness) = (&self.feature, self.thickness);
         let face_box = cloth.swept_box3();
-        let [p, q, r] = cloth.now;
-        let face_length2 = (q - p).length_squared().max((r - q).length_squared()).max((p - r).length_squared());
+        let face_length2 = longest_side2(cloth.now[0], cloth.now[1], cloth.now[2]);
         let mut k = 0;
         while k < 3 {
-            // A vertex is as sharp as the sharper of this triangle's edges at it (a spike's tip
-            // folds every edge around it; a smooth body's vertex none).
-            let vertex_fold = component_f(self.folds, k as u32).max(component_f(self.folds, (k as u32 + 2) % 3));
             if self.owned & (VERTEX_OWNED_BIT << k) != 0
-                && sharp_for(vertex_fold, face_length2, thickness)
+                && sharp_for(component_f(self.vertex_folds, k as u32), face_length2, thickness)
                 && within(feature.swept_box(k, k), face_box, thickness)
             {
                 collider_vertex_face(feature, k, &cloth, thickness, self.delta);
@@ -908,7 +912,8 @@ pub fn collider_feature_contact_at(
     let b = collider_point(previous[ib].xyz(), vertices[ib].xyz(), motion);
     let c = collider_point(previous[ic].xyz(), vertices[ic].xyz(), motion);
     let corners = [a.1, b.1, c.1];
-    let (lo, hi) = (a.0.min(b.0).min(c.0).min(a.1).min(b.1).min(c.1), a.0.max(b.0).max(c.0).max(a.1).max(b.1).max(c.1));
+    let moving = Corners { ids: UVec4::ZERO, now: corners, then: [a.0, b.0, c.0], weights: Vec3::ZERO };
+    let (lo, hi) = moving.swept_box3();
     let reach = Vec3::splat(thickness);
     let (lo, hi) = (lo - reach, hi + reach);
     if self_params.leaf_count > 1 && !box_meets(&aabbs[0], lo, hi) {
@@ -921,6 +926,7 @@ pub fn collider_feature_contact_at(
         edge_fold((1, feature.y), corners, mesh, motion),
         edge_fold((2, feature.z), corners, mesh, motion),
     );
+    let vertex_folds = folds.max(Vec3::new(folds.z, folds.x, folds.y)); // corner k: edges k and k + 2
     // No feature sharp enough for the cloth's longest edge (at the frame's start, grown by
     // `EDGE_GROWTH2`): nothing this triangle could test (most of a smooth body).
     let longest2 = self_params.scene_max.w * EDGE_GROWTH2;
@@ -928,19 +934,19 @@ pub fn collider_feature_contact_at(
     let mut k = 0;
     while k < 3 {
         let edge = owned & (1 << k) != 0 && sharp_for(component_f(folds, k), longest2, thickness);
-        let vertex_fold = component_f(folds, k).max(component_f(folds, (k + 2) % 3));
-        let vertex = owned & (VERTEX_OWNED_BIT << k) != 0 && sharp_for(vertex_fold, longest2, thickness);
+        let vertex =
+            owned & (VERTEX_OWNED_BIT << k) != 0 && sharp_for(component_f(vertex_folds, k), longest2, thickness);
         any = any || edge || vertex;
         k += 1;
     }
     if !any {
         return false;
     }
-    let feature = Corners { ids: UVec4::ZERO, now: corners, then: [a.0, b.0, c.0], weights: Vec3::ZERO };
     let mut pairs = ColliderFeaturePairs {
-        feature,
+        feature: moving,
         owned,
         folds,
+        vertex_folds,
         sorted,
         owned_bits: cloth_owned,
         x,
@@ -1056,15 +1062,7 @@ pub fn push_out(pushes: &mut [u32], i: u32, d: Vec3, limit: f32) {
     let base = (PUSH_WORDS * i) as usize;
     let mut axis = 0;
     while axis < 3 {
-        let value = if axis == 0 {
-            d.x
-        } else if axis == 1 {
-            d.y
-        } else {
-            d.z
-        }
-        .clamp(-limit, limit)
-            * FIXED_SCALE;
+        let value = component_f(d, axis as u32).clamp(-limit, limit) * FIXED_SCALE;
         if value > 0.0 {
             atomics::max(&mut pushes[base + axis], value as u32);
         } else if value < 0.0 {
@@ -1130,9 +1128,8 @@ pub fn apply_self_contact_at(index: u32, x: &mut [Vec4], v: &mut [Vec4], delta: 
 
 /// Moves particle `index` by the collider edges' push. Applied before the pass's own pair
 /// search, which sweeps it with the rest of the pass's motion: a push that carried a particle
-/// through a layer of cloth above it is then a crossing the pairs undo (applied after them,
-/// in the same step as their mean, such pushes crossed the garment's folds at the body's
-/// shoulders in 58 of 120 frames).
+/// through a layer of cloth above it is then a crossing the pairs undo (applied after their
+/// mean, the pairs never saw it).
 pub fn apply_collider_push_at(index: u32, x: &mut [Vec4], v: &mut [Vec4], pushes: &[u32]) {
     let i = index as usize;
     if x[i].w == 0.0 {
