@@ -54,15 +54,16 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
     }
 }
 
-/// `--thickness` is what a self-colliding cloth keeps from itself, so the swing scene (no
-/// collider) takes it with `--self-collision on` (and refuses it without, above).
+/// `--thickness` and `--friction` are what a self-colliding cloth keeps from itself and feels
+/// between its layers, so the swing scene (no collider) takes them with `--self-collision on`
+/// (and refuses them without, above).
 #[test]
-fn thickness_sets_the_swing_scene_self_collision() {
-    let output =
-        drape(&["--scene", "swing", "--grid", "8", "--frames", "2", "--self-collision", "on", "--thickness", "0.002"]);
+fn thickness_and_friction_set_the_swing_scene_self_collision() {
+    let args = ["--scene", "swing", "--grid", "8", "--frames", "2", "--self-collision", "on", "--thickness", "0.002"];
+    let output = drape(&[&args[..], &["--friction", "0.25"]].concat());
     let stdout = String::from_utf8_lossy(&output.stdout);
     assert!(output.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
-    assert!(stdout.contains("self-collision on (2.0 mm)"), "{stdout}");
+    assert!(stdout.contains("self-collision on (2.0 mm, friction 0.25)"), "{stdout}");
 }
 
 /// `--wind -1,0,0` and `--stiffness 40,10,2`: vectors as X,Y,Z, negatives included (the swing

@@ -378,7 +378,7 @@ fn cli_pile_scene_reports_exact_intersections() {
         (count("cloth-cloth "), stdout)
     };
     let (with, stdout) = run(&[]);
-    assert!(stdout.contains("cloth: 64 x 16 particles, self-collision on (5.0 mm)"), "{stdout}");
+    assert!(stdout.contains("cloth: 64 x 16 particles, self-collision on (5.0 mm, friction 0.5)"), "{stdout}");
     let (without, stdout) = run(&["--self-collision", "off"]);
     assert!(stdout.contains("self-collision off"), "{stdout}");
     assert!(without > 500, "without self-collision the strip crosses itself ({without})");

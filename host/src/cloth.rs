@@ -11,6 +11,10 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 /// 256, and a 1-D dispatch reaches at most 65,535 workgroups on every Vulkan device.
 pub const MAX_PARTICLES: u32 = 65_535 * drape_kernels::WORKGROUP_SIZE;
 
+/// Coulomb friction between a self-colliding cloth's layers unless set: fabric on fabric is
+/// about 0.3 to 0.6.
+pub const DEFAULT_SELF_FRICTION: f32 = 0.5;
+
 /// Builder for a cloth: a rectangular grid (`new`), the fast path whose springs the kernels
 /// derive from the grid, or a triangle mesh (`from_mesh`), whose springs are listed. The grid
 /// lies in the local XZ plane (columns along +X, rows along +Z, normal +Y), centred on the
@@ -32,6 +36,9 @@ pub struct ClothBuilder {
     /// Self-collision thickness (m): the cloth keeps its particles this far from its own
     /// triangles (`None`: off).
     pub self_collision: Option<f32>,
+    /// Coulomb friction coefficient between the cloth's own layers where self-collision
+    /// holds them apart (0: they slide freely).
+    pub self_friction: f32,
     /// Build a grid with listed springs (the mesh cloths' kernels) instead of its fast path:
     /// the same springs, for measuring and checking one path against the other.
     pub listed_springs: bool,
@@ -70,6 +77,7 @@ impl ClothBuilder {
             mass: 0.2,
             mesh: None,
             self_collision: None,
+            self_friction: DEFAULT_SELF_FRICTION,
             listed_springs: false,
             k_struct: 40.0,
             k_shear: 10.0,
@@ -97,6 +105,13 @@ impl ClothBuilder {
     /// Self-collision at `thickness` (m), or `None` for off (the default: off costs nothing).
     pub fn self_collision(mut self, thickness: Option<f32>) -> Self {
         self.self_collision = thickness;
+        self
+    }
+
+    /// Coulomb friction between the cloth's layers under self-collision (default
+    /// `DEFAULT_SELF_FRICTION`; 0: frictionless).
+    pub fn self_friction(mut self, friction: f32) -> Self {
+        self.self_friction = friction;
         self
     }
 
@@ -201,6 +216,9 @@ impl ClothBuilder {
         {
             return bad("self_collision", format!("the thickness must be finite and > 0, got {t}"));
         }
+        if !(self.self_friction.is_finite() && self.self_friction >= 0.0) {
+            return bad("self_friction", format!("must be finite and >= 0, got {}", self.self_friction));
+        }
         for &(lo, hi) in &self.pin_boxes {
             if !(lo.is_finite() && hi.is_finite() && lo.cmple(hi).all()) {
                 return bad("pin box", format!("needs finite corners with min <= max, got {lo} and {hi}"));
@@ -223,6 +241,7 @@ impl ClothBuilder {
             }
         }
         cloth.self_collision = self.self_collision;
+        cloth.self_friction = self.self_friction;
         if let Some(t) = self.self_collision {
             let shortest = cloth.structural_springs().iter().map(|s| s.2).fold(f32::INFINITY, f32::min);
             if t >= shortest {
@@ -324,6 +343,7 @@ impl ClothBuilder {
             uvs: Some(uvs),
             topology,
             self_collision: None,
+            self_friction: 0.0,
         };
         Ok((cloth, local))
     }
@@ -368,7 +388,16 @@ impl ClothBuilder {
             }
             uvs
         });
-        let cloth = Cloth { params, positions, velocities: Vec::new(), triangles, uvs, topology, self_collision: None };
+        let cloth = Cloth {
+            params,
+            positions,
+            velocities: Vec::new(),
+            triangles,
+            uvs,
+            topology,
+            self_collision: None,
+            self_friction: 0.0,
+        };
         Ok((cloth, mesh.vertices.clone()))
     }
 }
@@ -398,6 +427,8 @@ pub struct Cloth {
     pub topology: ClothTopology,
     /// Self-collision thickness (m), `None` when off.
     pub self_collision: Option<f32>,
+    /// Coulomb friction between the cloth's layers under self-collision.
+    pub self_friction: f32,
 }
 
 impl Cloth {

@@ -169,7 +169,8 @@ fn run(args: &Args) -> drape::Result<()> {
     };
     let on_by_default = matches!(args.scene, SceneArg::Pile | SceneArg::Garment);
     let self_collision = args.self_collision.unwrap_or(if on_by_default { OnOff::On } else { OnOff::Off });
-    let builder = builder.self_collision((self_collision == OnOff::On).then_some(args.thickness));
+    let builder =
+        builder.self_collision((self_collision == OnOff::On).then_some(args.thickness)).self_friction(args.friction);
     let cloth_description = cloth_description(args, &builder);
     let builder = match args.velocity {
         Some(v) => builder.velocity(v),

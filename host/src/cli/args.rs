@@ -91,7 +91,8 @@ pub(crate) struct Args {
     #[arg(long, default_value_t = drape::scenes::DEFAULT_THICKNESS, value_parser = parse_thickness, allow_hyphen_values = true)]
     pub(crate) thickness: f32,
     /// Coulomb friction coefficient of the contact, in [0, 10] (0 = the paper's frictionless
-    /// response).
+    /// response): with the colliders and, with `--self-collision on`, between the cloth's
+    /// layers.
     #[arg(long, default_value_t = drape::scenes::DEFAULT_FRICTION, value_parser = parse_friction, allow_hyphen_values = true)]
     pub(crate) friction: f32,
     /// How contact finds the leaves each particle touches (same contacts, different cost).
@@ -235,12 +236,17 @@ pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), Strin
 pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
     let collider_flags = ["mesh", "contact", "holes", "voxels", "thickness", "friction", "search", "brute_force"];
     let flag = format!("--{}", id.replace('_', "-"));
-    // The thickness is also what a self-colliding cloth keeps from itself.
-    let self_thickness = id == "thickness" && args.self_collision == Some(OnOff::On);
+    // The thickness and friction are also what a self-colliding cloth keeps from itself.
+    let self_thickness = ["thickness", "friction"].contains(&id) && args.self_collision == Some(OnOff::On);
     if args.scene == SceneArg::Swing && args.colliders.is_empty() && collider_flags.contains(&id) && !self_thickness {
         return Some(format!(
             "{flag} does nothing in the swing scene, which has no collider: drop it, use --scene drape or pile, \
-             or add colliders with [[collider]] tables in a --scene-file"
+             or add colliders with [[collider]] tables in a --scene-file{}",
+            if ["thickness", "friction"].contains(&id) {
+                " (or keep the cloth from itself: --self-collision on)"
+            } else {
+                ""
+            }
         ));
     }
     if ["mesh", "holes"].contains(&id) {

@@ -51,7 +51,7 @@ pub(crate) fn cloth_description(args: &Args, builder: &ClothBuilder) -> String {
         ),
     };
     match builder.self_collision {
-        Some(t) => format!("{shape}, self-collision on ({:.1} mm)", t * 1e3),
+        Some(t) => format!("{shape}, self-collision on ({:.1} mm, friction {})", t * 1e3, builder.self_friction),
         None => format!("{shape}, self-collision off"),
     }
 }

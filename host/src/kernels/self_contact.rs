@@ -7,7 +7,7 @@ use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::{
-    SCENE_THREADS, apply_collider_push_at, longest_edge2, apply_self_contact_at, copy_start, count_self_contact, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
+    PairResponse, SCENE_THREADS, apply_collider_push_at, longest_edge2, apply_self_contact_at, copy_start, count_self_contact, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
     collider_feature_contact_at, self_triangle_contact_at, write_scene,
 };
 use drape_kernels::contact::substep_motion;
@@ -67,7 +67,9 @@ pub static SELF_TRIANGLE_CONTACT: Kernel = Kernel {
             read("owned"),
             read("x"),
             read("x_prev"),
+            read("v"),
             write("delta"),
+            write("velocity_changes"),
         ],
         CONTACT_THREADS,
     ),
@@ -107,7 +109,16 @@ pub static COLLIDER_FEATURE_CONTACT: Kernel = Kernel {
 pub static APPLY_SELF_CONTACT: Kernel = Kernel {
     spec: spec(
         "self_contact::apply_self_contact",
-        &[read("params"), write("x"), write("v"), read("delta"), read("pushes"), write("start"), write("health")],
+        &[
+            read("params"),
+            write("x"),
+            write("v"),
+            read("delta"),
+            read("velocity_changes"),
+            read("pushes"),
+            write("start"),
+            write("health"),
+        ],
         WORKGROUP_SIZE,
     ),
     cpu: apply_cpu,
@@ -168,14 +179,15 @@ fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [params, x, v, delta, pushes, start, health] = d.bindings()?;
+    let [params, x, v, delta, velocity_changes, pushes, start, health] = d.bindings()?;
     let p: SimParams = params.first()?;
     let (x, v) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>());
     let corrections = (delta.slice::<u32>(), pushes.slice::<u32>());
+    let velocity_changes = velocity_changes.slice::<u32>();
     let (start, health) = (start.slice_mut::<Vec4>(), health.first_mut::<Health>()?);
     for i in 0..threads.min(p.particle_count) {
         count_self_contact(i, corrections, health);
-        apply_self_contact_at(i, x, v, corrections.0);
+        apply_self_contact_at(i, x, v, (corrections.0, velocity_changes));
         start[i as usize] = x[i as usize];
     }
     Ok(())
@@ -194,13 +206,15 @@ fn apply_pushes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn self_triangle_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, x, x_prev, delta] = d.bindings()?;
+    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, x, x_prev, v, delta, velocity_changes] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let owned = owned.slice::<u32>();
-    let (x, x_prev, delta) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), delta.slice_mut::<u32>());
+    let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
+    let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
     for leaf in 0..threads.min(c.leaf_count) {
-        self_triangle_contact_at(leaf, &c, tree, owned, (x, x_prev), delta);
+        let out = PairResponse { thickness: c.thickness, friction: c.friction, v, delta: &mut *delta, velocity_changes: &mut *velocity_changes };
+        self_triangle_contact_at(leaf, &c, tree, owned, (x, x_prev), out);
     }
     Ok(())
 }

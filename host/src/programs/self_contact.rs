@@ -25,6 +25,9 @@ pub struct SelfContactBuffers {
     pub sorted: Handle<UVec4>,
     /// Per particle: the summed corrections (3 fixed-point words) and their count.
     pub delta: Handle<u32>,
+    /// Per particle: the summed velocity changes of its pairs' friction (3 fixed-point words)
+    /// and their count.
+    pub velocity_changes: Handle<u32>,
     /// Per particle: the collider edges' largest pushes per axis direction (`PUSH_WORDS`).
     pub pushes: Handle<u32>,
     /// Where each particle was when the last pass ended (the frame's start before the first):
@@ -130,6 +133,7 @@ impl SelfContactBuffers {
             tree: LbvhBuffers::declare(resources, &name, triangles),
             sorted: resources.device(format!("{name}: sorted triangles"), triangles),
             delta: resources.device(format!("{name}: corrections"), 4 * particles),
+            velocity_changes: resources.device(format!("{name}: friction"), 4 * particles),
             pushes: resources.device(format!("{name}: collider pushes"), PUSH_WORDS * particles),
             start: resources.device(format!("{name}: pass start"), particles),
             owned: resources.device(format!("{name}: owned edges and corners"), triangles),
@@ -137,9 +141,10 @@ impl SelfContactBuffers {
         }
     }
 
-    /// The tree's parameters before the first frame (the Morton box is the GPU's to write).
-    pub fn initial_params(triangles: u32, thickness: f32) -> ColliderParams {
-        ColliderParams { leaf_count: triangles, thickness, ..Default::default() }
+    /// The tree's parameters before the first frame (the Morton box is the GPU's to write):
+    /// the thickness the cloth keeps from itself and the friction between its layers.
+    pub fn initial_params(triangles: u32, thickness: f32, friction: f32) -> ColliderParams {
+        ColliderParams { leaf_count: triangles, thickness, friction, ..Default::default() }
     }
 
     fn triangle_bounds(&self, cloth: &SelfContactCloth) -> Step {
@@ -224,6 +229,7 @@ impl SelfContactBuffers {
         steps.push(self.triangle_bounds(cloth));
         steps.extend(t.refit_steps());
         steps.push(Step::fill(self.delta, 0));
+        steps.push(Step::fill(self.velocity_changes, 0));
         if !features.is_empty() {
             // Only the colliders' edges push; without a triangle collider the pushes stay the
             // zeros they start as.
@@ -252,7 +258,9 @@ impl SelfContactBuffers {
                 self.owned.id(),
                 cloth.x.id(),
                 self.start.id(),
+                cloth.v.id(),
                 self.delta.id(),
+                self.velocity_changes.id(),
             ],
             Dispatch::Threads(t.leaves),
         ));
@@ -264,6 +272,7 @@ impl SelfContactBuffers {
                 cloth.x.id(),
                 cloth.v.id(),
                 self.delta.id(),
+                self.velocity_changes.id(),
                 self.pushes.id(),
                 self.start.id(),
                 cloth.health.id(),

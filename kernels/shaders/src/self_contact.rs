@@ -222,7 +222,10 @@ pub fn closest_with_weights(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Vec3) 
     }
     let denom = 1.0 / (va + vb + vc);
     let (v, w) = (vb * denom, vc * denom);
-    (a + ab * v + ac * w, Vec3::new(1.0 - v - w, v, w))
+    // The first weight as va / (va + vb + vc), not Ericson's 1 - v - w: Mesa's NIR treats
+    // float math as reassociable and rewrites that as 1 - (vb + vc) x denom, which rounds
+    // differently from the CPU (the self-collision twin parted by one fixed-point unit).
+    (a + ab * v + ac * w, Vec3::new(va * denom, v, w))
 }
 
 /// A vertex-triangle pair's correction: the displacement of the vertex and of each corner
@@ -231,6 +234,56 @@ pub fn closest_with_weights(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Vec3) 
 pub struct PairCorrection {
     pub vertex: Vec3,
     pub corners: [Vec3; 3],
+    /// Where the pair touches, for its friction (`pair_friction`).
+    pub contact: PairContact,
+}
+
+/// Where a pair of primitives touches, as its four particles make it up: the relative motion
+/// at the contact is `sum(coefficients[i] * motion of particle i)` (vertex-triangle: the
+/// vertex minus its closest point's barycentric mix of the corners; edge-edge: the first
+/// edge's closest point minus the second's), and `normal` (not unit length) is the direction
+/// the push separates them in, the first from the second.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct PairContact {
+    /// (An array, not a `Vec4`: a 16-byte-aligned field in an `Option` makes rust-gpu emit a
+    /// 128-bit constant it cannot compile.)
+    pub coefficients: [f32; 4],
+    pub normal: Vec3,
+}
+
+/// Coulomb friction of a pair in contact, on velocities `v` (its four particles', in the order
+/// of `contact.coefficients`; `w` their pin weights): the tangential relative velocity at the
+/// contact loses up to `friction` times the normal speed at which the pair approaches (the
+/// speed its push stops; nothing while it separates), as a particle on a collider does
+/// (`contact::respond`); the change is split over the particles by weight, as the push is.
+/// Returns each particle's velocity change. Over a pass a resting layer approaches the one
+/// under it at about g cos(slope) times the pass's length, so it holds where tan(slope) <
+/// `friction`.
+pub fn pair_friction(contact: &PairContact, v: [Vec3; 4], w: Vec4, friction: f32) -> Option<[Vec3; 4]> {
+    let (g, normal) = (Vec4::from_array(contact.coefficients), contact.normal);
+    let normal2 = normal.length_squared();
+    let denom = w.x * g.x * g.x + w.y * g.y * g.y + w.z * g.z * g.z + w.w * g.w * g.w;
+    if friction <= 0.0 || normal2 <= 0.0 || denom <= 0.0 {
+        return None;
+    }
+    let relative = v[0] * g.x + v[1] * g.y + v[2] * g.z + v[3] * g.w;
+    let approach = relative.dot(normal); // normal speed x |normal|
+    if approach >= 0.0 {
+        return None;
+    }
+    let tangential = relative - normal * (approach * (1.0 / normal2));
+    let tangential2 = tangential.length_squared();
+    if tangential2 <= 0.0 {
+        return None;
+    }
+    // The share of the tangential velocity removed, friction x normal speed / tangential
+    // speed, at most all of it; squared, so no reciprocal of a square root (see
+    // `pair_correction_within`).
+    let normal_speed2 = approach * (approach * (1.0 / normal2));
+    let share2 = friction * friction * normal_speed2 * (1.0 / tangential2);
+    let share = if share2 >= 1.0 { 1.0 } else { share2.sqrt() };
+    let change = tangential * (-share * (1.0 / denom));
+    Some([change * (w.x * g.x), change * (w.y * g.y), change * (w.z * g.z), change * (w.w * g.w)])
 }
 
 /// The correction of particle `p` (at `p1` now, `p0` at the substep's start) against triangle
@@ -302,17 +355,64 @@ pub fn pair_correction_within(
     Some(PairCorrection {
         vertex: dir * (wp * s),
         corners: [dir * (-w.x * weights.x * s), dir * (-w.y * weights.y * s), dir * (-w.z * weights.z * s)],
+        contact: PairContact { coefficients: [1.0, -weights.x, -weights.y, -weights.z], normal: dir },
     })
 }
+
+/// Fixed-point scale of the summed friction velocity changes: 2^20 units per m/s (resolution
+/// 1e-6 m/s, range +-2048 m/s per particle and pass).
+pub const VELOCITY_SCALE: f32 = 1_048_576.0;
 
 /// Adds `d` (m) to particle `i`'s fixed-point sum and counts one correction.
 #[inline]
 pub fn accumulate(delta: &mut [u32], i: u32, d: Vec3) {
+    accumulate_scaled(delta, i, d, FIXED_SCALE);
+}
+
+/// Adds `d` to particle `i`'s sum (words `4i..4i + 3`, `scale` units per unit of `d`) and
+/// counts one (word `4i + 3`).
+#[inline]
+pub fn accumulate_scaled(sums: &mut [u32], i: u32, d: Vec3, scale: f32) {
     let base = 4 * i as usize;
-    atomics::add(&mut delta[base], ((d.x * FIXED_SCALE) as i32) as u32);
-    atomics::add(&mut delta[base + 1], ((d.y * FIXED_SCALE) as i32) as u32);
-    atomics::add(&mut delta[base + 2], ((d.z * FIXED_SCALE) as i32) as u32);
-    atomics::add(&mut delta[base + 3], 1);
+    atomics::add(&mut sums[base], ((d.x * scale) as i32) as u32);
+    atomics::add(&mut sums[base + 1], ((d.y * scale) as i32) as u32);
+    atomics::add(&mut sums[base + 2], ((d.z * scale) as i32) as u32);
+    atomics::add(&mut sums[base + 3], 1);
+}
+
+/// Where a pass's cloth pairs put their responses: the pushes (`delta`: fixed-point
+/// displacement sums and counts, 4 words per particle) and, with a `friction` coefficient
+/// above 0, the friction (`velocity_changes`: fixed-point velocity-change sums and counts),
+/// from the velocities `v`.
+pub struct PairResponse<'a> {
+    pub thickness: f32,
+    pub friction: f32,
+    pub v: &'a [Vec4],
+    pub delta: &'a mut [u32],
+    pub velocity_changes: &'a mut [u32],
+}
+
+impl PairResponse<'_> {
+    /// The friction of a pair that touches (`contact`) between particles `ids` (pin weights
+    /// `w`). Velocities are loaded only here: few of the pairs a pass tests touch.
+    #[inline]
+    fn add_friction(&mut self, ids: UVec4, w: Vec4, contact: &PairContact) {
+        if self.friction <= 0.0 {
+            return;
+        }
+        let v = [
+            self.v[ids.x as usize].xyz(),
+            self.v[ids.y as usize].xyz(),
+            self.v[ids.z as usize].xyz(),
+            self.v[ids.w as usize].xyz(),
+        ];
+        if let Some(dv) = pair_friction(contact, v, w, self.friction) {
+            accumulate_scaled(self.velocity_changes, ids.x, dv[0], VELOCITY_SCALE);
+            accumulate_scaled(self.velocity_changes, ids.y, dv[1], VELOCITY_SCALE);
+            accumulate_scaled(self.velocity_changes, ids.z, dv[2], VELOCITY_SCALE);
+            accumulate_scaled(self.velocity_changes, ids.w, dv[3], VELOCITY_SCALE);
+        }
+    }
 }
 
 /// The buffers self-contact reads: the tree (nodes, node boxes, leaf boxes in tree order, the
@@ -415,7 +515,8 @@ pub fn closest_between_segments(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> (f32, f32
 /// start, and `now`; `w` their pin weights): none unless the edges come within `thickness`, or
 /// crossed when `undo_crossing` (the vector between their closest points reversed while both
 /// stayed inside their edges); then they are pushed apart along the direction they were apart
-/// at the start, to `thickness`, split by weight. Returns the four ends' displacements. The
+/// at the start, to `thickness`, split by weight. Returns the four ends' displacements and
+/// where the edges touch (for friction). The
 /// crossing test is a heuristic (edges sliding past each other can reverse that vector too):
 /// a collider's edges use proximity alone, since on a dense scan its false crossings, each
 /// pushed in full, drove a cloth unstable (the dragon); the cloth's own keep it.
@@ -425,7 +526,7 @@ pub fn edge_pair_correction(
     w: Vec4,
     thickness: f32,
     undo_crossing: bool,
-) -> Option<[Vec3; 4]> {
+) -> Option<([Vec3; 4], PairContact)> {
     let [a, b, c, d] = now;
     let (s, t) = closest_between_segments(a, b, c, d);
     let gap = (a + (b - a) * s) - (c + (d - c) * t);
@@ -461,7 +562,8 @@ pub fn edge_pair_correction(
         return None;
     }
     let k = (target_l - height_l) * (1.0 / (dir2 * denom));
-    Some([dir * (w.x * ga * k), dir * (w.y * gb * k), dir * (w.z * gc * k), dir * (w.w * gd * k)])
+    let ends = [dir * (w.x * ga * k), dir * (w.y * gb * k), dir * (w.z * gc * k), dir * (w.w * gd * k)];
+    Some((ends, PairContact { coefficients: [ga, gb, gc, gd], normal: dir }))
 }
 
 /// Bit `VERTEX_OWNED_BIT << k` of a triangle's `owned` bits: the triangle is the first to have
@@ -546,17 +648,19 @@ impl Corners {
 
 /// Corner `k` of `vertex` against triangle `face` (skipped when it is one of the face's).
 #[inline]
-fn vertex_face(vertex: &Corners, k: usize, face: &Corners, thickness: f32, delta: &mut [u32]) {
+fn vertex_face(vertex: &Corners, k: usize, face: &Corners, out: &mut PairResponse) {
     let id = component(vertex.ids, k as u32);
     if face.has(id) {
         return;
     }
     let weights = (vertex.weight(k as u32), face.weights);
-    if let Some(c) = pair_correction((vertex.then[k], vertex.now[k]), face.then, face.now, weights, thickness) {
-        accumulate(delta, id, c.vertex);
-        accumulate(delta, face.ids.x, c.corners[0]);
-        accumulate(delta, face.ids.y, c.corners[1]);
-        accumulate(delta, face.ids.z, c.corners[2]);
+    if let Some(c) = pair_correction((vertex.then[k], vertex.now[k]), face.then, face.now, weights, out.thickness) {
+        accumulate(out.delta, id, c.vertex);
+        accumulate(out.delta, face.ids.x, c.corners[0]);
+        accumulate(out.delta, face.ids.y, c.corners[1]);
+        accumulate(out.delta, face.ids.z, c.corners[2]);
+        let w = Vec4::new(weights.0, face.weights.x, face.weights.y, face.weights.z);
+        out.add_friction(UVec4::new(id, face.ids.x, face.ids.y, face.ids.z), w, &c.contact);
     }
 }
 
@@ -571,7 +675,7 @@ fn edge_ends(e: &Corners, k: usize, f: &Corners, m: usize) -> ([Vec3; 4], [Vec3;
 /// Edge `k` of triangle `e` (corners k and k + 1) against edge `m` of triangle `f` (skipped
 /// when they share a particle).
 #[inline]
-fn edge_edge(e: &Corners, k: usize, f: &Corners, m: usize, thickness: f32, delta: &mut [u32]) {
+fn edge_edge(e: &Corners, k: usize, f: &Corners, m: usize, out: &mut PairResponse) {
     let (k1, m1) = ((k + 1) % 3, (m + 1) % 3);
     let ids = [
         component(e.ids, k as u32),
@@ -584,11 +688,12 @@ fn edge_edge(e: &Corners, k: usize, f: &Corners, m: usize, thickness: f32, delta
     }
     let (then, now) = edge_ends(e, k, f, m);
     let w = Vec4::new(e.weight(k as u32), e.weight(k1 as u32), f.weight(m as u32), f.weight(m1 as u32));
-    if let Some(d) = edge_pair_correction(then, now, w, thickness, true) {
-        accumulate(delta, ids[0], d[0]);
-        accumulate(delta, ids[1], d[1]);
-        accumulate(delta, ids[2], d[2]);
-        accumulate(delta, ids[3], d[3]);
+    if let Some((d, contact)) = edge_pair_correction(then, now, w, out.thickness, true) {
+        accumulate(out.delta, ids[0], d[0]);
+        accumulate(out.delta, ids[1], d[1]);
+        accumulate(out.delta, ids[2], d[2]);
+        accumulate(out.delta, ids[3], d[3]);
+        out.add_friction(UVec4::new(ids[0], ids[1], ids[2], ids[3]), w, &contact);
     }
 }
 
@@ -621,8 +726,7 @@ struct TrianglePairs<'a> {
     owned_bits: &'a [u32],
     x: &'a [Vec4],
     x_prev: &'a [Vec4],
-    thickness: f32,
-    delta: &'a mut [u32],
+    out: PairResponse<'a>,
 }
 
 impl<'a> TrianglePairs<'a> {
@@ -632,11 +736,10 @@ impl<'a> TrianglePairs<'a> {
         leaf: u32,
         (leaf_bounds, sorted, owned_bits): (&'a [Aabb], &'a [UVec4], &'a [u32]),
         (x, x_prev): (&'a [Vec4], &'a [Vec4]),
-        thickness: f32,
-        delta: &'a mut [u32],
+        out: PairResponse<'a>,
     ) -> Self {
         let ids = sorted[leaf as usize];
-        let (reach_lo, reach_hi) = triangle_query(&leaf_bounds[leaf as usize], thickness);
+        let (reach_lo, reach_hi) = triangle_query(&leaf_bounds[leaf as usize], out.thickness);
         TrianglePairs {
             leaf,
             mine: Corners::load(ids, (x, x_prev)),
@@ -647,20 +750,19 @@ impl<'a> TrianglePairs<'a> {
             owned_bits,
             x,
             x_prev,
-            thickness,
-            delta,
+            out,
         }
     }
 }
 
 /// The corners `owned` marks of triangle `vertices` against triangle `face`.
 #[inline]
-fn corners_against(vertices: &Corners, owned: u32, face: &Corners, thickness: f32, delta: &mut [u32]) {
+fn corners_against(vertices: &Corners, owned: u32, face: &Corners, out: &mut PairResponse) {
     let face_box = face.swept_box3();
     let mut k = 0;
     while k < 3 {
-        if owned & (VERTEX_OWNED_BIT << k) != 0 && within(vertices.swept_box(k, k), face_box, thickness) {
-            vertex_face(vertices, k, face, thickness, delta);
+        if owned & (VERTEX_OWNED_BIT << k) != 0 && within(vertices.swept_box(k, k), face_box, out.thickness) {
+            vertex_face(vertices, k, face, out);
         }
         k += 1;
     }
@@ -668,17 +770,17 @@ fn corners_against(vertices: &Corners, owned: u32, face: &Corners, thickness: f3
 
 /// Triangles `a` and `b` (with the corners and edges each owns) against each other, both ways.
 #[inline]
-fn triangle_pair((a, a_owned): (&Corners, u32), (b, b_owned): (&Corners, u32), thickness: f32, delta: &mut [u32]) {
-    corners_against(a, a_owned, b, thickness, delta);
-    corners_against(b, b_owned, a, thickness, delta);
+fn triangle_pair((a, a_owned): (&Corners, u32), (b, b_owned): (&Corners, u32), out: &mut PairResponse) {
+    corners_against(a, a_owned, b, out);
+    corners_against(b, b_owned, a, out);
     let mut k = 0;
     while k < 3 {
         if a_owned & (1 << k) != 0 {
             let edge = a.swept_box(k, (k + 1) % 3);
             let mut m = 0;
             while m < 3 {
-                if b_owned & (1 << m) != 0 && within(edge, b.swept_box(m, (m + 1) % 3), thickness) {
-                    edge_edge(a, k, b, m, thickness, delta);
+                if b_owned & (1 << m) != 0 && within(edge, b.swept_box(m, (m + 1) % 3), out.thickness) {
+                    edge_edge(a, k, b, m, out);
                 }
                 m += 1;
             }
@@ -694,7 +796,7 @@ impl LeafVisitor for TrianglePairs<'_> {
         }
         let ids = self.sorted[leaf as usize];
         let theirs = (&Corners::load(ids, (self.x, self.x_prev)), self.owned_bits[ids.w as usize]);
-        triangle_pair((&self.mine, self.owned), theirs, self.thickness, self.delta);
+        triangle_pair((&self.mine, self.owned), theirs, &mut self.out);
     }
 }
 
@@ -716,10 +818,10 @@ pub fn self_triangle_contact_at(
     (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
     owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
-    delta: &mut [u32],
+    out: PairResponse,
 ) -> bool {
     let tables = (leaf_bounds, sorted, owned);
-    let mut pairs = TrianglePairs::of(leaf, tables, (x, x_prev), self_params.thickness, delta);
+    let mut pairs = TrianglePairs::of(leaf, tables, (x, x_prev), out);
     let query = (pairs.reach_lo, pairs.reach_hi);
     walk_overlapping_after(leaf, (nodes, aabbs, leaf_bounds), self_params.leaf_count, query, &mut pairs)
 }
@@ -732,17 +834,16 @@ pub fn self_triangle_contact_brute_force_at(
     (leaf_bounds, sorted): (&[Aabb], &[UVec4]),
     owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
-    delta: &mut [u32],
+    mut out: PairResponse,
 ) {
-    let thickness = self_params.thickness;
     let ids = sorted[leaf as usize];
     let mine = (&Corners::load(ids, (x, x_prev)), owned[ids.w as usize]);
-    let (lo, hi) = triangle_query(&leaf_bounds[leaf as usize], thickness);
+    let (lo, hi) = triangle_query(&leaf_bounds[leaf as usize], out.thickness);
     let mut other = leaf + 1;
     while other < self_params.leaf_count {
         if box_meets(&leaf_bounds[other as usize], lo, hi) {
             let theirs = sorted[other as usize];
-            triangle_pair(mine, (&Corners::load(theirs, (x, x_prev)), owned[theirs.w as usize]), thickness, delta);
+            triangle_pair(mine, (&Corners::load(theirs, (x, x_prev)), owned[theirs.w as usize]), &mut out);
         }
         other += 1;
     }
@@ -760,13 +861,17 @@ pub fn self_triangle_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owned: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] velocity_changes: &mut [u32],
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    self_triangle_contact_at(id.x, self_params, tree, owned, (x, x_prev), delta);
+    let out =
+        PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
+    self_triangle_contact_at(id.x, self_params, tree, owned, (x, x_prev), out);
 }
 
 /// A collider triangle's features (the vertices and edges it owns) against the cloth
@@ -820,7 +925,7 @@ fn collider_edge_edge(
     }
     let (then, now) = edge_ends(feature, k, cloth, m);
     let w = Vec4::new(0.0, 0.0, cloth.weight(m as u32), cloth.weight(m1 as u32));
-    if let Some(d) = edge_pair_correction(then, now, w, thickness, false) {
+    if let Some((d, _)) = edge_pair_correction(then, now, w, thickness, false) {
         push_out(pushes, component(cloth.ids, m as u32), d[2], COLLIDER_PUSH_LIMIT * thickness);
         push_out(pushes, component(cloth.ids, m1 as u32), d[3], COLLIDER_PUSH_LIMIT * thickness);
     }
@@ -1111,19 +1216,33 @@ fn displace(i: usize, x: &mut [Vec4], v: &mut [Vec4], d: Vec3) {
     }
 }
 
-/// Moves particle `index` by the mean of its corrections (its own pairs and the collider's
-/// vertices).
-pub fn apply_self_contact_at(index: u32, x: &mut [Vec4], v: &mut [Vec4], delta: &[u32]) {
-    let i = index as usize;
+/// The mean of particle `i`'s fixed-point sums (words `4i..4i + 3`, `scale` units per unit),
+/// or `None` when nothing was added.
+#[inline]
+fn mean_of(sums: &[u32], i: usize, scale: f32) -> Option<Vec3> {
     let base = 4 * i;
-    let count = delta[base + 3];
-    if x[i].w == 0.0 || count == 0 {
-        return;
+    let count = sums[base + 3];
+    if count == 0 {
+        return None;
     }
     // The mean in integers (exact on both sides), then scaled by a power of two (exact).
     let mean = |word: u32| ((word as i32) / count as i32) as f32;
-    let d = Vec3::new(mean(delta[base]), mean(delta[base + 1]), mean(delta[base + 2])) * (1.0 / FIXED_SCALE);
-    displace(i, x, v, d);
+    Some(Vec3::new(mean(sums[base]), mean(sums[base + 1]), mean(sums[base + 2])) * (1.0 / scale))
+}
+
+/// Moves particle `index` by the mean of its corrections (its own pairs and the collider's
+/// vertices), after changing its velocity by the mean of its pairs' friction.
+pub fn apply_self_contact_at(index: u32, x: &mut [Vec4], v: &mut [Vec4], (delta, velocity_changes): (&[u32], &[u32])) {
+    let i = index as usize;
+    if x[i].w == 0.0 {
+        return;
+    }
+    if let Some(dv) = mean_of(velocity_changes, i, VELOCITY_SCALE) {
+        v[i] = (v[i].xyz() + dv).extend(v[i].w);
+    }
+    if let Some(d) = mean_of(delta, i, FIXED_SCALE) {
+        displace(i, x, v, d);
+    }
 }
 
 /// Moves particle `index` by the collider edges' push. Applied before the pass's own pair
@@ -1146,15 +1265,16 @@ pub fn apply_self_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] delta: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] pushes: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] start: &mut [Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] velocity_changes: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] pushes: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] start: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] health: &mut Health,
 ) {
     if id.x >= params.particle_count {
         return;
     }
     count_self_contact(id.x, (delta, pushes), health);
-    apply_self_contact_at(id.x, x, v, delta);
+    apply_self_contact_at(id.x, x, v, (delta, velocity_changes));
     // The next pass sweeps from here.
     start[id.x as usize] = x[id.x as usize];
 }
@@ -1229,10 +1349,53 @@ mod tests {
         assert_eq!(a, b);
         let mut x = vec![Vec4::new(0.0, 0.0, 0.0, 1.0)];
         let mut v = vec![Vec4::new(0.0, -1.0, 0.0, 0.0)];
-        apply_self_contact_at(0, &mut x, &mut v, &a);
+        apply_self_contact_at(0, &mut x, &mut v, (&a, &[0; 4]));
         let mean = (ds[0] + ds[1] + ds[2]) / 3.0;
         assert!((x[0].truncate() - mean).length() < 1e-7);
         assert!(v[0].truncate().dot(mean.normalize()) >= -1e-6, "approach velocity removed: {}", v[0]);
+    }
+
+    /// Coulomb on the pair's relative velocity: a sliding vertex pressed onto a face loses
+    /// `friction` x its approach speed of its tangential speed, or all of it once that covers
+    /// it; the normal speed and the total momentum (equal masses) are untouched; nothing while
+    /// the pair separates, without friction, or when every particle is pinned.
+    #[test]
+    fn friction_slows_a_pressed_pair_s_sliding_by_the_coefficient_times_its_approach() {
+        let p = Vec3::new(0.2, 0.004, 0.2);
+        let c = pair_correction((p, p), FLAT, FLAT, (1.0, Vec3::ONE), 0.005).unwrap();
+        let w = Vec4::ONE;
+        let g = Vec4::from_array(c.contact.coefficients);
+        let relative = |v: [Vec3; 4]| v[0] * g.x + v[1] * g.y + v[2] * g.z + v[3] * g.w;
+        // The vertex slides along +x at 1 m/s and sinks at 0.5 m/s; the face is still.
+        let v = [Vec3::new(1.0, -0.5, 0.0), Vec3::ZERO, Vec3::ZERO, Vec3::ZERO];
+        let dv = pair_friction(&c.contact, v, w, 0.4).unwrap();
+        let after = relative([v[0] + dv[0], v[1] + dv[1], v[2] + dv[2], v[3] + dv[3]]);
+        assert!((after.x - (1.0 - 0.4 * 0.5)).abs() < 1e-6, "{after}");
+        assert!((after.y - -0.5).abs() < 1e-6 && after.z.abs() < 1e-6, "{after}");
+        let momentum: Vec3 = dv.iter().copied().sum();
+        assert!(momentum.length() < 1e-6, "{momentum}");
+        // Pressed harder than it slides: it sticks.
+        let dv = pair_friction(&c.contact, v, w, 3.0).unwrap();
+        let after = relative([v[0] + dv[0], v[1] + dv[1], v[2] + dv[2], v[3] + dv[3]]);
+        assert!(after.x.abs() < 1e-6 && (after.y - -0.5).abs() < 1e-6, "{after}");
+        // Separating, frictionless or pinned: nothing.
+        let rising = [Vec3::new(1.0, 0.5, 0.0), Vec3::ZERO, Vec3::ZERO, Vec3::ZERO];
+        assert!(pair_friction(&c.contact, rising, w, 0.4).is_none());
+        assert!(pair_friction(&c.contact, v, w, 0.0).is_none());
+        assert!(pair_friction(&c.contact, v, Vec4::ZERO, 0.4).is_none());
+        // Edge against edge: crossing edges, the upper one sliding along the lower.
+        let then = [
+            Vec3::new(-1.0, 0.004, 0.0),
+            Vec3::new(1.0, 0.004, 0.0),
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(0.0, 0.0, 1.0),
+        ];
+        let (_, contact) = edge_pair_correction(then, then, w, 0.005, true).unwrap();
+        let slide = Vec3::new(0.0, -0.1, 1.0);
+        let dv = pair_friction(&contact, [slide, slide, Vec3::ZERO, Vec3::ZERO], w, 0.5).unwrap();
+        let g = Vec4::from_array(contact.coefficients);
+        let after = (slide + dv[0]) * g.x + (slide + dv[1]) * g.y + dv[2] * g.z + dv[3] * g.w;
+        assert!((after.z - (1.0 - 0.5 * 0.1)).abs() < 1e-5 && (after.y - -0.1).abs() < 1e-6, "{after}");
     }
 
     #[test]
