@@ -28,9 +28,10 @@
 //! to move at most the thickness between two, and at least the last substep's). In the kernels
 //! below, `x_prev` is that start. The corrections are summed as fixed-point
 //! integers, so the order in which threads add them does not change the result: a run repeats
-//! bit for bit. (The CPU twin follows the GPU to rounding: a pair's f32 math occasionally
-//! rounds differently on llvmpipe.) Each particle then moves by the mean of its corrections and
-//! loses the velocity that drove it into the contact (inelastic; no velocity is added).
+//! bit for bit, and the CPU twin equals it. Each pair that touches also slows its sliding by
+//! Coulomb friction between the layers (`pair_friction`, velocity changes summed the same way).
+//! Each particle then changes its velocity by the mean of its friction, moves by the mean of its
+//! corrections and loses the velocity that drove it into the contact (inelastic).
 //!
 //! Not yet: continuous collision of moving triangles beyond this start-side test (a pair that passes
 //! through each other within one pass and ends farther apart than the search reach is
