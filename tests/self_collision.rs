@@ -471,3 +471,54 @@ fn friction_holds_a_layer_of_cloth_on_a_sloping_layer_of_the_same_cloth() {
     assert!(free > 0.1, "frictionless, the upper sheet must slide down the slope: it moved {free} m");
     assert_validation_clean(&ctx);
 }
+
+/// A box tilted 20 degrees (tan 20 = 0.36, under the friction 0.5) holds a cloth draped over
+/// its top and edges as well with self-collision as without: the box's edges, folded 90
+/// degrees, hold the cloth where it bends over them (collider features against the cloth's
+/// faces and edges), and they hold it with the collider's friction. Frictionless there, the
+/// cloth slid over the edges like a rope over pulleys, towards the side hanging lower (the
+/// bunny's cloth slid off: 109 particles resting after 2 s, the lowest 0.94 m down; with the
+/// features' friction 476 and 0.11 m, against 564 and 0.08 m without self-collision).
+#[test]
+fn a_collider_s_sharp_edges_hold_a_self_colliding_cloth_with_friction() {
+    let ctx = context();
+    let (w, h) = (0.2f32, 0.1f32);
+    let corners: Vec<Vec3> = (0..8)
+        .map(|i| {
+            Vec3::new(if i & 1 == 0 { -w } else { w }, if i & 2 == 0 { -h } else { h }, if i & 4 == 0 { -w } else { w })
+        })
+        .collect();
+    let faces = [[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]];
+    let triangles: Vec<[u32; 3]> = faces.iter().flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]]).collect();
+    let tilt = glam::Mat4::from_rotation_z(20f32.to_radians());
+    let mesh = drape::Mesh::from_parts(corners, triangles).unwrap().transformed(tilt);
+    let collider = Collider::mesh(&mesh, 0.005).with_friction(0.5);
+    let top = tilt.transform_point3(Vec3::new(0.0, h, 0.0));
+    let slide = |self_collision: Option<f32>| {
+        let cloth = drape::ClothBuilder::new(24, 24)
+            .size(0.6)
+            .transform(glam::Mat4::from_translation(top + Vec3::new(0.0, 0.03, 0.0)) * tilt)
+            .self_collision(self_collision)
+            .build()
+            .unwrap();
+        let model =
+            Model::single(&cloth, std::slice::from_ref(&collider), SimSettings::default().with_timestamps(false))
+                .unwrap();
+        let mut sim = Solver::new(&ctx, &model).unwrap();
+        let centre = |x: &[Vec4]| x.iter().map(|p| p.truncate()).sum::<Vec3>() / x.len() as f32;
+        let start = centre(&sim.positions(CLOTH).unwrap());
+        for _ in 0..120 {
+            sim.step().unwrap();
+        }
+        let x = sim.positions(CLOTH).unwrap();
+        ((centre(&x) - start).length(), x.iter().map(|p| p.y).fold(f32::INFINITY, f32::min))
+    };
+    let (alone, alone_low) = slide(None);
+    let (with_self, self_low) = slide(Some(0.005));
+    println!(
+        "the cloth moved {alone} m without self-collision (lowest {alone_low} m), {with_self} m with (lowest {self_low} m)"
+    );
+    assert!(alone < 0.1, "the tilted box must hold the cloth: it moved {alone} m");
+    assert!(with_self < alone + 0.05, "with self-collision the cloth moved {with_self} m, without {alone} m");
+    assert_validation_clean(&ctx);
+}

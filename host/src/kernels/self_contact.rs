@@ -97,7 +97,9 @@ pub static COLLIDER_FEATURE_CONTACT: Kernel = Kernel {
             read("owned"),
             read("x"),
             read("x_prev"),
+            read("v"),
             write("delta"),
+            write("velocity_changes"),
             write("pushes"),
         ],
         push_constant_size: size_of::<ContactPush>() as u32,
@@ -238,21 +240,31 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
         owned,
         x,
         x_prev,
+        v,
         delta,
+        velocity_changes,
         pushes,
     ] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = self_params.first()?;
-    let thickness = collider.first::<ColliderParams>()?.thickness;
+    let collider: ColliderParams = collider.first()?;
     let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let mesh = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
     let (features, owned) = (features.slice::<UVec4>(), owned.slice::<u32>());
-    let (x, x_prev) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>());
+    let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
     let (delta, pushes) = (delta.slice_mut::<u32>(), pushes.slice_mut::<u32>());
+    let velocity_changes = velocity_changes.slice_mut::<u32>();
     for t in 0..threads.min(features.len() as u32) {
         let mine = features[t as usize];
-        collider_feature_contact_at(t, mine, mesh, &motion, (&c, thickness), tree, owned, (x, x_prev), (&mut *delta, &mut *pushes));
+        let out = PairResponse {
+            thickness: collider.thickness,
+            friction: collider.friction,
+            v,
+            delta: &mut *delta,
+            velocity_changes: &mut *velocity_changes,
+        };
+        collider_feature_contact_at(t, mine, mesh, &motion, &c, tree, owned, (x, x_prev), (out, &mut *pushes));
     }
     Ok(())
 }

@@ -394,24 +394,41 @@ pub struct PairResponse<'a> {
 }
 
 impl PairResponse<'_> {
-    /// The friction of a pair that touches (`contact`) between particles `ids` (pin weights
-    /// `w`). Velocities are loaded only here: few of the pairs a pass tests touch.
+    /// Particle `i`'s velocity.
+    #[inline]
+    fn velocity(&self, i: u32) -> Vec3 {
+        self.v[i as usize].xyz()
+    }
+
+    /// The friction of a pair of cloth primitives that touches (`contact`) between particles
+    /// `ids` (pin weights `w`). Velocities are loaded only here: few of the pairs a pass tests
+    /// touch.
     #[inline]
     fn add_friction(&mut self, ids: UVec4, w: Vec4, contact: &PairContact) {
         if self.friction <= 0.0 {
             return;
         }
-        let v = [
-            self.v[ids.x as usize].xyz(),
-            self.v[ids.y as usize].xyz(),
-            self.v[ids.z as usize].xyz(),
-            self.v[ids.w as usize].xyz(),
-        ];
+        let v = [self.velocity(ids.x), self.velocity(ids.y), self.velocity(ids.z), self.velocity(ids.w)];
+        self.add_friction_of(ids, w, contact, v);
+    }
+
+    /// The friction of a touching pair whose four points move at `v`: only the particles with
+    /// a weight change (a collider's feature, weight 0, has no particle in `ids`).
+    #[inline]
+    fn add_friction_of(&mut self, ids: UVec4, w: Vec4, contact: &PairContact, v: [Vec3; 4]) {
         if let Some(dv) = pair_friction(contact, v, w, self.friction) {
-            accumulate_scaled(self.velocity_changes, ids.x, dv[0], VELOCITY_SCALE);
-            accumulate_scaled(self.velocity_changes, ids.y, dv[1], VELOCITY_SCALE);
-            accumulate_scaled(self.velocity_changes, ids.z, dv[2], VELOCITY_SCALE);
-            accumulate_scaled(self.velocity_changes, ids.w, dv[3], VELOCITY_SCALE);
+            if w.x > 0.0 {
+                accumulate_scaled(self.velocity_changes, ids.x, dv[0], VELOCITY_SCALE);
+            }
+            if w.y > 0.0 {
+                accumulate_scaled(self.velocity_changes, ids.y, dv[1], VELOCITY_SCALE);
+            }
+            if w.z > 0.0 {
+                accumulate_scaled(self.velocity_changes, ids.z, dv[2], VELOCITY_SCALE);
+            }
+            if w.w > 0.0 {
+                accumulate_scaled(self.velocity_changes, ids.w, dv[3], VELOCITY_SCALE);
+            }
         }
     }
 }
@@ -889,46 +906,66 @@ struct ColliderFeaturePairs<'a> {
     /// could bring within half the thickness (`sharp_for`).
     folds: Vec3,
     vertex_folds: Vec3,
+    /// The feature's corners' velocities over the pass.
+    velocities: [Vec3; 3],
     sorted: &'a [UVec4],
     owned_bits: &'a [u32],
     x: &'a [Vec4],
     x_prev: &'a [Vec4],
-    thickness: f32,
-    delta: &'a mut [u32],
+    /// The collider's thickness and friction, the cloth's velocities, its corrections' sums
+    /// and its friction's.
+    out: PairResponse<'a>,
     pushes: &'a mut [u32],
 }
 
-/// Collider corner `k` of `feature` against cloth triangle `face` (into the cloth's own mean).
+/// Collider corner `k` of `feature` (moving at `velocity`) against cloth triangle `face` (into
+/// the cloth's own mean), with the collider's friction.
 #[inline]
-fn collider_vertex_face(feature: &Corners, k: usize, face: &Corners, thickness: f32, delta: &mut [u32]) {
+fn collider_vertex_face(feature: &Corners, (k, velocity): (usize, Vec3), face: &Corners, out: &mut PairResponse) {
     let weights = (0.0, face.weights);
-    let limits = (thickness, COLLIDER_CROSSING_DEPTH * thickness);
+    let limits = (out.thickness, COLLIDER_CROSSING_DEPTH * out.thickness);
     if let Some(c) = pair_correction_within((feature.then[k], feature.now[k]), face.then, face.now, weights, limits) {
-        accumulate(delta, face.ids.x, c.corners[0]);
-        accumulate(delta, face.ids.y, c.corners[1]);
-        accumulate(delta, face.ids.z, c.corners[2]);
+        accumulate(out.delta, face.ids.x, c.corners[0]);
+        accumulate(out.delta, face.ids.y, c.corners[1]);
+        accumulate(out.delta, face.ids.z, c.corners[2]);
+        if out.friction > 0.0 {
+            let ids = UVec4::new(0, face.ids.x, face.ids.y, face.ids.z);
+            let v = [velocity, out.velocity(face.ids.x), out.velocity(face.ids.y), out.velocity(face.ids.z)];
+            out.add_friction_of(ids, Vec4::new(0.0, face.weights.x, face.weights.y, face.weights.z), &c.contact, v);
+        }
     }
 }
 
 /// Collider edge `k` of `feature` against edge `m` of cloth triangle `cloth`.
 #[inline]
 fn collider_edge_edge(
-    feature: &Corners,
+    (feature, velocities): (&Corners, [Vec3; 3]),
     (k, fold): (usize, f32),
     cloth: &Corners,
     m: usize,
-    thickness: f32,
+    out: &mut PairResponse,
     pushes: &mut [u32],
 ) {
-    let m1 = (m + 1) % 3;
+    let (k1, m1) = ((k + 1) % 3, (m + 1) % 3);
+    let thickness = out.thickness;
     if !sharp_for(fold, (cloth.now[m1] - cloth.now[m]).length_squared(), thickness) {
         return;
     }
     let (then, now) = edge_ends(feature, k, cloth, m);
     let w = Vec4::new(0.0, 0.0, cloth.weight(m as u32), cloth.weight(m1 as u32));
-    if let Some((d, _)) = edge_pair_correction(then, now, w, thickness, false) {
-        push_out(pushes, component(cloth.ids, m as u32), d[2], COLLIDER_PUSH_LIMIT * thickness);
-        push_out(pushes, component(cloth.ids, m1 as u32), d[3], COLLIDER_PUSH_LIMIT * thickness);
+    if let Some((d, contact)) = edge_pair_correction(then, now, w, thickness, false) {
+        let (a, b) = (component(cloth.ids, m as u32), component(cloth.ids, m1 as u32));
+        push_out(pushes, a, d[2], COLLIDER_PUSH_LIMIT * thickness);
+        push_out(pushes, b, d[3], COLLIDER_PUSH_LIMIT * thickness);
+        if out.friction > 0.0 {
+            let v = [
+                pick(velocities[0], velocities[1], velocities[2], k as u32),
+                pick(velocities[0], velocities[1], velocities[2], k1 as u32),
+                out.velocity(a),
+                out.velocity(b),
+            ];
+            out.add_friction_of(UVec4::new(0, 0, a, b), w, &contact, v);
+        }
     }
 }
 
@@ -937,7 +974,7 @@ impl LeafVisitor for ColliderFeaturePairs<'_> {
         let ids = self.sorted[leaf as usize];
         let cloth = Corners::load(ids, (self.x, self.x_prev));
         let cloth_owned = self.owned_bits[ids.w as usize];
-        let (feature, thickness) = (&self.feature, self.thickness);
+        let (feature, thickness) = (&self.feature, self.out.thickness);
         let face_box = cloth.swept_box3();
         let face_length2 = longest_side2(cloth.now[0], cloth.now[1], cloth.now[2]);
         let mut k = 0;
@@ -946,7 +983,8 @@ impl LeafVisitor for ColliderFeaturePairs<'_> {
                 && sharp_for(component_f(self.vertex_folds, k as u32), face_length2, thickness)
                 && within(feature.swept_box(k, k), face_box, thickness)
             {
-                collider_vertex_face(feature, k, &cloth, thickness, self.delta);
+                let velocity = pick(self.velocities[0], self.velocities[1], self.velocities[2], k as u32);
+                collider_vertex_face(feature, (k, velocity), &cloth, &mut self.out);
             }
             if self.owned & (1 << k) != 0 {
                 let edge = (k, component_f(self.folds, k as u32));
@@ -954,7 +992,7 @@ impl LeafVisitor for ColliderFeaturePairs<'_> {
                 let mut m = 0;
                 while m < 3 {
                     if cloth_owned & (1 << m) != 0 && within(edge_box, cloth.swept_box(m, (m + 1) % 3), thickness) {
-                        collider_edge_edge(feature, edge, &cloth, m, thickness, self.pushes);
+                        collider_edge_edge((feature, self.velocities), edge, &cloth, m, &mut self.out, self.pushes);
                     }
                     m += 1;
                 }
@@ -1002,12 +1040,13 @@ pub fn collider_feature_contact_at(
     feature: UVec4,
     (vertices, previous, indices): (&[Vec4], &[Vec4], &[u32]),
     motion: &SubstepMotion,
-    (self_params, thickness): (&ColliderParams, f32),
+    self_params: &ColliderParams,
     (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
     cloth_owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
-    (delta, pushes): (&mut [u32], &mut [u32]),
+    (out, pushes): (PairResponse, &mut [u32]),
 ) -> bool {
+    let thickness = out.thickness;
     let owned = feature.w;
     if owned == 0 {
         return false;
@@ -1048,17 +1087,20 @@ pub fn collider_feature_contact_at(
     if !any {
         return false;
     }
+    // Each corner's velocity over the pass (the pose's motion and the mesh's deformation).
+    let per_second = 1.0 / motion.h;
+    let velocities = [(a.1 - a.0) * per_second, (b.1 - b.0) * per_second, (c.1 - c.0) * per_second];
     let mut pairs = ColliderFeaturePairs {
         feature: moving,
         owned,
         folds,
         vertex_folds,
+        velocities,
         sorted,
         owned_bits: cloth_owned,
         x,
         x_prev,
-        thickness,
-        delta,
+        out,
         pushes,
     };
     walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo, hi), &mut pairs)
@@ -1084,8 +1126,10 @@ pub fn collider_feature_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] owned: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] x: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] delta: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] pushes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 17)] velocity_changes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 18)] pushes: &mut [u32],
 ) {
     if id.x as usize >= features.len() {
         return;
@@ -1093,9 +1137,9 @@ pub fn collider_feature_contact(
     let motion = substep_motion(params, pose, push);
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     let mesh = (vertices, previous, indices);
-    let limits = (self_params, collider.thickness);
     let mine = features[id.x as usize];
-    collider_feature_contact_at(id.x, mine, mesh, &motion, limits, tree, owned, (x, x_prev), (delta, pushes));
+    let out = PairResponse { thickness: collider.thickness, friction: collider.friction, v, delta, velocity_changes };
+    collider_feature_contact_at(id.x, mine, mesh, &motion, self_params, tree, owned, (x, x_prev), (out, pushes));
 }
 
 /// How deep beyond a cloth face a collider vertex may be and still count as having crossed it
