@@ -430,35 +430,42 @@ fn a_smooth_collider_holds_a_self_colliding_cloth_as_it_holds_any() {
     assert_validation_clean(&ctx);
 }
 
-/// Friction between a cloth's own layers (`ClothBuilder::self_friction`): one cloth of two
-/// sheets, the lower pinned and tilted 15 degrees (tan 15 = 0.27), the upper lying on it. With
-/// friction 0.5 (> 0.27) the upper sheet stays where it landed; frictionless it slides down the
-/// slope (a = g sin 15 = 2.5 m/s^2) and off.
-#[test]
-fn friction_holds_a_layer_of_cloth_on_a_sloping_layer_of_the_same_cloth() {
-    let ctx = context();
+/// The particle index where the upper sheet of `two_sheets_on_a_slope` starts.
+const UPPER_SHEET_FIRST: u32 = 144;
+
+/// One cloth of two sheets with self-collision (5 mm) and `friction` between its layers: the
+/// lower (12 x 12, 0.4 m, particles 0..144) pinned, the upper (6 x 6, 0.15 m) lying on it,
+/// both tilted 15 degrees (tan 15 = 0.27).
+fn two_sheets_on_a_slope(friction: f32) -> drape::Cloth {
     let (lower, upper) = (ClothMesh::grid(12, 12, 0.4), ClothMesh::grid(6, 6, 0.15));
+    assert_eq!(lower.vertices.len() as u32, UPPER_SHEET_FIRST);
     let lifted = Vec3::new(0.0, 0.0055, 0.0);
     let vertices: Vec<Vec3> =
         lower.vertices.iter().copied().chain(upper.vertices.iter().map(|&v| v + lifted)).collect();
-    let offset = lower.vertices.len() as u32;
-    let shifted = upper.triangles.iter().map(|t| t.map(|i| i + offset));
+    let shifted = upper.triangles.iter().map(|t| t.map(|i| i + UPPER_SHEET_FIRST));
     let triangles: Vec<[u32; 3]> = lower.triangles.iter().copied().chain(shifted).collect();
-    let slope = 15f32.to_radians();
+    let mesh = ClothMesh::from_parts(vertices, triangles).unwrap();
+    let builder = (0..UPPER_SHEET_FIRST).fold(drape::ClothBuilder::from_mesh(mesh), |b, i| b.pin_vertex(i));
+    builder
+        .transform(glam::Mat4::from_rotation_z(15f32.to_radians()))
+        .self_collision(Some(0.005))
+        .self_friction(friction)
+        .build()
+        .unwrap()
+}
+
+/// Friction between a cloth's own layers (`ClothBuilder::self_friction`): with friction 0.5
+/// (> tan 15 = 0.27) the upper of `two_sheets_on_a_slope` stays where it landed; frictionless it
+/// slides down the slope (a = g sin 15 = 2.5 m/s^2) and off.
+#[test]
+fn friction_holds_a_layer_of_cloth_on_a_sloping_layer_of_the_same_cloth() {
+    let ctx = context();
     let slide = |friction: f32| {
-        let mesh = ClothMesh::from_parts(vertices.clone(), triangles.clone()).unwrap();
-        let builder = (0..offset).fold(drape::ClothBuilder::from_mesh(mesh), |b, i| b.pin_vertex(i));
-        let cloth = builder
-            .transform(glam::Mat4::from_rotation_z(slope))
-            .self_collision(Some(0.005))
-            .self_friction(friction)
-            .build()
-            .unwrap();
+        let cloth = two_sheets_on_a_slope(friction);
         let model = Model::single(&cloth, &[], SimSettings::default().with_timestamps(false)).unwrap();
         let mut sim = Solver::new(&ctx, &model).unwrap();
-        let centre = |x: &[Vec4]| {
-            x[offset as usize..].iter().map(|p| p.truncate()).sum::<Vec3>() / (x.len() as u32 - offset) as f32
-        };
+        let upper = UPPER_SHEET_FIRST as usize;
+        let centre = |x: &[Vec4]| x[upper..].iter().map(|p| p.truncate()).sum::<Vec3>() / (x.len() - upper) as f32;
         let start = centre(&sim.positions(CLOTH).unwrap());
         for _ in 0..60 {
             sim.step().unwrap();
@@ -520,5 +527,42 @@ fn a_collider_s_sharp_edges_hold_a_self_colliding_cloth_with_friction() {
     );
     assert!(alone < 0.1, "the tilted box must hold the cloth: it moved {alone} m");
     assert!(with_self < alone + 0.05, "with self-collision the cloth moved {with_self} m, without {alone} m");
+    assert_validation_clean(&ctx);
+}
+
+/// `set_self_collision` changes the friction between a cloth's layers at run time (from the
+/// next frame, on the GPU and in the CPU twin alike): the two sheets on the 15 degree slope hold
+/// with 0.5 and slide once it is set to 0; a cloth without self-collision refuses it.
+#[test]
+fn the_layers_friction_changes_at_run_time() {
+    let ctx = context();
+    let cloth = two_sheets_on_a_slope(0.5);
+    let model = Model::single(&cloth, &[], SimSettings::default().with_timestamps(false)).unwrap();
+    let mut sim = Solver::new(&ctx, &model).unwrap();
+    let mut cpu = CpuSolver::new(&model).unwrap();
+    let upper = UPPER_SHEET_FIRST as usize;
+    let centre = |x: &[Vec4]| x[upper..].iter().map(|p| p.truncate()).sum::<Vec3>() / (x.len() - upper) as f32;
+    let start = centre(&sim.positions(CLOTH).unwrap());
+    let run = |sim: &mut Solver, cpu: &mut CpuSolver, frames: u32| {
+        for _ in 0..frames {
+            sim.step().unwrap();
+            cpu.step().unwrap();
+        }
+        let x = sim.positions(CLOTH).unwrap();
+        assert_eq!(x, cpu.positions(CLOTH).unwrap(), "the CPU twin follows the GPU through the change");
+        (centre(&x) - start).length()
+    };
+    let held = run(&mut sim, &mut cpu, 30);
+    sim.set_self_collision(CLOTH, 0.005, 0.0).unwrap();
+    cpu.set_self_collision(CLOTH, 0.005, 0.0).unwrap();
+    let slid = run(&mut sim, &mut cpu, 30);
+    println!("the upper sheet moved {held} m in 0.5 s with friction 0.5, then to {slid} m in 0.5 s without");
+    assert!(held < 0.01, "with friction 0.5 the upper sheet must hold: it moved {held} m");
+    assert!(slid > held + 0.05, "set frictionless, the upper sheet must slide: it moved from {held} to {slid} m");
+    // A cloth built without self-collision has no tree to change.
+    let plain = drape::ClothBuilder::new(4, 4).build().unwrap();
+    let model = Model::single(&plain, &[], SimSettings::default()).unwrap();
+    let error = Solver::new(&ctx, &model).unwrap().set_self_collision(CLOTH, 0.005, 0.5).unwrap_err().to_string();
+    assert!(error.contains("built without it"), "{error}");
     assert_validation_clean(&ctx);
 }

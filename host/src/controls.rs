@@ -10,6 +10,7 @@ use crate::model::{ClothId, ColliderId};
 use crate::motion::ClothMotion;
 use crate::program::SolverProgram;
 use crate::programs::cloth::FramePlan;
+use crate::programs::self_contact::SelfContactBuffers;
 use crate::settings::SimSettings;
 use crate::stability::{BoundInputs, Stability};
 use drape_kernels::pose::to_world;
@@ -103,8 +104,12 @@ pub(crate) struct ClothControl {
     bound: BoundInputs,
     /// Self-collision thickness (m), if on.
     self_collision: Option<f32>,
+    /// Friction between the cloth's layers under self-collision.
+    self_friction: f32,
     pub motion: ClothMotion,
     params_dirty: bool,
+    /// The self-collision's thickness or friction changed since the GPU last had them.
+    self_dirty: bool,
     pins: Vec<(u32, PinChange)>,
 }
 
@@ -153,12 +158,12 @@ fn non_negative(name: &'static str, values: &[f32]) -> Result<()> {
     }
 }
 
+/// What a cloth starts with: its resolved parameters, its stability bound's choice and inputs,
+/// and its self-collision thickness and friction between its layers (`None`: off).
+pub(crate) type ClothStart = (SimParams, Stability, BoundInputs, Option<(f32, f32)>);
+
 impl Controls {
-    pub fn new(
-        cloths: Vec<(SimParams, Stability, BoundInputs, Option<f32>)>,
-        settings: SimSettings,
-        colliders: Vec<ColliderStart>,
-    ) -> Self {
+    pub fn new(cloths: Vec<ClothStart>, settings: SimSettings, colliders: Vec<ColliderStart>) -> Self {
         let cloths = cloths
             .into_iter()
             .map(|(params, stability, bound, self_collision)| ClothControl {
@@ -166,9 +171,11 @@ impl Controls {
                 stability,
                 base_stability: stability,
                 bound,
-                self_collision,
+                self_collision: self_collision.map(|(thickness, _)| thickness),
+                self_friction: self_collision.map_or(0.0, |(_, friction)| friction),
                 motion: ClothMotion::new(),
                 params_dirty: false,
+                self_dirty: false,
                 pins: Vec::new(),
             })
             .collect();
@@ -350,6 +357,31 @@ impl Controls {
         Ok(changed)
     }
 
+    /// Sets `cloth`'s self-collision thickness (m) and the friction between its layers; an
+    /// error for a cloth built without self-collision (its tree and buffers are made with the
+    /// model).
+    pub fn set_self_collision(&mut self, cloth: ClothId, thickness: f32, friction: f32) -> Result<()> {
+        if !(thickness.is_finite() && thickness > 0.0) {
+            return Err(invalid("self-collision thickness", format!("must be finite and > 0, got {thickness}")));
+        }
+        non_negative("self-collision friction", &[friction])?;
+        let c = self.cloth_mut(cloth)?;
+        if c.self_collision.is_none() {
+            return Err(invalid(
+                "self-collision",
+                format!(
+                    "cloth {} was built without it: turn it on with ClothBuilder::self_collision(Some(thickness)) \
+                     before building the model",
+                    cloth.0
+                ),
+            ));
+        }
+        (c.self_collision, c.self_friction, c.self_dirty) = (Some(thickness), friction, true);
+        // The passes follow the thickness.
+        self.replan = true;
+        self.wake(cloth)
+    }
+
     fn collider(&mut self, id: ColliderId) -> Result<&mut ColliderControl> {
         let count = self.colliders.len();
         self.colliders.get_mut(id.0).ok_or_else(|| no_such("collider", id.0, count))
@@ -458,6 +490,13 @@ impl Controls {
         for (c, buffers) in self.cloths.iter_mut().zip(&program.cloths) {
             if std::mem::take(&mut c.params_dirty) {
                 steps.push(Step::write(buffers.params, 0, &[c.params]));
+            }
+            if let (true, Some(s), Some(thickness)) =
+                (std::mem::take(&mut c.self_dirty), &buffers.self_contact, c.self_collision)
+            {
+                // The whole record: its Morton box and longest edge are the frame start's to write.
+                let params = SelfContactBuffers::initial_params(s.tree.leaves, thickness, c.self_friction);
+                steps.push(Step::write(s.tree.collider, 0, &[params]));
             }
             pin_writes(&mut c.pins, buffers.x, buffers.v, &mut steps);
         }
@@ -659,6 +698,17 @@ macro_rules! runtime_setters {
             pub fn set_frame_dt(&mut self, frame_dt: f32) -> $crate::Result<()> {
                 let changed = self.controls.set_frame_dt(frame_dt)?;
                 self.replan(changed)
+            }
+
+            /// Sets `cloth`'s self-collision thickness (m) and the Coulomb friction between its
+            /// layers; an error for a cloth built without self-collision.
+            pub fn set_self_collision(
+                &mut self,
+                cloth: $crate::ClothId,
+                thickness: f32,
+                friction: f32,
+            ) -> $crate::Result<()> {
+                self.controls.set_self_collision(cloth, thickness, friction)
             }
 
             /// Sets `collider`'s contact thickness (m) and Coulomb friction coefficient.

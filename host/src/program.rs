@@ -50,7 +50,8 @@ impl SolverProgram {
         let mut resolved = Vec::new();
         for (cloth, bound) in model.cloths().iter().zip(model.bounds()) {
             let (params, stability) = settings.resolve_params(&cloth.params, bound)?;
-            resolved.push((params, stability, bound.clone(), cloth.self_collision));
+            let self_collision = cloth.self_collision.map(|thickness| (thickness, cloth.self_friction));
+            resolved.push((params, stability, bound.clone(), self_collision));
         }
         let mut resources = Resources::new();
         let bytes = |data: &[glam::Vec4]| bytemuck::cast_slice::<_, u8>(data).to_vec();
