@@ -124,9 +124,9 @@ pub fn longest_side2(a: Vec3, b: Vec3, c: Vec3) -> f32 {
 }
 
 /// How much longer than at the frame's start a cloth edge is assumed to grow within the frame
-/// (squared: 2x longer), for the collider triangles that can skip their walk
-/// (`collider_feature_contact_at`).
-pub const EDGE_GROWTH2: f32 = 4.0;
+/// (squared: 1.2x longer; a frame is 1/60 s), for the collider triangles that can skip their
+/// walk (`collider_feature_contact_at`).
+pub const EDGE_GROWTH2: f32 = 1.44;
 
 /// Stores the cloth's bounds, grown by the thickness, as the tree's Morton box, and its
 /// longest squared edge (`bounds.max.w`) in `scene_max.w`.
