@@ -495,7 +495,7 @@ impl Controls {
                 (std::mem::take(&mut c.self_dirty), &buffers.self_contact, c.self_collision)
             {
                 // The whole record: its Morton box and longest edge are the frame start's to write.
-                let params = SelfContactBuffers::initial_params(s.tree.leaves, thickness, c.self_friction);
+                let params = SelfContactBuffers::params(s.tree.leaves, thickness, c.self_friction);
                 steps.push(Step::write(s.tree.collider, 0, &[params]));
             }
             pin_writes(&mut c.pins, buffers.x, buffers.v, &mut steps);

@@ -78,7 +78,7 @@ impl SolverProgram {
             initial.push((b.v.id(), bytes(&cloth.velocities)));
             initial.push((b.indices.id(), bytemuck::cast_slice::<_, u8>(triangles).to_vec()));
             if let (Some(s), Some(thickness)) = (&b.self_contact, cloth.self_collision) {
-                let params = SelfContactBuffers::initial_params(triangles.len() as u32, thickness, cloth.self_friction);
+                let params = SelfContactBuffers::params(triangles.len() as u32, thickness, cloth.self_friction);
                 initial.push((s.tree.collider.id(), bytemuck::bytes_of(&params).to_vec()));
                 let owned = crate::programs::self_contact::owned_primitives(triangles);
                 initial.push((s.owned.id(), bytemuck::cast_slice::<_, u8>(&owned).to_vec()));

@@ -141,9 +141,10 @@ impl SelfContactBuffers {
         }
     }
 
-    /// The tree's parameters before the first frame (the Morton box is the GPU's to write):
-    /// the thickness the cloth keeps from itself and the friction between its layers.
-    pub fn initial_params(triangles: u32, thickness: f32, friction: f32) -> ColliderParams {
+    /// The tree's parameters (the Morton box and longest edge are the GPU's to write at each
+    /// frame's start): the thickness the cloth keeps from itself and the friction between its
+    /// layers.
+    pub fn params(triangles: u32, thickness: f32, friction: f32) -> ColliderParams {
         ColliderParams { leaf_count: triangles, thickness, friction, ..Default::default() }
     }
 

@@ -394,28 +394,29 @@ pub struct PairResponse<'a> {
 }
 
 impl PairResponse<'_> {
-    /// Particle `i`'s velocity.
+    /// Point `i`'s velocity: a particle's (`weight` > 0, it moves in response), else `unmoved`.
+    /// (A method, not a closure: rust-gpu cannot compile closures that capture slices.)
     #[inline]
-    fn velocity(&self, i: u32) -> Vec3 {
-        self.v[i as usize].xyz()
+    fn velocity(&self, i: u32, weight: f32, unmoved: Vec3) -> Vec3 {
+        if weight > 0.0 { self.v[i as usize].xyz() } else { unmoved }
     }
 
-    /// The friction of a pair of cloth primitives that touches (`contact`) between particles
-    /// `ids` (pin weights `w`). Velocities are loaded only here: few of the pairs a pass tests
-    /// touch.
+    /// The friction of a pair that touches (`contact`) between the points `ids` (pin weights
+    /// `w`): a point that moves in response (w > 0) is a particle, whose velocity is loaded
+    /// here (few of the pairs a pass tests touch); one that does not moves at `unmoved` (a
+    /// collider's feature, whose index is not a particle's, at its own velocity; a pinned
+    /// particle at rest), and nothing is added to it.
     #[inline]
-    fn add_friction(&mut self, ids: UVec4, w: Vec4, contact: &PairContact) {
+    fn add_friction(&mut self, ids: UVec4, w: Vec4, contact: &PairContact, unmoved: [Vec3; 4]) {
         if self.friction <= 0.0 {
             return;
         }
-        let v = [self.velocity(ids.x), self.velocity(ids.y), self.velocity(ids.z), self.velocity(ids.w)];
-        self.add_friction_of(ids, w, contact, v);
-    }
-
-    /// The friction of a touching pair whose four points move at `v`: only the particles with
-    /// a weight change (a collider's feature, weight 0, has no particle in `ids`).
-    #[inline]
-    fn add_friction_of(&mut self, ids: UVec4, w: Vec4, contact: &PairContact, v: [Vec3; 4]) {
+        let v = [
+            self.velocity(ids.x, w.x, unmoved[0]),
+            self.velocity(ids.y, w.y, unmoved[1]),
+            self.velocity(ids.z, w.z, unmoved[2]),
+            self.velocity(ids.w, w.w, unmoved[3]),
+        ];
         if let Some(dv) = pair_friction(contact, v, w, self.friction) {
             if w.x > 0.0 {
                 accumulate_scaled(self.velocity_changes, ids.x, dv[0], VELOCITY_SCALE);
@@ -678,7 +679,7 @@ fn vertex_face(vertex: &Corners, k: usize, face: &Corners, out: &mut PairRespons
         accumulate(out.delta, face.ids.y, c.corners[1]);
         accumulate(out.delta, face.ids.z, c.corners[2]);
         let w = Vec4::new(weights.0, face.weights.x, face.weights.y, face.weights.z);
-        out.add_friction(UVec4::new(id, face.ids.x, face.ids.y, face.ids.z), w, &c.contact);
+        out.add_friction(UVec4::new(id, face.ids.x, face.ids.y, face.ids.z), w, &c.contact, [Vec3::ZERO; 4]);
     }
 }
 
@@ -711,7 +712,7 @@ fn edge_edge(e: &Corners, k: usize, f: &Corners, m: usize, out: &mut PairRespons
         accumulate(out.delta, ids[1], d[1]);
         accumulate(out.delta, ids[2], d[2]);
         accumulate(out.delta, ids[3], d[3]);
-        out.add_friction(UVec4::new(ids[0], ids[1], ids[2], ids[3]), w, &contact);
+        out.add_friction(UVec4::new(ids[0], ids[1], ids[2], ids[3]), w, &contact, [Vec3::ZERO; 4]);
     }
 }
 
@@ -928,11 +929,9 @@ fn collider_vertex_face(feature: &Corners, (k, velocity): (usize, Vec3), face: &
         accumulate(out.delta, face.ids.x, c.corners[0]);
         accumulate(out.delta, face.ids.y, c.corners[1]);
         accumulate(out.delta, face.ids.z, c.corners[2]);
-        if out.friction > 0.0 {
-            let ids = UVec4::new(0, face.ids.x, face.ids.y, face.ids.z);
-            let v = [velocity, out.velocity(face.ids.x), out.velocity(face.ids.y), out.velocity(face.ids.z)];
-            out.add_friction_of(ids, Vec4::new(0.0, face.weights.x, face.weights.y, face.weights.z), &c.contact, v);
-        }
+        let ids = UVec4::new(0, face.ids.x, face.ids.y, face.ids.z);
+        let w = Vec4::new(0.0, face.weights.x, face.weights.y, face.weights.z);
+        out.add_friction(ids, w, &c.contact, [velocity, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO]);
     }
 }
 
@@ -957,15 +956,11 @@ fn collider_edge_edge(
         let (a, b) = (component(cloth.ids, m as u32), component(cloth.ids, m1 as u32));
         push_out(pushes, a, d[2], COLLIDER_PUSH_LIMIT * thickness);
         push_out(pushes, b, d[3], COLLIDER_PUSH_LIMIT * thickness);
-        if out.friction > 0.0 {
-            let v = [
-                pick(velocities[0], velocities[1], velocities[2], k as u32),
-                pick(velocities[0], velocities[1], velocities[2], k1 as u32),
-                out.velocity(a),
-                out.velocity(b),
-            ];
-            out.add_friction_of(UVec4::new(0, 0, a, b), w, &contact, v);
-        }
+        let ends = [
+            pick(velocities[0], velocities[1], velocities[2], k as u32),
+            pick(velocities[0], velocities[1], velocities[2], k1 as u32),
+        ];
+        out.add_friction(UVec4::new(0, 0, a, b), w, &contact, [ends[0], ends[1], Vec3::ZERO, Vec3::ZERO]);
     }
 }
 
