@@ -98,6 +98,104 @@ fn the_tree_finds_the_pairs_the_brute_force_loop_finds() {
     assert!(slipping > 10, "pressed pairs must slide against friction ({slipping} particle-frictions)");
 }
 
+/// The frame's pair lists with the walks of the triangles that leave their predicted region (or
+/// whose list is full) find the pairs the tree walk of every triangle finds: over the small
+/// pile's frames, each frame one pass from its start to its end, the summed corrections and
+/// friction are equal word for word. Predicted from the velocities at the frame's start (and
+/// gravity) many triangles leave their region and walk; predicted from the motion the frame
+/// made (no gravity) none does, and the lists alone must hold every pair.
+#[test]
+fn pair_lists_and_walks_find_the_pairs_the_tree_walk_finds() {
+    let exact = lists_and_walks_against_the_tree_walk(true);
+    assert!(exact.1 * 100 < exact.0, "exact predictions: the lists must carry the pairs ({exact:?})");
+    let start = lists_and_walks_against_the_tree_walk(false);
+    assert!(start.0 > 0 && start.1 > start.0 / 10, "both paths must run ({start:?})");
+}
+
+/// Over 60 frames of the small pile: (triangle-passes from lists, walked); panics where the
+/// two searches differ.
+fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
+    use drape::cpu::CpuExecutor;
+    use drape::graph::Resources;
+    use drape::programs::self_contact::{SelfContactBuffers, SelfContactCloth};
+    use drape_types::{Aabb, BvhNode, Health, SimParams};
+
+    let (thickness, friction) = (0.005, 0.5);
+    let (cloth, ground) = small_pile(Some(thickness));
+    let owned = owned_primitives(&cloth.triangles);
+    let settings = SimSettings::default();
+    let model = Model::single(&cloth, std::slice::from_ref(&ground), settings).unwrap();
+    let mut sim = CpuSolver::new(&model).unwrap();
+    let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
+    let mut resources = Resources::new();
+    let own = SelfContactCloth {
+        params: resources.device("params", 1),
+        x: resources.device("x", n),
+        v: resources.device("v", n),
+        indices: resources.device("indices", 3 * t),
+        health: resources.device("health", 1),
+    };
+    let s = SelfContactBuffers::declare(&mut resources, "pile", n, t);
+    let substeps = 8;
+    let params = SimParams {
+        particle_count: n,
+        substep: settings.frame_dt / substeps as f32,
+        gravity: if exact_prediction { Vec4::ZERO } else { Vec4::new(0.0, -9.81, 0.0, 0.0) },
+        ..SimParams::default()
+    };
+    let (mut listed, mut walked) = (0u64, 0u64);
+    for frame in 1..=60 {
+        let (before, v_before) = (sim.positions(CLOTH).unwrap(), sim.velocities(CLOTH).unwrap());
+        sim.step().unwrap();
+        let (x, v) = (sim.positions(CLOTH).unwrap(), sim.velocities(CLOTH).unwrap());
+        let mut cpu = CpuExecutor::new(&resources);
+        cpu.upload(own.params, &[params]).unwrap();
+        cpu.upload(own.indices, cloth.triangles.as_flattened()).unwrap();
+        cpu.upload(own.health, &[Health::default()]).unwrap();
+        cpu.upload(s.owned, &owned).unwrap();
+        cpu.upload(s.tree.collider, &[SelfContactBuffers::params(t, thickness, friction)]).unwrap();
+        // The frame's start: anchors from the positions and velocities there, lists.
+        cpu.upload(own.x, &before).unwrap();
+        let predicted: Vec<Vec4> = if exact_prediction {
+            x.iter().zip(&before).map(|(now, then)| (*now - *then) * (1.0 / settings.frame_dt)).collect()
+        } else {
+            v_before
+        };
+        cpu.upload(own.v, &predicted).unwrap();
+        let mut steps = vec![];
+        s.frame_start_steps(&own, substeps, &mut steps);
+        cpu.run(&steps).unwrap();
+        // One pass over the whole frame, to where the solver took the cloth.
+        cpu.upload(own.x, &x).unwrap();
+        cpu.upload(own.v, &v).unwrap();
+        let mut steps = vec![];
+        s.substep_steps(&own, (0, substeps - 1, substeps), vec![], &mut steps);
+        cpu.run(&steps).unwrap();
+        let words = 4 * n as usize;
+        let (found, found_friction) = (cpu.read(s.delta, words).unwrap(), cpu.read(s.velocity_changes, words).unwrap());
+        let health: Health = cpu.read(own.health, 1).unwrap()[0];
+        walked += u64::from(health.self_walks);
+        listed += u64::from(t - health.self_walks);
+        // The tree walk of every triangle over the same tree (refit to the pass).
+        let tree_nodes: Vec<BvhNode> = cpu.read(s.tree.nodes, t as usize - 1).unwrap();
+        let aabbs: Vec<Aabb> = cpu.read(s.tree.aabbs, t as usize - 1).unwrap();
+        let leaf_bounds: Vec<Aabb> = cpu.read(s.tree.sorted_bounds, t as usize).unwrap();
+        let sorted: Vec<glam::UVec4> = cpu.read(s.sorted, t as usize).unwrap();
+        let c = SelfContactBuffers::params(t, thickness, friction);
+        let (mut walk, mut walk_friction) = (vec![0u32; words], vec![0u32; words]);
+        for leaf in 0..t {
+            let tree = (tree_nodes.as_slice(), aabbs.as_slice(), leaf_bounds.as_slice(), sorted.as_slice());
+            let out =
+                PairResponse { thickness, friction, v: &v, delta: &mut walk, velocity_changes: &mut walk_friction };
+            assert!(!self_triangle_contact_at(leaf, &c, tree, &owned, (&x, &before), out), "stack overflow");
+        }
+        assert_eq!(found, walk, "frame {frame}: corrections");
+        assert_eq!(found_friction, walk_friction, "frame {frame}: friction");
+    }
+    println!("exact prediction {exact_prediction}: triangle-passes {listed} from lists, {walked} walked");
+    (listed, walked)
+}
+
 /// The small pile with self-collision (120 frames, folding onto itself on the ground), with
 /// friction between its layers and without, is deterministic run to run on the GPU (the
 /// corrections and the friction's velocity changes are summed as fixed-point integers, so

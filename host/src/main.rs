@@ -290,6 +290,7 @@ fn run(args: &Args) -> drape::Result<()> {
     let mut worst = WorstIntersections::default();
     let mut report = TimingReport::default();
     let (mut ran, mut skipped, mut fallbacks) = (0, 0, 0u64);
+    let (mut self_walks, mut self_triangle_passes) = (0u64, 0u64);
     let collider_ids: Vec<_> = model.collider_ids().collect();
     let frame_dt = sim.settings().frame_dt;
     let mut schedule = Schedule::default();
@@ -317,6 +318,8 @@ fn run(args: &Args) -> drape::Result<()> {
         ran += r.collision_ran;
         skipped += r.collision_skipped;
         fallbacks += u64::from(r.collision_fallbacks);
+        self_walks += u64::from(r.self_walks);
+        self_triangle_passes += u64::from(r.self_triangle_passes);
         progress.set(frame);
         let write_this = match args.obj_every {
             Some(n) => frame % n == 0,
@@ -372,6 +375,17 @@ fn run(args: &Args) -> drape::Result<()> {
     schedule.print(bound_substeps, args.frames, report.median_wall_ms());
     json.insert("timings".into(), timings_json(&report, !args.no_timestamps));
     json.insert("schedule".into(), schedule.json(bound_substeps));
+    if self_triangle_passes > 0 {
+        json.insert(
+            "self_collision_pairs".into(),
+            json!({ "triangle_passes": self_triangle_passes, "walked_the_tree": self_walks }),
+        );
+        say!(
+            "self-collision pair lists: {self_walks} of {self_triangle_passes} triangle-passes walked the tree instead \
+             ({:.2} %: left their predicted region, or their list was full)",
+            100.0 * self_walks as f64 / self_triangle_passes as f64
+        );
+    }
     if let Some(c) = colliders.first() {
         json.insert(
             "collision".into(),

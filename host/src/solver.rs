@@ -27,6 +27,12 @@ pub struct FrameReport {
     /// Particle-substeps whose candidate list did not cover their motion, answered by a full
     /// LBVH walk instead (`ContactSearch::CandidateLists`).
     pub collision_fallbacks: u32,
+    /// Self-collision: the triangles' tests over the frame's passes (triangles x passes, all
+    /// self-colliding cloths together), and how many of those walked the tree instead of
+    /// testing the frame's pair list (they left their predicted region, or their list was
+    /// full; `drape_kernels::self_pairs`).
+    pub self_triangle_passes: u32,
+    pub self_walks: u32,
     /// Cloths that slept through the frame (ran nothing).
     pub cloths_asleep: u32,
 }
@@ -121,12 +127,17 @@ impl Solver {
         self.frames_done += 1;
         self.frames_checked = self.frames_done;
         let mut report = FrameReport { timings, ..FrameReport::default() };
+        let plans = self.controls.plans();
         for (i, (cloth, contacts)) in self.program.cloths.iter().zip(&self.program.contacts).enumerate() {
             if self.controls.cloths[i].motion.asleep {
                 report.cloths_asleep += 1;
                 continue; // nothing ran: its status buffers hold its last awake frame's
             }
             let health: Health = self.engine.read_mapped(cloth.health)?;
+            if let (Some(s), Some(plan)) = (&cloth.self_contact, plans.get(i)) {
+                report.self_triangle_passes += s.tree.leaves * plan.self_passes.clamp(1, plan.substeps.max(1));
+                report.self_walks += health.self_walks;
+            }
             check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i])?;
             self.controls.observe(i, &health);
             for contact in contacts {

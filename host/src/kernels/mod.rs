@@ -8,6 +8,7 @@ pub mod integrate;
 pub mod lbvh;
 pub mod normals;
 pub mod self_contact;
+pub mod self_pairs;
 pub mod sort;
 pub mod spheres;
 pub mod triangles;
@@ -15,7 +16,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 35] = [
+pub const ALL: [&Kernel; 38] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::VERTEX_NORMALS,
@@ -23,9 +24,12 @@ pub const ALL: [&Kernel; 35] = [
     &normals::CHECK_HEALTH,
     &normals::CHECK_HEALTH_SPRINGS,
     &self_contact::SELF_SCENE_BOUNDS,
-    &self_contact::CLOTH_TRIANGLE_BOUNDS,
+    &self_pairs::CLOTH_TRIANGLE_REGIONS,
+    &self_pairs::CLOTH_TRIANGLE_BOUNDS,
     &self_contact::GATHER_CLOTH_TRIANGLES,
-    &self_contact::SELF_TRIANGLE_CONTACT,
+    &self_pairs::LIST_SELF_PAIRS,
+    &self_pairs::LISTED_SELF_PAIRS,
+    &self_pairs::WALK_SELF_PAIRS,
     &self_contact::COLLIDER_FEATURE_CONTACT,
     &self_contact::APPLY_SELF_CONTACT,
     &self_contact::APPLY_COLLIDER_PUSHES,

@@ -6,12 +6,13 @@
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
-use drape_kernels::self_contact::{
-    PairResponse, SCENE_THREADS, apply_collider_push_at, longest_edge2, apply_self_contact_at, copy_start, count_self_contact, cloth_triangle_bounds_at, gather_cloth_triangle_at, particle_bounds,
-    collider_feature_contact_at, self_triangle_contact_at, write_scene,
-};
 use drape_kernels::contact::substep_motion;
-use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
+use drape_kernels::self_contact::{
+    PairResponse, SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, collider_feature_contact_at, copy_start,
+    count_self_contact, frame_of, gather_cloth_triangle_at, longest_edge2, write_scene,
+};
+use drape_kernels::self_pairs::anchor_particles;
+use drape_types::{Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
 use glam::{UVec4, Vec4};
 
 const fn read(name: &'static str) -> BindingSpec {
@@ -24,56 +25,35 @@ const fn spec(entry: &'static str, bindings: &'static [BindingSpec], workgroup_s
     KernelSpec { entry, bindings, push_constant_size: 0, workgroup_size }
 }
 
-/// One workgroup: the cloth's bounds grown by the thickness, as the tree's Morton box; and the
-/// positions copied to where the frame's first pass sweeps from.
+/// One workgroup: every particle's anchor for the frame (`self_pairs::anchor_at`), their
+/// bounds (at their starts and predicted ends) grown by the thickness as the tree's Morton box;
+/// and the positions copied to where the frame's first pass sweeps from. Push constants:
+/// `BroadPhasePush` (the frame's substeps).
 pub static SELF_SCENE_BOUNDS: Kernel = Kernel {
-    spec: spec(
-        "self_contact::self_scene_bounds",
-        &[read("params"), read("x"), read("indices"), write("self_params"), write("start")],
-        SCENE_THREADS,
-    ),
+    spec: KernelSpec {
+        entry: "self_contact::self_scene_bounds",
+        bindings: &[
+            read("params"),
+            read("x"),
+            read("v"),
+            read("indices"),
+            write("self_params"),
+            write("start"),
+            write("anchors"),
+        ],
+        push_constant_size: size_of::<BroadPhasePush>() as u32,
+        workgroup_size: SCENE_THREADS,
+    },
     cpu: scene_cpu,
-};
-
-pub static CLOTH_TRIANGLE_BOUNDS: Kernel = Kernel {
-    spec: spec(
-        "self_contact::cloth_triangle_bounds",
-        &[read("self_params"), read("x"), read("x_prev"), read("indices"), write("bounds")],
-        WORKGROUP_SIZE,
-    ),
-    cpu: triangle_bounds_cpu,
 };
 
 pub static GATHER_CLOTH_TRIANGLES: Kernel = Kernel {
     spec: spec(
         "self_contact::gather_cloth_triangles",
-        &[read("self_params"), read("indices"), read("order"), write("sorted")],
+        &[read("self_params"), read("indices"), read("order"), write("sorted"), write("leaf_of")],
         WORKGROUP_SIZE,
     ),
     cpu: gather_cpu,
-};
-
-/// Every cloth triangle's owned corners against the triangles near it and its owned edges
-/// against their owned edges (one walk per triangle).
-pub static SELF_TRIANGLE_CONTACT: Kernel = Kernel {
-    spec: spec(
-        "self_contact::self_triangle_contact",
-        &[
-            read("self_params"),
-            read("nodes"),
-            read("aabbs"),
-            read("leaf_bounds"),
-            read("sorted"),
-            read("owned"),
-            read("x"),
-            read("x_prev"),
-            read("v"),
-            write("delta"),
-            write("velocity_changes"),
-        ],
-        CONTACT_THREADS,
-    ),
-    cpu: self_triangle_contact_cpu,
 };
 
 /// A triangle collider's triangles (the vertices and edges each owns) against the cloth's
@@ -138,16 +118,20 @@ pub static APPLY_COLLIDER_PUSHES: Kernel = Kernel {
 
 /// The lanes' bounds reduced (min/max is exact in any order), as the kernel does.
 fn scene_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
-    let [params, x, indices, self_params, start] = d.bindings()?;
+    let push: BroadPhasePush = d.push_as();
+    let [params, x, v, indices, self_params, start, anchors] = d.bindings()?;
     let p: SimParams = params.first()?;
-    let triangles = self_params.first::<ColliderParams>()?.leaf_count;
+    let c: ColliderParams = self_params.first()?;
+    let triangles = c.leaf_count;
+    let frame = frame_of(&p, &c, &push);
     for lane in 0..SCENE_THREADS {
         copy_start(x.slice(), start.slice_mut(), p.particle_count, lane, SCENE_THREADS);
     }
+    let (x, v, anchors) = (x.slice::<Vec4>(), v.slice::<Vec4>(), anchors.slice_mut::<Vec4>());
     let bounds = (0..SCENE_THREADS)
         .map(|lane| {
-            let mut own = particle_bounds(x.slice(), p.particle_count, lane, SCENE_THREADS);
-            own.max.w = longest_edge2(x.slice(), indices.slice(), triangles, lane, SCENE_THREADS);
+            let mut own = anchor_particles((x, v), frame, anchors, p.particle_count, (lane, SCENE_THREADS));
+            own.max.w = longest_edge2(x, indices.slice(), triangles, lane, SCENE_THREADS);
             own
         })
         .reduce(|a, b| Aabb { min: a.min.min(b.min), max: a.max.max(b.max) })
@@ -156,25 +140,16 @@ fn scene_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     Ok(())
 }
 
-fn triangle_bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
-    let threads = d.invocations();
-    let [self_params, x, x_prev, indices, bounds] = d.bindings()?;
-    let c: ColliderParams = self_params.first()?;
-    let (x, x_prev) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>());
-    let (indices, bounds) = (indices.slice::<u32>(), bounds.slice_mut::<Aabb>());
-    for t in 0..threads.min(c.leaf_count) {
-        bounds[t as usize] = cloth_triangle_bounds_at(t, (x, x_prev), indices);
-    }
-    Ok(())
-}
-
 fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, indices, order, sorted] = d.bindings()?;
+    let [self_params, indices, order, sorted, leaf_of] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let (indices, order, sorted) = (indices.slice::<u32>(), order.slice::<u32>(), sorted.slice_mut::<UVec4>());
+    let leaf_of = leaf_of.slice_mut::<u32>();
     for s in 0..threads.min(c.leaf_count) {
-        sorted[s as usize] = gather_cloth_triangle_at(s, indices, order);
+        let triangle = gather_cloth_triangle_at(s, indices, order);
+        sorted[s as usize] = triangle;
+        leaf_of[triangle.w as usize] = s;
     }
     Ok(())
 }
@@ -202,21 +177,6 @@ fn apply_pushes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (x, v, pushes) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>(), pushes.slice::<u32>());
     for i in 0..threads.min(p.particle_count) {
         apply_collider_push_at(i, x, v, pushes);
-    }
-    Ok(())
-}
-
-fn self_triangle_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
-    let threads = d.invocations();
-    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, x, x_prev, v, delta, velocity_changes] = d.bindings()?;
-    let c: ColliderParams = self_params.first()?;
-    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
-    let owned = owned.slice::<u32>();
-    let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
-    let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
-    for leaf in 0..threads.min(c.leaf_count) {
-        let out = PairResponse { thickness: c.thickness, friction: c.friction, v, delta: &mut *delta, velocity_changes: &mut *velocity_changes };
-        self_triangle_contact_at(leaf, &c, tree, owned, (x, x_prev), out);
     }
     Ok(())
 }

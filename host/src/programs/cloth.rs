@@ -190,7 +190,7 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
         contact.frame_start_steps(cloth, collider, plan.substeps, &mut steps);
     }
     if let Some(s) = &cloth.self_contact {
-        s.frame_start_steps(&cloth.self_contact_cloth(), &mut steps);
+        s.frame_start_steps(&cloth.self_contact_cloth(), plan.substeps, &mut steps);
     }
     // The substep after the last self-collision pass: where the next pass's sweep begins.
     let mut pass_from = 0;
@@ -215,7 +215,7 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
             let span = (pass_from, substep, plan.substeps);
             let features =
                 colliders.iter().filter_map(|(collider, _)| s.collider_feature_step(&own, collider, span)).collect();
-            s.substep_steps(&own, features, &mut steps);
+            s.substep_steps(&own, span, features, &mut steps);
             pass_from = substep + 1;
         }
         // A skipped pass is listed once, not once per substep.

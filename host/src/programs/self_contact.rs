@@ -1,8 +1,11 @@
-//! A cloth's self-collision as a sub-graph over handles: an LBVH over the cloth's own triangles
-//! (built by the generic builder at the frame's start, from a Morton box the GPU measures;
-//! refit at each pass) and, in each pass (after the collider's response of the substep it
-//! ends), the collider features (vertices into the pass's sums, edges' pushes applied at once),
-//! the vertex-triangle and edge-edge searches and the application of the summed corrections
+//! A cloth's self-collision as a sub-graph over handles: at the frame's start, each particle's
+//! anchor (its predicted path over the frame), an LBVH over the cloth's own triangles' regions
+//! (built by the generic builder, from a Morton box the GPU measures) and each triangle's list
+//! of the pairs it may have within the frame (`drape_kernels::self_pairs`); in each pass (after
+//! the collider's response of the substep it ends), the tree refit to the pass, the collider
+//! features (vertices into the pass's sums, edges' pushes applied at once), the vertex-triangle
+//! and edge-edge tests of the lists, the walks of the triangles that left their region (one
+//! indirect dispatch over those alone) and the application of the summed corrections
 //! (`drape_kernels::self_contact`). A pass sweeps from where the last
 //! one left the particles (`start`), so passes may be several substeps apart: `pass_due`.
 
@@ -10,12 +13,15 @@ use super::contact::{ColliderBuffers, ColliderLeaves, substep_span};
 use super::lbvh::LbvhBuffers;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_contact::{
-    APPLY_COLLIDER_PUSHES, APPLY_SELF_CONTACT, CLOTH_TRIANGLE_BOUNDS, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
-    SELF_TRIANGLE_CONTACT,
+    APPLY_COLLIDER_PUSHES, APPLY_SELF_CONTACT, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
+};
+use crate::kernels::self_pairs::{
+    CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_REGIONS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, WALK_SELF_PAIRS,
 };
 use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
+use drape_kernels::self_pairs::{ANCHOR_WORDS, SELF_LIST_CAPACITY};
+use drape_types::{BroadPhasePush, ColliderParams, ContactPush, DispatchArgs, Health, SelfPassPush, SimParams};
 use std::collections::{HashMap, HashSet};
-use drape_types::{ColliderParams, Health, SimParams};
 use glam::{UVec4, Vec4};
 
 /// The buffers of one cloth's self-collision.
@@ -37,6 +43,21 @@ pub struct SelfContactBuffers {
     /// corners (bit `VERTEX_OWNED_BIT << k`) it owns: each particle and each edge belongs to
     /// the first triangle that has it, so each pair is handled once.
     pub owned: Handle<u32>,
+    /// Per particle, `ANCHOR_WORDS` words: where it starts the frame with its slop, and its
+    /// predicted motion over the frame (`drape_kernels::self_pairs::anchor_at`).
+    pub anchors: Handle<Vec4>,
+    /// Per triangle: whether it left its predicted region in the pass (1) or not (0).
+    pub escaped: Handle<u32>,
+    /// Per sorted leaf: the frame's list of later leaves it may touch, `SELF_LIST_CAPACITY`
+    /// pairs of words (leaf, primitive pairs), and its count.
+    pub lists: Handle<u32>,
+    pub counts: Handle<u32>,
+    /// Per triangle, its sorted leaf (the inverse of the tree's order).
+    pub leaf_of: Handle<u32>,
+    /// The pass's walkers (sorted leaves that escaped or whose list overflowed) and their
+    /// indirect dispatch (count in `_pad`).
+    pub walkers: Handle<u32>,
+    pub walk_args: Handle<DispatchArgs>,
     particles: u32,
 }
 
@@ -93,8 +114,12 @@ pub fn collider_features(triangles: &[[u32; 3]]) -> Vec<UVec4> {
         .collect()
 }
 
-/// The timing table's line of a pass's pair search (vertex-triangle and edge-edge).
+/// The timing table's line of a pass's pair search (vertex-triangle and edge-edge) from the
+/// frame's lists.
 pub const SELF_PAIRS_LABEL: &str = "self: vertex-triangle + edge-edge";
+/// The timing table's line of a pass's walks (the triangles that left their predicted region
+/// or whose list overflowed).
+pub const SELF_WALKS_LABEL: &str = "self: walks (escaped, full lists)";
 /// The timing table's line of a pass's collider features (vertices and edges) against the
 /// cloth.
 pub const COLLIDER_FEATURES_LABEL: &str = "self: collider vertices + edges";
@@ -137,6 +162,13 @@ impl SelfContactBuffers {
             pushes: resources.device(format!("{name}: collider pushes"), PUSH_WORDS * particles),
             start: resources.device(format!("{name}: pass start"), particles),
             owned: resources.device(format!("{name}: owned edges and corners"), triangles),
+            anchors: resources.device(format!("{name}: anchors"), ANCHOR_WORDS * particles),
+            escaped: resources.device(format!("{name}: escaped"), triangles),
+            lists: resources.device(format!("{name}: pair lists"), 2 * SELF_LIST_CAPACITY * triangles),
+            counts: resources.device(format!("{name}: pair list counts"), triangles),
+            leaf_of: resources.device(format!("{name}: leaf of each triangle"), triangles),
+            walkers: resources.device(format!("{name}: walkers"), triangles),
+            walk_args: resources.device(format!("{name}: walk dispatch"), 1),
             particles,
         }
     }
@@ -148,33 +180,85 @@ impl SelfContactBuffers {
         ColliderParams { leaf_count: triangles, thickness, friction, ..Default::default() }
     }
 
-    fn triangle_bounds(&self, cloth: &SelfContactCloth) -> Step {
+    /// The triangles' boxes over the pass spanning `span` and, when `find_walkers` (the pass's
+    /// last run of them), whether each escaped its region and the pass's walkers (counted from
+    /// zero).
+    fn triangle_bounds(&self, cloth: &SelfContactCloth, span: ContactPush, find_walkers: bool, steps: &mut Vec<Step>) {
         let t = &self.tree;
-        Step::run(
+        if find_walkers {
+            steps.push(Step::write(self.walk_args, 0, &[DispatchArgs { x: 0, y: 1, z: 1, _pad: 0 }]));
+        }
+        let push = SelfPassPush { from: span.from, to: span.to, find_walkers: find_walkers as u32, _pad: 0 };
+        steps.push(Step::run_with(
             "self: triangle boxes",
             &CLOTH_TRIANGLE_BOUNDS,
-            vec![t.collider.id(), cloth.x.id(), self.start.id(), cloth.indices.id(), t.bounds.id()],
+            vec![
+                t.collider.id(),
+                cloth.x.id(),
+                self.start.id(),
+                cloth.indices.id(),
+                self.anchors.id(),
+                self.leaf_of.id(),
+                self.counts.id(),
+                t.bounds.id(),
+                self.escaped.id(),
+                self.walkers.id(),
+                self.walk_args.id(),
+            ],
+            bytemuck::cast(push),
             Dispatch::Threads(t.leaves),
-        )
+        ));
     }
 
-    /// At the frame's start: the Morton box, then the whole build over the triangles' boxes,
-    /// then the triangles' corners in the tree's order.
-    pub fn frame_start_steps(&self, cloth: &SelfContactCloth, steps: &mut Vec<Step>) {
+    /// At the frame of `substeps` substeps' start: the particles' anchors and the Morton box,
+    /// then the whole build over the triangles' regions, the triangles' corners in the tree's
+    /// order, and each triangle's list of the pairs it may have within the frame.
+    pub fn frame_start_steps(&self, cloth: &SelfContactCloth, substeps: u32, steps: &mut Vec<Step>) {
         let t = &self.tree;
-        steps.push(Step::run(
+        steps.push(Step::run_with(
             "self: cloth bounds",
             &SELF_SCENE_BOUNDS,
-            vec![cloth.params.id(), cloth.x.id(), cloth.indices.id(), t.collider.id(), self.start.id()],
+            vec![
+                cloth.params.id(),
+                cloth.x.id(),
+                cloth.v.id(),
+                cloth.indices.id(),
+                t.collider.id(),
+                self.start.id(),
+                self.anchors.id(),
+            ],
+            bytemuck::cast(BroadPhasePush { substeps, _pad: [0; 3] }),
             Dispatch::Workgroups(1),
         ));
+        let regions = Step::run(
+            "self: triangle regions",
+            &CLOTH_TRIANGLE_REGIONS,
+            vec![t.collider.id(), self.anchors.id(), cloth.indices.id(), t.bounds.id()],
+            Dispatch::Threads(t.leaves),
+        );
         let gather = Step::run(
             "self: gather triangles",
             &GATHER_CLOTH_TRIANGLES,
-            vec![t.collider.id(), cloth.indices.id(), t.order.id(), self.sorted.id()],
+            vec![t.collider.id(), cloth.indices.id(), t.order.id(), self.sorted.id(), self.leaf_of.id()],
             Dispatch::Threads(t.leaves),
         );
-        steps.extend(t.build_around(self.triangle_bounds(cloth), gather));
+        steps.extend(t.build_around(regions, gather));
+        steps.push(Step::run(
+            "self: pair lists",
+            &LIST_SELF_PAIRS,
+            vec![
+                t.collider.id(),
+                t.nodes.id(),
+                t.aabbs.id(),
+                t.sorted_bounds.id(),
+                self.sorted.id(),
+                self.owned.id(),
+                self.anchors.id(),
+                self.lists.id(),
+                self.counts.id(),
+            ],
+            Dispatch::Threads(t.leaves),
+        ));
     }
 
     /// The pass that ends substep `to` of `substeps` and sweeps from the end of substep
@@ -227,9 +311,16 @@ impl SelfContactBuffers {
     /// refit again); then the pairs, and the mean of all corrections applied (which records the
     /// next pass's start). The pairs sweep the pushes with the rest of the pass's motion, so a
     /// push through a layer of cloth is a crossing they undo.
-    pub fn substep_steps(&self, cloth: &SelfContactCloth, features: Vec<Step>, steps: &mut Vec<Step>) {
+    pub fn substep_steps(
+        &self,
+        cloth: &SelfContactCloth,
+        (from, to, substeps): (u32, u32, u32),
+        features: Vec<Step>,
+        steps: &mut Vec<Step>,
+    ) {
         let t = &self.tree;
-        steps.push(self.triangle_bounds(cloth));
+        let span = substep_span(from, to + 1, substeps);
+        self.triangle_bounds(cloth, span, features.is_empty(), steps);
         steps.extend(t.refit_steps());
         steps.push(Step::fill(self.delta, 0));
         steps.push(Step::fill(self.velocity_changes, 0));
@@ -244,14 +335,34 @@ impl SelfContactBuffers {
                 vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.pushes.id()],
                 Dispatch::Threads(self.particles),
             ));
-            steps.push(self.triangle_bounds(cloth));
+            self.triangle_bounds(cloth, span, true, steps);
             steps.extend(t.refit_steps());
         }
-        // One walk per triangle: its owned corners against the triangles it reaches, its owned
-        // edges against their owned edges.
+        // Per triangle, its owned corners against the triangles of its list, its owned edges
+        // against their owned edges; then the walkers' (a pass of their own: on lockstep lanes a
+        // walk beside list tests would hold its neighbours).
         steps.push(Step::run(
             SELF_PAIRS_LABEL,
-            &SELF_TRIANGLE_CONTACT,
+            &LISTED_SELF_PAIRS,
+            vec![
+                t.collider.id(),
+                t.sorted_bounds.id(),
+                self.sorted.id(),
+                self.owned.id(),
+                cloth.x.id(),
+                self.start.id(),
+                cloth.v.id(),
+                self.escaped.id(),
+                self.lists.id(),
+                self.counts.id(),
+                self.delta.id(),
+                self.velocity_changes.id(),
+            ],
+            Dispatch::Threads(t.leaves),
+        ));
+        steps.push(Step::run(
+            SELF_WALKS_LABEL,
+            &WALK_SELF_PAIRS,
             vec![
                 t.collider.id(),
                 t.nodes.id(),
@@ -262,10 +373,15 @@ impl SelfContactBuffers {
                 cloth.x.id(),
                 self.start.id(),
                 cloth.v.id(),
+                self.escaped.id(),
+                self.counts.id(),
+                self.walkers.id(),
+                self.walk_args.id(),
                 self.delta.id(),
                 self.velocity_changes.id(),
+                cloth.health.id(),
             ],
-            Dispatch::Threads(t.leaves),
+            Dispatch::Indirect(self.walk_args),
         ));
         steps.push(Step::run(
             "self: apply",

@@ -74,6 +74,8 @@ pub const WALK_BATCH: usize = 16;
 /// is not entered.
 pub struct PairWalk {
     first: u32,
+    /// Whether only leaves after `first` are wanted (else every leaf the query box meets).
+    after_only: bool,
     lo: Vec3,
     hi: Vec3,
     /// Pending entries: internal nodes whose boxes met the query, and leaves (`LEAF_BIT`) yet
@@ -89,7 +91,12 @@ impl PairWalk {
     pub fn new(first: u32, leaf_count: u32, (lo, hi): (Vec3, Vec3)) -> Self {
         // A single leaf has no pairs (and no internal node).
         let top = if leaf_count > 1 { 1 } else { 0 };
-        PairWalk { first, lo, hi, stack: [0u32; STACK_SIZE], top, overflowed: false }
+        PairWalk { first, after_only: true, lo, hi, stack: [0u32; STACK_SIZE], top, overflowed: false }
+    }
+
+    /// A walk for every leaf whose box meets `lo..=hi`, in batches as `new`'s.
+    pub fn all(leaf_count: u32, query: (Vec3, Vec3)) -> Self {
+        PairWalk { after_only: false, ..PairWalk::new(0, leaf_count, query) }
     }
 
     /// Whether the walk is over.
@@ -122,7 +129,7 @@ impl PairWalk {
             while side < 2 {
                 let child = if side == 0 { node.right } else { node.left };
                 let index = child & !LEAF_BIT;
-                let later = side == 0 || index > self.first;
+                let later = !self.after_only || side == 0 || index > self.first;
                 if later && (child & LEAF_BIT != 0 || box_meets(&aabbs[child as usize], self.lo, self.hi)) {
                     if self.top == STACK_SIZE {
                         self.overflowed = true;

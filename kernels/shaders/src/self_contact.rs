@@ -1,18 +1,21 @@
 //! Self-collision of a cloth (issue 8): an LBVH over the cloth's own triangles (built by the
-//! generic builder once per frame, refit at each pass to the triangles swept since the last),
-//! and in each self-collision pass, after the collider's response:
+//! generic builder once per frame over each triangle's region over the frame, which lists each
+//! triangle's pairs for the frame (`self_pairs`); refit at each pass to the triangles swept
+//! since the last), and in each self-collision pass, after the collider's response:
 //! - **vertex against triangle**: every particle finds the triangles (not its own) within the
 //!   thickness, or that it crossed since the last pass;
 //! - **edge against edge**: every edge finds the edges (sharing no particle) of the triangles
 //!   near it, each pair once, within the thickness or crossed;
 //!
-//! both from one walk per triangle (`self_triangle_contact`): each particle and each edge is
-//! owned by the first triangle that has it, and each pair of triangles whose boxes (swept over
-//! the pass, grown by the thickness) meet is handled once, from the earlier of the two in the
-//! tree's leaf order, in both directions: the walk enters no subtree that ends before it
-//! (`PairWalk`), hands its leaves over in batches (so the pair tests do not run masked inside
-//! the walk's loop on lockstep lanes), and each pair loads the two triangles' corners once;
-//! every test first checks its primitives' swept boxes;
+//! both per triangle, from the frame's list of its pairs or, for a triangle that left its
+//! predicted region or whose list is full, from a walk of the tree (`self_triangle_contact_at`;
+//! `self_pairs` says which): each particle and each edge is owned by the first triangle that
+//! has it, and each pair of triangles whose boxes (swept over the pass, grown by the thickness)
+//! meet is handled once, from the earlier of the two in the tree's leaf order, in both
+//! directions (`triangle_pair`, over the primitive pairs `pair_mask` names): the walk enters no
+//! subtree that ends before it (`PairWalk`), hands its leaves over in batches (so the pair tests
+//! do not run masked inside the walk's loop on lockstep lanes), and each pair loads the two
+//! triangles' corners once; every test first checks its primitives' swept boxes;
 //! - **collider features against the cloth**: every collider triangle, moving (and deforming)
 //!   with the collider, walks the cloth's tree with its swept box; the vertices it owns are
 //!   tested against the cloth triangles' faces and the edges it owns against their edges (each
@@ -41,8 +44,9 @@ use crate::atomics;
 use crate::contact::{reduce_bounds, substep_motion};
 use crate::lbvh::{PairWalk, TreeQuery, WALK_BATCH, box_meets, walk};
 use crate::pose::{SubstepMotion, to_world};
+use crate::self_pairs::anchor_particles;
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
+use drape_types::{Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
 use spirv_std::spirv;
@@ -55,20 +59,6 @@ pub const FIXED_SCALE: f32 = 16_777_216.0;
 /// self-collision tree's Morton codes (written into `self_params`).
 pub const SCENE_THREADS: u32 = 256;
 
-/// Bounds of particles `lane, lane + stride, ...`.
-pub fn particle_bounds(x: &[Vec4], count: u32, lane: u32, stride: u32) -> Aabb {
-    let mut lo = Vec3::splat(f32::INFINITY);
-    let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    let mut i = lane;
-    while i < count {
-        let p = x[i as usize].xyz();
-        lo = lo.min(p);
-        hi = hi.max(p);
-        i += stride;
-    }
-    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
-}
-
 /// Copies particles `lane, lane + stride, ...` of `x` into `start` (where the frame's first
 /// self-collision pass sweeps from).
 pub fn copy_start(x: &[Vec4], start: &mut [Vec4], count: u32, lane: u32, stride: u32) {
@@ -79,21 +69,33 @@ pub fn copy_start(x: &[Vec4], start: &mut [Vec4], count: u32, lane: u32, stride:
     }
 }
 
+/// The frame's anchors (`self_pairs::anchor_at`) for a frame of `substeps` substeps: its
+/// length, the gravity and the thickness.
+#[inline]
+pub fn frame_of(params: &SimParams, self_params: &ColliderParams, push: &BroadPhasePush) -> (f32, Vec3, f32) {
+    (push.substeps as f32 * params.substep, params.gravity.xyz(), self_params.thickness)
+}
+
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(256)))]
 pub fn self_scene_bounds(
     #[spirv(local_invocation_id)] lid: UVec3,
+    #[spirv(push_constant)] push: &BroadPhasePush,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] indices: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] self_params: &mut ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] start: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] self_params: &mut ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] start: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] anchors: &mut [Vec4],
     #[spirv(workgroup)] lows: &mut [Vec4; 256],
     #[spirv(workgroup)] highs: &mut [Vec4; 256],
 ) {
     let lane = lid.x;
     copy_start(x, start, params.particle_count, lane, SCENE_THREADS);
-    let mut own = particle_bounds(x, params.particle_count, lane, SCENE_THREADS);
+    let frame = frame_of(params, self_params, push);
+    let lanes = (lane, SCENE_THREADS);
+    let mut own = anchor_particles((x, v), frame, anchors, params.particle_count, lanes);
     // The longest edge rides in the box's w (reduced by the same max).
     own.max.w = longest_edge2(x, indices, self_params.leaf_count, lane, SCENE_THREADS);
     let bounds = reduce_bounds(lane, own, lows, highs);
@@ -137,34 +139,6 @@ pub fn write_scene(self_params: &mut ColliderParams, bounds: &Aabb) {
     self_params.scene_max = (bounds.max.xyz() + grow).extend(bounds.max.w);
 }
 
-/// The box of cloth triangle `t` (corners `indices[3t..3t + 3]`) over the substep: at the
-/// positions `x_prev` and `x`, so a particle the triangle swept through finds it.
-#[inline]
-pub fn cloth_triangle_bounds_at(t: u32, (x, x_prev): (&[Vec4], &[Vec4]), indices: &[u32]) -> Aabb {
-    let i = 3 * t as usize;
-    let (ia, ib, ic) = (indices[i] as usize, indices[i + 1] as usize, indices[i + 2] as usize);
-    let (a, b, c) = (x[ia].xyz(), x[ib].xyz(), x[ic].xyz());
-    let (a0, b0, c0) = (x_prev[ia].xyz(), x_prev[ib].xyz(), x_prev[ic].xyz());
-    let lo = a.min(b).min(c).min(a0).min(b0).min(c0);
-    let hi = a.max(b).max(c).max(a0).max(b0).max(c0);
-    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
-}
-
-#[spirv(compute(threads(256)))]
-pub fn cloth_triangle_bounds(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] indices: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] bounds: &mut [Aabb],
-) {
-    if id.x >= self_params.leaf_count {
-        return;
-    }
-    bounds[id.x as usize] = cloth_triangle_bounds_at(id.x, (x, x_prev), indices);
-}
-
 /// Sorted leaf `s`'s corners (xyz) and its triangle index (w), in the tree's order.
 #[inline]
 pub fn gather_cloth_triangle_at(s: u32, indices: &[u32], order: &[u32]) -> UVec4 {
@@ -180,11 +154,14 @@ pub fn gather_cloth_triangles(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] indices: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] order: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] sorted: &mut [UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] leaf_of: &mut [u32],
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
-    sorted[id.x as usize] = gather_cloth_triangle_at(id.x, indices, order);
+    let triangle = gather_cloth_triangle_at(id.x, indices, order);
+    sorted[id.x as usize] = triangle;
+    leaf_of[triangle.w as usize] = id.x;
 }
 
 /// The point of triangle (`a`, `b`, `c`) closest to `p` and its barycentric weights (Ericson,
@@ -463,7 +440,17 @@ pub fn walk_overlapping_after<V: LeafVisitor>(
     query: (Vec3, Vec3),
     visitor: &mut V,
 ) -> bool {
-    let mut walk = PairWalk::new(leaf, leaf_count, query);
+    walk_in_batches(PairWalk::new(leaf, leaf_count, query), tree, visitor)
+}
+
+/// Runs `walk`, handing its leaves to `visitor` in batches between stretches of the walk.
+/// Returns whether the walk's stack overflowed.
+#[inline]
+pub fn walk_in_batches<V: LeafVisitor>(
+    mut walk: PairWalk,
+    tree: (&[BvhNode], &[Aabb], &[Aabb]),
+    visitor: &mut V,
+) -> bool {
     let mut found = [0u32; WALK_BATCH];
     while !walk.done() {
         let count = walk.next_batch(tree, &mut found);
@@ -620,7 +607,7 @@ fn component(v: UVec4, k: u32) -> u32 {
 /// and pair: on llvmpipe a load of a per-lane address is a loop over the lanes, and the tests
 /// of one triangle pair would otherwise load each corner several times.
 #[derive(Copy, Clone)]
-struct Corners {
+pub(crate) struct Corners {
     ids: UVec4,
     now: [Vec3; 3],
     then: [Vec3; 3],
@@ -629,7 +616,7 @@ struct Corners {
 
 impl Corners {
     #[inline]
-    fn load(ids: UVec4, (x, x_prev): (&[Vec4], &[Vec4])) -> Self {
+    pub(crate) fn load(ids: UVec4, (x, x_prev): (&[Vec4], &[Vec4])) -> Self {
         let (a, b, c) = (x[ids.x as usize], x[ids.y as usize], x[ids.z as usize]);
         Corners {
             ids,
@@ -732,12 +719,12 @@ fn within(a: (Vec3, Vec3), b: (Vec3, Vec3), reach: f32) -> bool {
 /// within the thickness at the pass's end, or crossing on the way (motion is linear over a
 /// pass), has meeting boxes; most pairs a walk reaches fail this, at a fraction of the exact
 /// test's cost.
-struct TrianglePairs<'a> {
+pub(crate) struct TrianglePairs<'a> {
     leaf: u32,
-    mine: Corners,
+    pub(crate) mine: Corners,
     /// Bits of the corners (`VERTEX_OWNED_BIT << k`) and edges (`1 << k`, edge k from corner k
     /// to corner k + 1) this triangle owns.
-    owned: u32,
+    pub(crate) owned: u32,
     /// This triangle's swept box grown by the thickness.
     reach_lo: Vec3,
     reach_hi: Vec3,
@@ -745,13 +732,13 @@ struct TrianglePairs<'a> {
     owned_bits: &'a [u32],
     x: &'a [Vec4],
     x_prev: &'a [Vec4],
-    out: PairResponse<'a>,
+    pub(crate) out: PairResponse<'a>,
 }
 
 impl<'a> TrianglePairs<'a> {
     /// The pairs of sorted leaf `leaf` (whose corners and owned bits the tables give).
     #[inline]
-    fn of(
+    pub(crate) fn of(
         leaf: u32,
         (leaf_bounds, sorted, owned_bits): (&'a [Aabb], &'a [UVec4], &'a [u32]),
         (x, x_prev): (&'a [Vec4], &'a [Vec4]),
@@ -774,31 +761,58 @@ impl<'a> TrianglePairs<'a> {
     }
 }
 
-/// The corners `owned` marks of triangle `vertices` against triangle `face`.
+/// The corners `corners` marks (bit k: corner k) of triangle `vertices` against triangle
+/// `face`.
 #[inline]
-fn corners_against(vertices: &Corners, owned: u32, face: &Corners, out: &mut PairResponse) {
+fn corners_against(vertices: &Corners, corners: u32, face: &Corners, out: &mut PairResponse) {
     let face_box = face.swept_box3();
     let mut k = 0;
     while k < 3 {
-        if owned & (VERTEX_OWNED_BIT << k) != 0 && within(vertices.swept_box(k, k), face_box, out.thickness) {
+        if corners & (1 << k) != 0 && within(vertices.swept_box(k, k), face_box, out.thickness) {
             vertex_face(vertices, k, face, out);
         }
         k += 1;
     }
 }
 
-/// Triangles `a` and `b` (with the corners and edges each owns) against each other, both ways.
+/// The primitive pairs of a pair of triangles `a`, `b` as bits: `a`'s corner k against `b`'s
+/// face (bit k), `b`'s corner k against `a`'s face (bit 3 + k), `a`'s edge k against `b`'s edge
+/// m (bit `PAIR_EDGES_SHIFT + 3k + m`). `pair_mask` sets those the triangles own; a frame's
+/// pair list keeps those that can touch within the frame (`self_pairs`).
+pub const PAIR_EDGES_SHIFT: u32 = 6;
+
+/// The primitive pairs (`PAIR_EDGES_SHIFT`) of triangles owning `a_owned` and `b_owned`
+/// (`VERTEX_OWNED_BIT`): each owned corner against the other's face, each owned edge against
+/// the other's owned edges.
 #[inline]
-fn triangle_pair((a, a_owned): (&Corners, u32), (b, b_owned): (&Corners, u32), out: &mut PairResponse) {
-    corners_against(a, a_owned, b, out);
-    corners_against(b, b_owned, a, out);
+pub fn pair_mask(a_owned: u32, b_owned: u32) -> u32 {
+    let corners = ((a_owned >> 3) & 7) | (((b_owned >> 3) & 7) << 3);
+    let mut edges = 0;
     let mut k = 0;
     while k < 3 {
         if a_owned & (1 << k) != 0 {
+            edges |= (b_owned & 7) << (3 * k);
+        }
+        k += 1;
+    }
+    corners | (edges << PAIR_EDGES_SHIFT)
+}
+
+/// Triangles `a` and `b` against each other, both ways, in the primitive pairs `mask` holds
+/// (`pair_mask`). `a` is always the earlier of the two in the tree's leaf order, so a pair
+/// gives the same result however it was found.
+#[inline]
+pub(crate) fn triangle_pair(a: &Corners, b: &Corners, mask: u32, out: &mut PairResponse) {
+    corners_against(a, mask & 7, b, out);
+    corners_against(b, (mask >> 3) & 7, a, out);
+    let mut k = 0;
+    while k < 3 {
+        let edges = (mask >> (PAIR_EDGES_SHIFT + 3 * k as u32)) & 7;
+        if edges != 0 {
             let edge = a.swept_box(k, (k + 1) % 3);
             let mut m = 0;
             while m < 3 {
-                if b_owned & (1 << m) != 0 && within(edge, b.swept_box(m, (m + 1) % 3), out.thickness) {
+                if edges & (1 << m) != 0 && within(edge, b.swept_box(m, (m + 1) % 3), out.thickness) {
                     edge_edge(a, k, b, m, out);
                 }
                 m += 1;
@@ -814,8 +828,8 @@ impl LeafVisitor for TrianglePairs<'_> {
             return; // the earlier triangle of a pair handles it (and a triangle's own corners and edges share its particles)
         }
         let ids = self.sorted[leaf as usize];
-        let theirs = (&Corners::load(ids, (self.x, self.x_prev)), self.owned_bits[ids.w as usize]);
-        triangle_pair((&self.mine, self.owned), theirs, &mut self.out);
+        let theirs = Corners::load(ids, (self.x, self.x_prev));
+        triangle_pair(&self.mine, &theirs, pair_mask(self.owned, self.owned_bits[ids.w as usize]), &mut self.out);
     }
 }
 
@@ -823,7 +837,7 @@ impl LeafVisitor for TrianglePairs<'_> {
 /// pass), grown by the thickness. A pair within the thickness at the pass's end, or crossing
 /// on the way (motion is linear over a pass), has swept boxes that meet once grown by it.
 #[inline]
-fn triangle_query(bounds: &Aabb, thickness: f32) -> (Vec3, Vec3) {
+pub(crate) fn triangle_query(bounds: &Aabb, thickness: f32) -> (Vec3, Vec3) {
     let reach = Vec3::splat(thickness);
     (bounds.min.xyz() - reach, bounds.max.xyz() + reach)
 }
@@ -841,8 +855,23 @@ pub fn self_triangle_contact_at(
 ) -> bool {
     let tables = (leaf_bounds, sorted, owned);
     let mut pairs = TrianglePairs::of(leaf, tables, (x, x_prev), out);
-    let query = (pairs.reach_lo, pairs.reach_hi);
-    walk_overlapping_after(leaf, (nodes, aabbs, leaf_bounds), self_params.leaf_count, query, &mut pairs)
+    pairs.walk_after((nodes, aabbs, leaf_bounds), self_params.leaf_count)
+}
+
+impl TrianglePairs<'_> {
+    /// The pairs with every later leaf whose box meets this triangle's query box, through the
+    /// tree; returns whether the walk's stack overflowed.
+    #[inline]
+    pub(crate) fn walk_after(&mut self, tree: (&[BvhNode], &[Aabb], &[Aabb]), leaf_count: u32) -> bool {
+        let query = (self.reach_lo, self.reach_hi);
+        walk_overlapping_after(self.leaf, tree, leaf_count, query, self)
+    }
+
+    /// The query box this triangle's pairs are searched in.
+    #[inline]
+    pub(crate) fn query(&self) -> (Vec3, Vec3) {
+        (self.reach_lo, self.reach_hi)
+    }
 }
 
 /// The baseline `self_triangle_contact_at` must equal, without the tree: sorted leaf `leaf`'s
@@ -856,41 +885,17 @@ pub fn self_triangle_contact_brute_force_at(
     mut out: PairResponse,
 ) {
     let ids = sorted[leaf as usize];
-    let mine = (&Corners::load(ids, (x, x_prev)), owned[ids.w as usize]);
+    let mine = Corners::load(ids, (x, x_prev));
     let (lo, hi) = triangle_query(&leaf_bounds[leaf as usize], out.thickness);
     let mut other = leaf + 1;
     while other < self_params.leaf_count {
         if box_meets(&leaf_bounds[other as usize], lo, hi) {
             let theirs = sorted[other as usize];
-            triangle_pair(mine, (&Corners::load(theirs, (x, x_prev)), owned[theirs.w as usize]), &mut out);
+            let mask = pair_mask(owned[ids.w as usize], owned[theirs.w as usize]);
+            triangle_pair(&mine, &Corners::load(theirs, (x, x_prev)), mask, &mut out);
         }
         other += 1;
     }
-}
-
-#[allow(clippy::too_many_arguments)]
-#[spirv(compute(threads(64)))]
-pub fn self_triangle_contact(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaf_bounds: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &[UVec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owned: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] delta: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] velocity_changes: &mut [u32],
-) {
-    if id.x >= self_params.leaf_count {
-        return;
-    }
-    let tree = (nodes, aabbs, leaf_bounds, sorted);
-    let out =
-        PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
-    self_triangle_contact_at(id.x, self_params, tree, owned, (x, x_prev), out);
 }
 
 /// A collider triangle's features (the vertices and edges it owns) against the cloth

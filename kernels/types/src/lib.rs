@@ -79,7 +79,11 @@ pub struct Health {
     /// passes; written by `apply_self_contact`): a cloth in contact with itself runs a pass
     /// every substep (each pass is also an iteration of its contacts).
     pub self_contacts: u32,
-    pub _pad: [u32; 3],
+    /// Cloth triangles that walked the self-collision tree instead of testing their frame's
+    /// pair list (they left their predicted region, or the list overflowed), summed over the
+    /// frame's passes (`self_pairs`).
+    pub self_walks: u32,
+    pub _pad: [u32; 2],
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
@@ -206,6 +210,20 @@ pub struct ContactPush {
     pub from: f32,
     pub to: f32,
     pub _pad: [u32; 2],
+}
+
+/// Push constants of a self-collision pass's triangle boxes: the pass's span as fractions of the
+/// frame (as `ContactPush`), and whether this run of the boxes (the pass's last: a pass with
+/// collider features runs them again after the features' pushes) also finds the triangles that
+/// walk in the pass (1) or not (0).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct SelfPassPush {
+    pub from: f32,
+    pub to: f32,
+    pub find_walkers: u32,
+    pub _pad: u32,
 }
 
 /// Push constants of the broad phase (once per frame, before the substeps).
@@ -353,6 +371,7 @@ const _: () = assert!(core::mem::size_of::<SortPush>() == 16);
 const _: () = assert!(core::mem::size_of::<RigidPose>() == 32);
 const _: () = assert!(core::mem::size_of::<ColliderPose>() == 64);
 const _: () = assert!(core::mem::size_of::<ContactPush>() == 16);
+const _: () = assert!(core::mem::size_of::<SelfPassPush>() == 16);
 const _: () = assert!(core::mem::size_of::<BroadPhasePush>() == 16);
 const _: () = assert!(core::mem::size_of::<ContactQuery>() == 48);
 const _: () = assert!(core::mem::size_of::<SurfacePush>() == 128);

@@ -1,0 +1,246 @@
+//! Self-collision pair kernels (`drape_kernels::self_pairs`): the triangles' regions over the
+//! frame (the frame's tree), the frame's pair lists, each pass's triangle boxes with whether
+//! each triangle escaped its region, and the pass's pairs (lists, or walks of the tree).
+
+use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use drape_kernels::WORKGROUP_SIZE;
+use drape_kernels::contact::CONTACT_THREADS;
+use drape_kernels::self_contact::PairResponse;
+use drape_kernels::self_pairs::{
+    LIST_OVERFLOWED, WALK_THREADS, add_walker, cloth_triangle_bounds_at, escaped_at, list_self_pairs_at,
+    listed_self_pairs_at, triangle_region_at, walk_self_pairs_at,
+};
+use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfPassPush};
+use glam::{UVec4, Vec4};
+
+const fn read(name: &'static str) -> BindingSpec {
+    BindingSpec::read(name)
+}
+const fn write(name: &'static str) -> BindingSpec {
+    BindingSpec::write(name)
+}
+
+/// Each triangle's region over the frame: the box its corners stay in while they hold to their
+/// predicted paths.
+pub static CLOTH_TRIANGLE_REGIONS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pairs::cloth_triangle_regions",
+        bindings: &[read("self_params"), read("anchors"), read("indices"), write("bounds")],
+        push_constant_size: 0,
+        workgroup_size: WORKGROUP_SIZE,
+    },
+    cpu: regions_cpu,
+};
+
+/// Each triangle's box over the pass and, in the pass's last run, whether it escaped its region
+/// and the pass's walkers (escaped, or with an overflowed list); push constants: `SelfPassPush`.
+pub static CLOTH_TRIANGLE_BOUNDS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pairs::cloth_triangle_bounds",
+        bindings: &[
+            read("self_params"),
+            read("x"),
+            read("x_prev"),
+            read("indices"),
+            read("anchors"),
+            read("leaf_of"),
+            read("counts"),
+            write("bounds"),
+            write("escaped"),
+            write("walkers"),
+            write("walk_args"),
+        ],
+        push_constant_size: size_of::<SelfPassPush>() as u32,
+        workgroup_size: WORKGROUP_SIZE,
+    },
+    cpu: bounds_cpu,
+};
+
+/// Every triangle's list of the later triangles it may touch within the frame (one walk of the
+/// frame's tree each).
+pub static LIST_SELF_PAIRS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pairs::list_self_pairs",
+        bindings: &[
+            read("self_params"),
+            read("nodes"),
+            read("aabbs"),
+            read("leaf_bounds"),
+            read("sorted"),
+            read("owned"),
+            read("anchors"),
+            write("lists"),
+            write("counts"),
+        ],
+        push_constant_size: 0,
+        workgroup_size: CONTACT_THREADS,
+    },
+    cpu: lists_cpu,
+};
+
+/// Every cloth triangle that does not walk: its owned corners against the triangles of its
+/// list and its owned edges against their owned edges.
+pub static LISTED_SELF_PAIRS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pairs::listed_self_pairs",
+        bindings: &[
+            read("self_params"),
+            read("leaf_bounds"),
+            read("sorted"),
+            read("owned"),
+            read("x"),
+            read("x_prev"),
+            read("v"),
+            read("escaped"),
+            read("lists"),
+            read("counts"),
+            write("delta"),
+            write("velocity_changes"),
+        ],
+        push_constant_size: 0,
+        workgroup_size: CONTACT_THREADS,
+    },
+    cpu: listed_cpu,
+};
+
+/// The pass's walkers (indirect): their pairs through the tree.
+pub static WALK_SELF_PAIRS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pairs::walk_self_pairs",
+        bindings: &[
+            read("self_params"),
+            read("nodes"),
+            read("aabbs"),
+            read("leaf_bounds"),
+            read("sorted"),
+            read("owned"),
+            read("x"),
+            read("x_prev"),
+            read("v"),
+            read("escaped"),
+            read("counts"),
+            read("walkers"),
+            read("walk_args"),
+            write("delta"),
+            write("velocity_changes"),
+            write("health"),
+        ],
+        push_constant_size: 0,
+        workgroup_size: WALK_THREADS,
+    },
+    cpu: walk_cpu,
+};
+
+fn regions_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, anchors, indices, bounds] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let (anchors, indices, bounds) = (anchors.slice::<Vec4>(), indices.slice::<u32>(), bounds.slice_mut::<Aabb>());
+    for t in 0..threads.min(c.leaf_count) {
+        bounds[t as usize] = triangle_region_at(t, anchors, indices);
+    }
+    Ok(())
+}
+
+fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let span: SelfPassPush = d.push_as();
+    let threads = d.invocations();
+    let [self_params, x, x_prev, indices, anchors, leaf_of, counts, bounds, escaped, walkers, walk_args] =
+        d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let (x, x_prev, anchors) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), anchors.slice::<Vec4>());
+    let (indices, leaf_of, counts) = (indices.slice::<u32>(), leaf_of.slice::<u32>(), counts.slice::<u32>());
+    let (bounds, escaped) = (bounds.slice_mut::<Aabb>(), escaped.slice_mut::<u32>());
+    let (walkers, walk_args) = (walkers.slice_mut::<u32>(), walk_args.first_mut::<DispatchArgs>()?);
+    for t in 0..threads.min(c.leaf_count) {
+        bounds[t as usize] = cloth_triangle_bounds_at(t, (x, x_prev), indices);
+        if span.find_walkers == 0 {
+            continue;
+        }
+        let out = escaped_at(t, (x, x_prev), anchors, indices, &span);
+        escaped[t as usize] = out as u32;
+        let leaf = leaf_of[t as usize];
+        if out || counts[leaf as usize] == LIST_OVERFLOWED {
+            add_walker(leaf, walkers, walk_args);
+        }
+    }
+    Ok(())
+}
+
+fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, anchors, lists, counts] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
+    let (owned, anchors) = (owned.slice::<u32>(), anchors.slice::<Vec4>());
+    let (lists, counts) = (lists.slice_mut::<u32>(), counts.slice_mut::<u32>());
+    for leaf in 0..threads.min(c.leaf_count) {
+        list_self_pairs_at(leaf, &c, tree, owned, anchors, (&mut *lists, &mut *counts));
+    }
+    Ok(())
+}
+
+fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, leaf_bounds, sorted, owned, x, x_prev, v, escaped, lists, counts, delta, velocity_changes] =
+        d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let tables = (leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>(), owned.slice::<u32>());
+    let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
+    let lists = (escaped.slice::<u32>(), lists.slice::<u32>(), counts.slice::<u32>());
+    let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
+    for leaf in 0..threads.min(c.leaf_count) {
+        let out = PairResponse {
+            thickness: c.thickness,
+            friction: c.friction,
+            v,
+            delta: &mut *delta,
+            velocity_changes: &mut *velocity_changes,
+        };
+        listed_self_pairs_at(leaf, tables, (x, x_prev), lists, out);
+    }
+    Ok(())
+}
+
+fn walk_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [
+        self_params,
+        nodes,
+        aabbs,
+        leaf_bounds,
+        sorted,
+        owned,
+        x,
+        x_prev,
+        v,
+        escaped,
+        counts,
+        walkers,
+        walk_args,
+        delta,
+        velocity_changes,
+        health,
+    ] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let walking = walk_args.first::<DispatchArgs>()?._pad;
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
+    let owned = owned.slice::<u32>();
+    let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
+    let tables = (escaped.slice::<u32>(), counts.slice::<u32>());
+    let walkers = walkers.slice::<u32>();
+    let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
+    let health = health.first_mut::<Health>()?;
+    for i in 0..threads.min(walking) {
+        let out = PairResponse {
+            thickness: c.thickness,
+            friction: c.friction,
+            v,
+            delta: &mut *delta,
+            velocity_changes: &mut *velocity_changes,
+        };
+        walk_self_pairs_at(walkers[i as usize], &c, tree, owned, (x, x_prev), tables, out);
+        health.self_walks += 1;
+    }
+    Ok(())
+}

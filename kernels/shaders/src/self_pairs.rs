@@ -1,0 +1,618 @@
+//! A cloth's self-collision pairs listed once per frame (the broad phase), tested at every pass
+//! (the narrow phase), as the collider's contact does (`candidates`):
+//! - **at the frame's start** each particle gets an anchor: where it is, where its velocity
+//!   takes it by the frame's end, and a slop (`anchor_at`). The tree is built over each
+//!   triangle's region (its corners' predicted paths grown by their slops), and every triangle
+//!   lists the later triangles (tree order) it could touch within the frame, with the primitive
+//!   pairs (vertex-face, edge-edge) that could: those whose distance at the frame's start,
+//!   less their relative predicted motion and their slops, is below the thickness
+//!   (`list_self_pairs_at`). On a cloth lying flat that leaves its neighbours out: a vertex is
+//!   an edge's length from the faces around it, while the walk's boxes meet.
+//! - **at each pass** a triangle whose corners all stayed within their slop of their predicted
+//!   path (`escaped_at`) tests only its list, skipping partners that escaped; one that escaped
+//!   walks the tree (refit to the pass) for its later leaves and for the earlier ones that do not
+//!   walk themselves, and one whose list overflowed walks for its later leaves
+//!   (`self_pairs_at`). Each pair of triangles is so handled once, always with the earlier leaf
+//!   first, and gives the walk's result: a primitive pair left out of a list stays apart by more
+//!   than the thickness over the whole frame while its corners stay within their slops.
+//!
+//! The bound: a corner's position is within its slop of its predicted path at every pass's
+//! ends (checked) and so in between (both move linearly within a pass); a point of a face or an
+//! edge is a weighted mean of its corners, so it is within the largest of their slops of its
+//! own predicted path; and two predicted paths part by at most the largest difference of their
+//! corners' predicted motions.
+
+use crate::atomics;
+use crate::lbvh::{PairWalk, WALK_BATCH};
+use crate::self_contact::{
+    Corners, LeafVisitor, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights,
+    longest_side2, pair_mask, triangle_pair, walk_in_batches,
+};
+use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
+use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfPassPush};
+use spirv_std::spirv;
+
+/// Pairs of triangles one triangle's list holds at most (two words each: the later leaf and
+/// the primitive pairs' bits, `self_contact::pair_mask`).
+pub const SELF_LIST_CAPACITY: u32 = 24;
+/// A list's count when its pairs did not fit (the triangle walks the tree at every pass).
+pub const LIST_OVERFLOWED: u32 = u32::MAX;
+/// A particle's slop: this share of the thickness, plus `SLOP_MOTION` of its velocity's motion
+/// over the frame. Larger slops list more pairs; smaller
+/// ones send more triangles walking. Neither changes a result.
+pub const SLOP_THICKNESS: f32 = 0.5;
+pub const SLOP_MOTION: f32 = 0.05;
+/// How much nearer than the thickness a listed pair's bound must come (the distances are
+/// rounded; the margin keeps the bound conservative).
+const REACH_MARGIN: f32 = 1.01;
+const REACH_ABSOLUTE: f32 = 1e-5;
+
+/// Words per particle of the anchors (`anchor_at`).
+pub const ANCHOR_WORDS: u32 = 3;
+
+/// Particle `i`'s anchor for a frame of `frame_time` seconds (words `ANCHOR_WORDS * i..` of
+/// `anchors`): its position and slop, its velocity's motion over the frame and gravity's: its
+/// predicted path is `start + motion t + fall t^2` at fraction t of the frame.
+#[inline]
+pub fn anchor_at(
+    i: u32,
+    (x, v): (&[Vec4], &[Vec4]),
+    (frame_time, gravity, thickness): (f32, Vec3, f32),
+    anchors: &mut [Vec4],
+) {
+    let i = i as usize;
+    let motion = v[i].xyz() * frame_time;
+    let slop = SLOP_THICKNESS * thickness + SLOP_MOTION * motion.length();
+    // Gravity's share of the motion: the same for every particle, so it parts no pair.
+    let fall = gravity * (0.5 * frame_time * frame_time);
+    let base = ANCHOR_WORDS as usize * i;
+    anchors[base] = x[i].xyz().extend(slop);
+    anchors[base + 1] = motion.extend(0.0);
+    anchors[base + 2] = fall.extend(0.0);
+}
+
+/// Anchors of particles `lane, lane + stride, ...` (`anchor_at`), and their bounds at their
+/// starts and predicted ends (the Morton box of the frame's tree; each lane reads only the
+/// anchors it wrote).
+pub fn anchor_particles(
+    (x, v): (&[Vec4], &[Vec4]),
+    frame: (f32, Vec3, f32),
+    anchors: &mut [Vec4],
+    count: u32,
+    (lane, stride): (u32, u32),
+) -> Aabb {
+    let mut i = lane;
+    while i < count {
+        anchor_at(i, (x, v), frame, anchors);
+        i += stride;
+    }
+    anchor_bounds(anchors, count, lane, stride)
+}
+
+/// Bounds of particles `lane, lane + stride, ...` at their anchors and at their predicted ends.
+pub fn anchor_bounds(anchors: &[Vec4], count: u32, lane: u32, stride: u32) -> Aabb {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    let mut i = lane;
+    while i < count {
+        let anchor = Anchor::load(i, anchors);
+        let end = anchor.at(1.0);
+        lo = lo.min(anchor.start).min(end);
+        hi = hi.max(anchor.start).max(end);
+        i += stride;
+    }
+    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
+}
+
+/// A particle's anchor (`anchor_at`).
+#[derive(Copy, Clone)]
+struct Anchor {
+    start: Vec3,
+    motion: Vec3,
+    fall: Vec3,
+    slop: f32,
+}
+
+impl Anchor {
+    #[inline]
+    fn load(i: u32, anchors: &[Vec4]) -> Self {
+        let base = (ANCHOR_WORDS * i) as usize;
+        let (a, m, f) = (anchors[base], anchors[base + 1], anchors[base + 2]);
+        Anchor { start: a.xyz(), motion: m.xyz(), fall: f.xyz(), slop: a.w }
+    }
+
+    /// The predicted position at fraction `t` of the frame.
+    #[inline]
+    fn at(&self, t: f32) -> Vec3 {
+        self.start + self.motion * t + self.fall * (t * t)
+    }
+
+    /// Whether `p`, at fraction `t` of the frame, is within the slop of the predicted path.
+    #[inline]
+    fn holds(&self, p: Vec3, t: f32) -> bool {
+        (p - self.at(t)).length_squared() <= self.slop * self.slop
+    }
+
+    /// The box the particle stays in over the frame while it holds: the path is a quadratic
+    /// Bezier curve (start, start + motion / 2, end), inside its control points' box, grown by
+    /// the slop.
+    #[inline]
+    fn region(&self) -> (Vec3, Vec3) {
+        let (end, control) = (self.at(1.0), self.start + self.motion * 0.5);
+        let slop = Vec3::splat(self.slop);
+        (self.start.min(end).min(control) - slop, self.start.max(end).max(control) + slop)
+    }
+}
+
+/// A triangle's corners' particles, anchors and regions.
+#[derive(Copy, Clone)]
+struct AnchoredTriangle {
+    ids: [u32; 3],
+    corners: [Anchor; 3],
+    regions: [(Vec3, Vec3); 3],
+}
+
+impl AnchoredTriangle {
+    #[inline]
+    fn load(ids: UVec4, anchors: &[Vec4]) -> Self {
+        let corners = [Anchor::load(ids.x, anchors), Anchor::load(ids.y, anchors), Anchor::load(ids.z, anchors)];
+        let regions = [corners[0].region(), corners[1].region(), corners[2].region()];
+        AnchoredTriangle { ids: [ids.x, ids.y, ids.z], corners, regions }
+    }
+
+    /// The region of corners `k` and `m` (one corner's when `k == m`).
+    #[inline]
+    fn region_of(&self, k: usize, m: usize) -> (Vec3, Vec3) {
+        (self.regions[k].0.min(self.regions[m].0), self.regions[k].1.max(self.regions[m].1))
+    }
+
+    /// The region of the whole triangle.
+    #[inline]
+    fn region3(&self) -> (Vec3, Vec3) {
+        let [a, b, c] = self.regions;
+        (a.0.min(b.0).min(c.0), a.1.max(b.1).max(c.1))
+    }
+
+    #[inline]
+    fn has(&self, id: u32) -> bool {
+        self.ids[0] == id || self.ids[1] == id || self.ids[2] == id
+    }
+
+    #[inline]
+    fn largest_slop(&self) -> f32 {
+        self.corners[0].slop.max(self.corners[1].slop).max(self.corners[2].slop)
+    }
+
+    /// The largest difference between `motion` and a corner's predicted motion.
+    #[inline]
+    fn largest_motion_from(&self, motion: Vec3) -> f32 {
+        let [a, b, c] = self.corners;
+        (a.motion - motion).length().max((b.motion - motion).length()).max((c.motion - motion).length())
+    }
+}
+
+/// Cloth triangle `t`'s region over the frame: the box its corners stay in while they hold to
+/// their predicted paths (the frame's tree is built over these).
+#[inline]
+pub fn triangle_region_at(t: u32, anchors: &[Vec4], indices: &[u32]) -> Aabb {
+    let i = 3 * t as usize;
+    let (a, b, c) = (
+        Anchor::load(indices[i], anchors).region(),
+        Anchor::load(indices[i + 1], anchors).region(),
+        Anchor::load(indices[i + 2], anchors).region(),
+    );
+    Aabb { min: a.0.min(b.0).min(c.0).extend(0.0), max: a.1.max(b.1).max(c.1).extend(0.0) }
+}
+
+/// Whether the bound says a pair of primitives `distance` apart at the frame's start, whose
+/// points' predicted motions differ by at most `motion`, with slops `slops`, may come within
+/// `thickness` in the frame.
+#[inline]
+fn may_touch(distance: f32, motion: f32, slops: f32, thickness: f32) -> bool {
+    distance - motion - slops < thickness * REACH_MARGIN + REACH_ABSOLUTE
+}
+
+/// Whether two regions come within `thickness` (the bound's cheap first test: the points stay
+/// in their regions while they hold).
+#[inline]
+fn regions_meet(a: (Vec3, Vec3), b: (Vec3, Vec3), thickness: f32) -> bool {
+    let reach = Vec3::splat(thickness * REACH_MARGIN + REACH_ABSOLUTE);
+    a.0.cmple(b.1 + reach).all() && a.1.cmpge(b.0 - reach).all()
+}
+
+/// Corner `k` of `vertex` against the face of `face`, at the frame's start (never when the
+/// corner is one of the face's: the pass skips those).
+#[inline]
+fn vertex_face_may_touch(vertex: &AnchoredTriangle, k: usize, face: &AnchoredTriangle, thickness: f32) -> bool {
+    if face.has(vertex.ids[k]) || !regions_meet(vertex.region_of(k, k), face.region3(), thickness) {
+        return false;
+    }
+    let p = vertex.corners[k];
+    let [a, b, c] = face.corners;
+    let area2 = (b.start - a.start).cross(c.start - a.start).length_squared();
+    let longest = longest_side2(a.start, b.start, c.start);
+    if area2 <= 1e-8 * longest * longest {
+        return true; // no closest point to measure from a collapsed face: kept
+    }
+    let (q, _) = closest_with_weights(p.start, a.start, b.start, c.start);
+    may_touch((p.start - q).length(), face.largest_motion_from(p.motion), p.slop + face.largest_slop(), thickness)
+}
+
+/// Edge `k` of `e` against edge `m` of `f`, at the frame's start (never when they share a
+/// particle: the pass skips those).
+#[inline]
+fn edges_may_touch(e: &AnchoredTriangle, k: usize, f: &AnchoredTriangle, m: usize, thickness: f32) -> bool {
+    let (ea, eb, fa, fb) = (e.ids[k], e.ids[(k + 1) % 3], f.ids[m], f.ids[(m + 1) % 3]);
+    if ea == fa || ea == fb || eb == fa || eb == fb {
+        return false;
+    }
+    if !regions_meet(e.region_of(k, (k + 1) % 3), f.region_of(m, (m + 1) % 3), thickness) {
+        return false;
+    }
+    let (a, b) = (e.corners[k], e.corners[(k + 1) % 3]);
+    let (c, d) = (f.corners[m], f.corners[(m + 1) % 3]);
+    let (s, t) = closest_between_segments(a.start, b.start, c.start, d.start);
+    let gap = (a.start + (b.start - a.start) * s) - (c.start + (d.start - c.start) * t);
+    let motion = (a.motion - c.motion)
+        .length()
+        .max((a.motion - d.motion).length())
+        .max((b.motion - c.motion).length())
+        .max((b.motion - d.motion).length());
+    let slops = a.slop.max(b.slop) + c.slop.max(d.slop);
+    may_touch(gap.length(), motion, slops, thickness)
+}
+
+/// The primitive pairs of `mask` (`self_contact::pair_mask`) between triangles `a` (the
+/// earlier) and `b` that may touch within the frame.
+#[inline]
+fn pairs_that_may_touch(a: &AnchoredTriangle, b: &AnchoredTriangle, mask: u32, thickness: f32) -> u32 {
+    let mut kept = 0;
+    let mut bit = 0;
+    while bit < 15 {
+        if mask & (1 << bit) != 0 {
+            let k = (bit % 3) as usize;
+            let touch = if bit < 3 {
+                vertex_face_may_touch(a, k, b, thickness)
+            } else if bit < 6 {
+                vertex_face_may_touch(b, k, a, thickness)
+            } else {
+                edges_may_touch(a, ((bit - 6) / 3) as usize, b, k, thickness)
+            };
+            if touch {
+                kept |= 1 << bit;
+            }
+        }
+        bit += 1;
+    }
+    kept
+}
+
+/// Sorted leaf `leaf`'s list for the frame (`lists[2 * SELF_LIST_CAPACITY * leaf..]`, count in
+/// `counts[leaf]`): the later leaves whose regions meet its region grown by the thickness, with
+/// the primitive pairs that may touch, found by one walk of the frame's tree (built over the
+/// regions). Returns whether the walk's stack overflowed (the list is marked overflowed).
+pub fn list_self_pairs_at(
+    leaf: u32,
+    self_params: &ColliderParams,
+    (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
+    owned: &[u32],
+    anchors: &[Vec4],
+    (lists, counts): (&mut [u32], &mut [u32]),
+) -> bool {
+    let thickness = self_params.thickness;
+    let ids = sorted[leaf as usize];
+    let mine = AnchoredTriangle::load(ids, anchors);
+    let mine_owned = owned[ids.w as usize];
+    let region = &leaf_bounds[leaf as usize];
+    let reach = Vec3::splat(thickness);
+    let query = (region.min.xyz() - reach, region.max.xyz() + reach);
+    let mut walk = PairWalk::new(leaf, self_params.leaf_count, query);
+    let mut found = [0u32; WALK_BATCH];
+    let base = 2 * (SELF_LIST_CAPACITY * leaf) as usize;
+    let mut count = 0;
+    let mut full = false;
+    while !walk.done() && !full {
+        let batch = walk.next_batch((nodes, aabbs, leaf_bounds), &mut found);
+        let mut j = 0;
+        while j < batch {
+            let other = found[j];
+            let theirs = sorted[other as usize];
+            let mask = pair_mask(mine_owned, owned[theirs.w as usize]);
+            let kept = pairs_that_may_touch(&mine, &AnchoredTriangle::load(theirs, anchors), mask, thickness);
+            if kept != 0 {
+                if count == SELF_LIST_CAPACITY {
+                    full = true;
+                } else {
+                    lists[base + 2 * count as usize] = other;
+                    lists[base + 2 * count as usize + 1] = kept;
+                    count += 1;
+                }
+            }
+            j += 1;
+        }
+    }
+    counts[leaf as usize] = if full || walk.overflowed { LIST_OVERFLOWED } else { count };
+    walk.overflowed
+}
+
+/// Whether triangle `t` left its predicted region in the pass spanning fractions `from..to` of
+/// the frame: a corner more than its slop from its predicted path at the pass's start
+/// (`x_prev`) or end (`x`).
+#[inline]
+pub fn escaped_at(
+    t: u32,
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    anchors: &[Vec4],
+    indices: &[u32],
+    span: &SelfPassPush,
+) -> bool {
+    let i = 3 * t as usize;
+    let mut escaped = false;
+    let mut k = 0;
+    while k < 3 {
+        let p = indices[i + k];
+        let anchor = Anchor::load(p, anchors);
+        escaped = escaped
+            || !anchor.holds(x_prev[p as usize].xyz(), span.from)
+            || !anchor.holds(x[p as usize].xyz(), span.to);
+        k += 1;
+    }
+    escaped
+}
+
+/// The box of cloth triangle `t` (corners `indices[3t..3t + 3]`) over the pass: at the
+/// positions `x_prev` and `x`, so a particle the triangle swept through finds it.
+#[inline]
+pub fn cloth_triangle_bounds_at(t: u32, (x, x_prev): (&[Vec4], &[Vec4]), indices: &[u32]) -> Aabb {
+    let i = 3 * t as usize;
+    let (ia, ib, ic) = (indices[i] as usize, indices[i + 1] as usize, indices[i + 2] as usize);
+    let (a, b, c) = (x[ia].xyz(), x[ib].xyz(), x[ic].xyz());
+    let (a0, b0, c0) = (x_prev[ia].xyz(), x_prev[ib].xyz(), x_prev[ic].xyz());
+    let lo = a.min(b).min(c).min(a0).min(b0).min(c0);
+    let hi = a.max(b).max(c).max(a0).max(b0).max(c0);
+    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
+}
+
+/// Whether sorted leaf `leaf` walks the tree in this pass: it escaped, or its list overflowed.
+#[inline]
+fn walks(leaf: u32, sorted: &[UVec4], escaped: &[u32], counts: &[u32]) -> bool {
+    escaped[sorted[leaf as usize].w as usize] != 0 || counts[leaf as usize] == LIST_OVERFLOWED
+}
+
+/// The leaves an escaped triangle pairs with: every later one, and the earlier ones that do not
+/// walk themselves.
+struct EscapedPairs<'a, 'b> {
+    leaf: u32,
+    mine: &'a Corners,
+    mine_owned: u32,
+    sorted: &'a [UVec4],
+    owned: &'a [u32],
+    escaped: &'a [u32],
+    counts: &'a [u32],
+    x: &'a [Vec4],
+    x_prev: &'a [Vec4],
+    out: &'a mut PairResponse<'b>,
+}
+
+impl LeafVisitor for EscapedPairs<'_, '_> {
+    fn visit(&mut self, leaf: u32) {
+        if leaf == self.leaf || (leaf < self.leaf && walks(leaf, self.sorted, self.escaped, self.counts)) {
+            return;
+        }
+        let ids = self.sorted[leaf as usize];
+        let theirs = Corners::load(ids, (self.x, self.x_prev));
+        let their_owned = self.owned[ids.w as usize];
+        // The earlier leaf first, as every other way of finding the pair does.
+        if leaf < self.leaf {
+            triangle_pair(&theirs, self.mine, pair_mask(their_owned, self.mine_owned), self.out);
+        } else {
+            triangle_pair(self.mine, &theirs, pair_mask(self.mine_owned, their_owned), self.out);
+        }
+    }
+}
+
+/// Walker `leaf`'s pairs in a pass (it escaped or its list overflowed): through the tree
+/// (`self_contact::self_triangle_contact_at`) with the later leaves, and when it escaped also
+/// with the earlier leaves that do not walk (one walk over both).
+#[allow(clippy::too_many_arguments)]
+pub fn walk_self_pairs_at(
+    leaf: u32,
+    self_params: &ColliderParams,
+    (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
+    owned: &[u32],
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    (escaped, counts): (&[u32], &[u32]),
+    out: PairResponse,
+) {
+    let mine_escaped = escaped[sorted[leaf as usize].w as usize] != 0;
+    let tables = (leaf_bounds, sorted, owned);
+    let mut pairs = TrianglePairs::of(leaf, tables, (x, x_prev), out);
+    let tree = (nodes, aabbs, leaf_bounds);
+    if !mine_escaped {
+        pairs.walk_after(tree, self_params.leaf_count);
+        return;
+    }
+    let query = pairs.query();
+    let mut both = EscapedPairs {
+        leaf,
+        mine: &pairs.mine,
+        mine_owned: pairs.owned,
+        sorted,
+        owned,
+        escaped,
+        counts,
+        x,
+        x_prev,
+        out: &mut pairs.out,
+    };
+    walk_in_batches(PairWalk::all(self_params.leaf_count, query), tree, &mut both);
+}
+
+/// Sorted leaf `leaf`'s pairs in a pass from its list, skipping partners that escaped; nothing
+/// for a walker (`walk_self_pairs_at` handles it).
+pub fn listed_self_pairs_at(
+    leaf: u32,
+    (leaf_bounds, sorted, owned): (&[Aabb], &[UVec4], &[u32]),
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    (escaped, lists, counts): (&[u32], &[u32], &[u32]),
+    out: PairResponse,
+) {
+    let count = counts[leaf as usize];
+    if count == 0 || count == LIST_OVERFLOWED || escaped[sorted[leaf as usize].w as usize] != 0 {
+        return;
+    }
+    let mut pairs = TrianglePairs::of(leaf, (leaf_bounds, sorted, owned), (x, x_prev), out);
+    let base = 2 * (SELF_LIST_CAPACITY * leaf) as usize;
+    let mut j = 0;
+    while j < count as usize {
+        let other = lists[base + 2 * j];
+        let ids = sorted[other as usize];
+        if escaped[ids.w as usize] == 0 {
+            let theirs = Corners::load(ids, (x, x_prev));
+            triangle_pair(&pairs.mine, &theirs, lists[base + 2 * j + 1], &mut pairs.out);
+        }
+        j += 1;
+    }
+}
+
+/// Each triangle's region over the frame (what the frame's tree is built over).
+#[spirv(compute(threads(256)))]
+pub fn cloth_triangle_regions(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] anchors: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bounds: &mut [Aabb],
+) {
+    if id.x >= self_params.leaf_count {
+        return;
+    }
+    bounds[id.x as usize] = triangle_region_at(id.x, anchors, indices);
+}
+
+/// Each triangle's box over the pass (push: the pass's span of the frame) and, in the pass's
+/// last run, whether it escaped its region and the pass's walkers.
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(256)))]
+pub fn cloth_triangle_bounds(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] span: &SelfPassPush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] anchors: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_of: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] counts: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] bounds: &mut [Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] escaped: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] walkers: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] walk_args: &mut DispatchArgs,
+) {
+    if id.x >= self_params.leaf_count {
+        return;
+    }
+    bounds[id.x as usize] = cloth_triangle_bounds_at(id.x, (x, x_prev), indices);
+    if span.find_walkers == 0 {
+        return;
+    }
+    let out = escaped_at(id.x, (x, x_prev), anchors, indices, span);
+    escaped[id.x as usize] = out as u32;
+    let leaf = leaf_of[id.x as usize];
+    if out || counts[leaf as usize] == LIST_OVERFLOWED {
+        add_walker(leaf, walkers, walk_args);
+    }
+}
+
+/// Threads per workgroup of the walks (`walk_self_pairs`).
+pub const WALK_THREADS: u32 = 64;
+
+/// Appends sorted leaf `leaf` to the pass's walkers; the walk's indirect dispatch covers them
+/// (`walk_args`: x workgroups, the count in `_pad`; the host writes {0, 1, 1, 0} before).
+#[inline]
+pub fn add_walker(leaf: u32, walkers: &mut [u32], walk_args: &mut DispatchArgs) {
+    let slot = atomics::add(&mut walk_args._pad, 1);
+    walkers[slot as usize] = leaf;
+    // The first walker of each workgroup's share raises the count (atomics on one word are
+    // serialised: one in WALK_THREADS, not every walker).
+    if slot.is_multiple_of(WALK_THREADS) {
+        atomics::max(&mut walk_args.x, slot / WALK_THREADS + 1);
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn list_self_pairs(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owned: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] anchors: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lists: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] counts: &mut [u32],
+) {
+    if id.x >= self_params.leaf_count {
+        return;
+    }
+    let tree = (nodes, aabbs, leaf_bounds, sorted);
+    list_self_pairs_at(id.x, self_params, tree, owned, anchors, (lists, counts));
+}
+
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn listed_self_pairs(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] owned: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] escaped: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] lists: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] counts: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] velocity_changes: &mut [u32],
+) {
+    if id.x >= self_params.leaf_count {
+        return;
+    }
+    let out =
+        PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
+    listed_self_pairs_at(id.x, (leaf_bounds, sorted, owned), (x, x_prev), (escaped, lists, counts), out);
+}
+
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn walk_self_pairs(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owned: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] escaped: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] counts: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] walkers: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] walk_args: &DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] velocity_changes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] health: &mut Health,
+) {
+    if id.x >= walk_args._pad {
+        return;
+    }
+    let tree = (nodes, aabbs, leaf_bounds, sorted);
+    let out =
+        PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
+    walk_self_pairs_at(walkers[id.x as usize], self_params, tree, owned, (x, x_prev), (escaped, counts), out);
+    atomics::add(&mut health.self_walks, 1);
+}
