@@ -163,19 +163,20 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
         };
         cpu.upload(own.v, &predicted).unwrap();
         let mut steps = vec![];
-        s.frame_start_steps(&own, substeps, &mut steps);
+        s.frame_start_steps(&own, substeps, true, &mut steps);
         cpu.run(&steps).unwrap();
         // One pass over the whole frame, to where the solver took the cloth.
         cpu.upload(own.x, &x).unwrap();
         cpu.upload(own.v, &v).unwrap();
         let mut steps = vec![];
-        s.substep_steps(&own, (0, substeps - 1, substeps), vec![], &mut steps);
+        s.substep_steps(&own, ((0, substeps - 1, substeps), true), vec![], &mut steps);
         cpu.run(&steps).unwrap();
         let words = 4 * n as usize;
         let (found, found_friction) = (cpu.read(s.delta, words).unwrap(), cpu.read(s.velocity_changes, words).unwrap());
         let health: Health = cpu.read(own.health, 1).unwrap()[0];
-        walked += u64::from(health.self_walks);
-        listed += u64::from(t - health.self_walks);
+        let walks = health.self_walks + health.self_full_lists;
+        walked += u64::from(walks);
+        listed += u64::from(t - walks);
         // The tree walk of every triangle over the same tree (refit to the pass).
         let tree_nodes: Vec<BvhNode> = cpu.read(s.tree.nodes, t as usize - 1).unwrap();
         let aabbs: Vec<Aabb> = cpu.read(s.tree.aabbs, t as usize - 1).unwrap();

@@ -10,7 +10,7 @@ use crate::model::{ClothId, ColliderId};
 use crate::motion::ClothMotion;
 use crate::program::SolverProgram;
 use crate::programs::cloth::FramePlan;
-use crate::programs::self_contact::SelfContactBuffers;
+use crate::programs::self_contact::{SelfContactBuffers, lists_pay};
 use crate::settings::SimSettings;
 use crate::stability::{BoundInputs, Stability};
 use drape_kernels::pose::to_world;
@@ -106,6 +106,9 @@ pub(crate) struct ClothControl {
     self_collision: Option<f32>,
     /// Friction between the cloth's layers under self-collision.
     self_friction: f32,
+    /// The shortest height of the cloth's triangles at the start: whether pair lists pay at
+    /// the thickness (`self_contact::lists_pay`).
+    shortest_height: f32,
     pub motion: ClothMotion,
     params_dirty: bool,
     /// The self-collision's thickness or friction changed since the GPU last had them.
@@ -159,20 +162,22 @@ fn non_negative(name: &'static str, values: &[f32]) -> Result<()> {
 }
 
 /// What a cloth starts with: its resolved parameters, its stability bound's choice and inputs,
-/// and its self-collision thickness and friction between its layers (`None`: off).
-pub(crate) type ClothStart = (SimParams, Stability, BoundInputs, Option<(f32, f32)>);
+/// and its self-collision thickness and friction between its layers (`None`: off) with its
+/// triangles' shortest height.
+pub(crate) type ClothStart = (SimParams, Stability, BoundInputs, Option<(f32, f32)>, f32);
 
 impl Controls {
     pub fn new(cloths: Vec<ClothStart>, settings: SimSettings, colliders: Vec<ColliderStart>) -> Self {
         let cloths = cloths
             .into_iter()
-            .map(|(params, stability, bound, self_collision)| ClothControl {
+            .map(|(params, stability, bound, self_collision, shortest_height)| ClothControl {
                 params,
                 stability,
                 base_stability: stability,
                 bound,
                 self_collision: self_collision.map(|(thickness, _)| thickness),
                 self_friction: self_collision.map_or(0.0, |(_, friction)| friction),
+                shortest_height,
                 motion: ClothMotion::new(),
                 params_dirty: false,
                 self_dirty: false,
@@ -205,7 +210,8 @@ impl Controls {
             .map(|c| {
                 // A cloth in contact with itself iterates its contacts every substep.
                 let passes = (!c.motion.self_contact).then_some(c.motion.contact_substeps);
-                self.settings.plan(&c.params, &c.stability, c.motion.asleep, passes)
+                let self_lists = c.self_collision.is_some_and(|t| lists_pay(c.shortest_height, t));
+                FramePlan { self_lists, ..self.settings.plan(&c.params, &c.stability, c.motion.asleep, passes) }
             })
             .collect()
     }

@@ -51,13 +51,14 @@ impl SolverProgram {
         for (cloth, bound) in model.cloths().iter().zip(model.bounds()) {
             let (params, stability) = settings.resolve_params(&cloth.params, bound)?;
             let self_collision = cloth.self_collision.map(|thickness| (thickness, cloth.self_friction));
-            resolved.push((params, stability, bound.clone(), self_collision));
+            let height = crate::programs::self_contact::shortest_height(&cloth.positions, &cloth.triangles);
+            resolved.push((params, stability, bound.clone(), self_collision, height));
         }
         let mut resources = Resources::new();
         let bytes = |data: &[glam::Vec4]| bytemuck::cast_slice::<_, u8>(data).to_vec();
         let mut initial = Vec::new();
         let mut cloths = Vec::new();
-        for (i, (cloth, (params, _, _, _))) in model.cloths().iter().zip(&resolved).enumerate() {
+        for (i, (cloth, (params, _, _, _, _))) in model.cloths().iter().zip(&resolved).enumerate() {
             let triangles = &cloth.triangles;
             let b = ClothBuffers::declare(&mut resources, &numbered("cloth", i), cloth);
             if let (Some(list), ClothTopology::Springs(topology)) = (&b.springs, &cloth.topology) {

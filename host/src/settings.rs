@@ -199,7 +199,14 @@ impl SimSettings {
             }
             _ => substeps,
         };
-        FramePlan { substeps, integrator: params.integrator, normals: self.normals, asleep, self_passes }
+        FramePlan {
+            substeps,
+            integrator: params.integrator,
+            normals: self.normals,
+            asleep,
+            self_passes,
+            self_lists: false,
+        }
     }
 
     /// `base` (the stability bound's choice) raised to the substeps contact needs, when

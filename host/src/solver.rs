@@ -135,8 +135,15 @@ impl Solver {
             }
             let health: Health = self.engine.read_mapped(cloth.health)?;
             if let (Some(s), Some(plan)) = (&cloth.self_contact, plans.get(i)) {
-                report.self_triangle_passes += s.tree.leaves * plan.self_passes.clamp(1, plan.substeps.max(1));
-                report.self_walks += health.self_walks;
+                let passes = plan.self_passes.clamp(1, plan.substeps.max(1));
+                report.self_triangle_passes += s.tree.leaves * passes;
+                // Without lists every triangle walks; with them, those that escaped and those
+                // whose list was full (counted once per frame).
+                report.self_walks += if plan.self_lists {
+                    health.self_walks + health.self_full_lists * passes
+                } else {
+                    s.tree.leaves * passes
+                };
             }
             check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i])?;
             self.controls.observe(i, &health);

@@ -16,7 +16,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 38] = [
+pub const ALL: [&Kernel; 39] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::VERTEX_NORMALS,
@@ -29,6 +29,7 @@ pub const ALL: [&Kernel; 38] = [
     &self_contact::GATHER_CLOTH_TRIANGLES,
     &self_pairs::LIST_SELF_PAIRS,
     &self_pairs::LISTED_SELF_PAIRS,
+    &self_pairs::SELF_TRIANGLE_CONTACT,
     &self_pairs::WALK_SELF_PAIRS,
     &self_contact::COLLIDER_FEATURE_CONTACT,
     &self_contact::APPLY_SELF_CONTACT,

@@ -6,8 +6,9 @@ use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::PairResponse;
+use drape_kernels::self_contact::self_triangle_contact_at;
 use drape_kernels::self_pairs::{
-    LIST_OVERFLOWED, WALK_THREADS, add_walker, cloth_triangle_bounds_at, escaped_at, list_self_pairs_at,
+    LIST_OVERFLOWED, WALK_THREADS, add_walker, count_full_list, cloth_triangle_bounds_at, escaped_at, list_self_pairs_at,
     listed_self_pairs_at, triangle_region_at, walk_self_pairs_at,
 };
 use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfPassPush};
@@ -44,7 +45,6 @@ pub static CLOTH_TRIANGLE_BOUNDS: Kernel = Kernel {
             read("indices"),
             read("anchors"),
             read("leaf_of"),
-            read("counts"),
             write("bounds"),
             write("escaped"),
             write("walkers"),
@@ -71,6 +71,7 @@ pub static LIST_SELF_PAIRS: Kernel = Kernel {
             read("anchors"),
             write("lists"),
             write("counts"),
+            write("health"),
         ],
         push_constant_size: 0,
         workgroup_size: CONTACT_THREADS,
@@ -78,13 +79,15 @@ pub static LIST_SELF_PAIRS: Kernel = Kernel {
     cpu: lists_cpu,
 };
 
-/// Every cloth triangle that does not walk: its owned corners against the triangles of its
-/// list and its owned edges against their owned edges.
+/// Every cloth triangle that did not escape: its owned corners against the triangles of its
+/// list and its owned edges against their owned edges (through the tree when its list is full).
 pub static LISTED_SELF_PAIRS: Kernel = Kernel {
     spec: KernelSpec {
         entry: "self_pairs::listed_self_pairs",
         bindings: &[
             read("self_params"),
+            read("nodes"),
+            read("aabbs"),
             read("leaf_bounds"),
             read("sorted"),
             read("owned"),
@@ -101,6 +104,29 @@ pub static LISTED_SELF_PAIRS: Kernel = Kernel {
         workgroup_size: CONTACT_THREADS,
     },
     cpu: listed_cpu,
+};
+
+/// Every cloth triangle's pairs through the tree (a cloth too fine for lists).
+pub static SELF_TRIANGLE_CONTACT: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pairs::self_triangle_contact",
+        bindings: &[
+            read("self_params"),
+            read("nodes"),
+            read("aabbs"),
+            read("leaf_bounds"),
+            read("sorted"),
+            read("owned"),
+            read("x"),
+            read("x_prev"),
+            read("v"),
+            write("delta"),
+            write("velocity_changes"),
+        ],
+        push_constant_size: 0,
+        workgroup_size: CONTACT_THREADS,
+    },
+    cpu: walk_all_cpu,
 };
 
 /// The pass's walkers (indirect): their pairs through the tree.
@@ -145,11 +171,10 @@ fn regions_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let span: SelfPassPush = d.push_as();
     let threads = d.invocations();
-    let [self_params, x, x_prev, indices, anchors, leaf_of, counts, bounds, escaped, walkers, walk_args] =
-        d.bindings()?;
+    let [self_params, x, x_prev, indices, anchors, leaf_of, bounds, escaped, walkers, walk_args] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let (x, x_prev, anchors) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), anchors.slice::<Vec4>());
-    let (indices, leaf_of, counts) = (indices.slice::<u32>(), leaf_of.slice::<u32>(), counts.slice::<u32>());
+    let (indices, leaf_of) = (indices.slice::<u32>(), leaf_of.slice::<u32>());
     let (bounds, escaped) = (bounds.slice_mut::<Aabb>(), escaped.slice_mut::<u32>());
     let (walkers, walk_args) = (walkers.slice_mut::<u32>(), walk_args.first_mut::<DispatchArgs>()?);
     for t in 0..threads.min(c.leaf_count) {
@@ -159,9 +184,8 @@ fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         }
         let out = escaped_at(t, (x, x_prev), anchors, indices, &span);
         escaped[t as usize] = out as u32;
-        let leaf = leaf_of[t as usize];
-        if out || counts[leaf as usize] == LIST_OVERFLOWED {
-            add_walker(leaf, walkers, walk_args);
+        if out {
+            add_walker(leaf_of[t as usize], walkers, walk_args);
         }
     }
     Ok(())
@@ -169,23 +193,40 @@ fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, anchors, lists, counts] = d.bindings()?;
+    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, anchors, lists, counts, health] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let (owned, anchors) = (owned.slice::<u32>(), anchors.slice::<Vec4>());
     let (lists, counts) = (lists.slice_mut::<u32>(), counts.slice_mut::<u32>());
+    let health = health.first_mut::<Health>()?;
     for leaf in 0..threads.min(c.leaf_count) {
         list_self_pairs_at(leaf, &c, tree, owned, anchors, (&mut *lists, &mut *counts));
+        count_full_list(leaf, counts, health);
     }
     Ok(())
 }
 
 fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, leaf_bounds, sorted, owned, x, x_prev, v, escaped, lists, counts, delta, velocity_changes] =
-        d.bindings()?;
+    let [
+        self_params,
+        nodes,
+        aabbs,
+        leaf_bounds,
+        sorted,
+        owned,
+        x,
+        x_prev,
+        v,
+        escaped,
+        lists,
+        counts,
+        delta,
+        velocity_changes,
+    ] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
-    let tables = (leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>(), owned.slice::<u32>());
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
+    let owned = owned.slice::<u32>();
     let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
     let lists = (escaped.slice::<u32>(), lists.slice::<u32>(), counts.slice::<u32>());
     let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
@@ -197,7 +238,28 @@ fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
             delta: &mut *delta,
             velocity_changes: &mut *velocity_changes,
         };
-        listed_self_pairs_at(leaf, tables, (x, x_prev), lists, out);
+        listed_self_pairs_at(leaf, &c, tree, owned, (x, x_prev), lists, out);
+    }
+    Ok(())
+}
+
+fn walk_all_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, x, x_prev, v, delta, velocity_changes] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
+    let owned = owned.slice::<u32>();
+    let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
+    let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
+    for leaf in 0..threads.min(c.leaf_count) {
+        let out = PairResponse {
+            thickness: c.thickness,
+            friction: c.friction,
+            v,
+            delta: &mut *delta,
+            velocity_changes: &mut *velocity_changes,
+        };
+        self_triangle_contact_at(leaf, &c, tree, owned, (x, x_prev), out);
     }
     Ok(())
 }
@@ -239,8 +301,11 @@ fn walk_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
             delta: &mut *delta,
             velocity_changes: &mut *velocity_changes,
         };
-        walk_self_pairs_at(walkers[i as usize], &c, tree, owned, (x, x_prev), tables, out);
-        health.self_walks += 1;
+        let leaf = walkers[i as usize];
+        walk_self_pairs_at(leaf, &c, tree, owned, (x, x_prev), tables, out);
+        if tables.1[leaf as usize] != LIST_OVERFLOWED {
+            health.self_walks += 1;
+        }
     }
     Ok(())
 }

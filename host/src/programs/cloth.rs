@@ -171,6 +171,9 @@ pub struct FramePlan {
     /// Self-collision passes in the frame (1..=substeps; `self_contact::pass_due` spreads
     /// them): as many as the cloth's motion needs (`motion`), not one per substep.
     pub self_passes: u32,
+    /// Self-collision tests the frame's pair lists (`self_contact::lists_pay`), or walks the
+    /// tree for every triangle at every pass.
+    pub self_lists: bool,
 }
 
 /// The timing table's line for a sleeping cloth's frame.
@@ -190,7 +193,7 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
         contact.frame_start_steps(cloth, collider, plan.substeps, &mut steps);
     }
     if let Some(s) = &cloth.self_contact {
-        s.frame_start_steps(&cloth.self_contact_cloth(), plan.substeps, &mut steps);
+        s.frame_start_steps(&cloth.self_contact_cloth(), plan.substeps, plan.self_lists, &mut steps);
     }
     // The substep after the last self-collision pass: where the next pass's sweep begins.
     let mut pass_from = 0;
@@ -215,7 +218,7 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
             let span = (pass_from, substep, plan.substeps);
             let features =
                 colliders.iter().filter_map(|(collider, _)| s.collider_feature_step(&own, collider, span)).collect();
-            s.substep_steps(&own, span, features, &mut steps);
+            s.substep_steps(&own, (span, plan.self_lists), features, &mut steps);
             pass_from = substep + 1;
         }
         // A skipped pass is listed once, not once per substep.

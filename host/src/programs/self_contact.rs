@@ -16,10 +16,11 @@ use crate::kernels::self_contact::{
     APPLY_COLLIDER_PUSHES, APPLY_SELF_CONTACT, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
 };
 use crate::kernels::self_pairs::{
-    CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_REGIONS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, WALK_SELF_PAIRS,
+    CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_REGIONS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, SELF_TRIANGLE_CONTACT,
+    WALK_SELF_PAIRS,
 };
 use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
-use drape_kernels::self_pairs::{ANCHOR_WORDS, SELF_LIST_CAPACITY};
+use drape_kernels::self_pairs::{ANCHOR_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS};
 use drape_types::{BroadPhasePush, ColliderParams, ContactPush, DispatchArgs, Health, SelfPassPush, SimParams};
 use std::collections::{HashMap, HashSet};
 use glam::{UVec4, Vec4};
@@ -114,6 +115,28 @@ pub fn collider_features(triangles: &[[u32; 3]]) -> Vec<UVec4> {
         .collect()
 }
 
+/// The shortest height of the cloth's triangles (a corner to the opposite side; on a flat cloth
+/// the distance from a vertex to the faces beside it), at `positions`.
+pub fn shortest_height(positions: &[Vec4], triangles: &[[u32; 3]]) -> f32 {
+    triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize].truncate());
+            let longest = (b - a).length().max((c - a).length()).max((c - b).length());
+            if longest > 0.0 { (b - a).cross(c - a).length() / longest } else { 0.0 }
+        })
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// Whether a cloth whose triangles are at least `shortest_height` high tests frame pair lists
+/// at `thickness` (`drape_kernels::self_pairs`). When a vertex lies within the thickness and
+/// two slops of the faces beside it, the lists would fill with neighbours at rest: each
+/// triangle walks the tree every pass instead, in one kernel as before the lists (a 128^2
+/// cloth of 1 m at 5 mm ran 1.3x slower through the lists' kernels).
+pub fn lists_pay(shortest_height: f32, thickness: f32) -> bool {
+    shortest_height >= thickness * (1.0 + 2.0 * SLOP_THICKNESS)
+}
+
 /// The timing table's line of a pass's pair search (vertex-triangle and edge-edge) from the
 /// frame's lists.
 pub const SELF_PAIRS_LABEL: &str = "self: vertex-triangle + edge-edge";
@@ -199,7 +222,6 @@ impl SelfContactBuffers {
                 cloth.indices.id(),
                 self.anchors.id(),
                 self.leaf_of.id(),
-                self.counts.id(),
                 t.bounds.id(),
                 self.escaped.id(),
                 self.walkers.id(),
@@ -212,8 +234,8 @@ impl SelfContactBuffers {
 
     /// At the frame of `substeps` substeps' start: the particles' anchors and the Morton box,
     /// then the whole build over the triangles' regions, the triangles' corners in the tree's
-    /// order, and each triangle's list of the pairs it may have within the frame.
-    pub fn frame_start_steps(&self, cloth: &SelfContactCloth, substeps: u32, steps: &mut Vec<Step>) {
+    /// order, and (with `lists`) each triangle's list of the pairs it may have within the frame.
+    pub fn frame_start_steps(&self, cloth: &SelfContactCloth, substeps: u32, lists: bool, steps: &mut Vec<Step>) {
         let t = &self.tree;
         steps.push(Step::run_with(
             "self: cloth bounds",
@@ -243,6 +265,9 @@ impl SelfContactBuffers {
             Dispatch::Threads(t.leaves),
         );
         steps.extend(t.build_around(regions, gather));
+        if !lists {
+            return;
+        }
         steps.push(Step::run(
             "self: pair lists",
             &LIST_SELF_PAIRS,
@@ -256,6 +281,7 @@ impl SelfContactBuffers {
                 self.anchors.id(),
                 self.lists.id(),
                 self.counts.id(),
+                cloth.health.id(),
             ],
             Dispatch::Threads(t.leaves),
         ));
@@ -314,13 +340,13 @@ impl SelfContactBuffers {
     pub fn substep_steps(
         &self,
         cloth: &SelfContactCloth,
-        (from, to, substeps): (u32, u32, u32),
+        ((from, to, substeps), lists): ((u32, u32, u32), bool),
         features: Vec<Step>,
         steps: &mut Vec<Step>,
     ) {
         let t = &self.tree;
         let span = substep_span(from, to + 1, substeps);
-        self.triangle_bounds(cloth, span, features.is_empty(), steps);
+        self.triangle_bounds(cloth, span, lists && features.is_empty(), steps);
         steps.extend(t.refit_steps());
         steps.push(Step::fill(self.delta, 0));
         steps.push(Step::fill(self.velocity_changes, 0));
@@ -335,9 +361,39 @@ impl SelfContactBuffers {
                 vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.pushes.id()],
                 Dispatch::Threads(self.particles),
             ));
-            self.triangle_bounds(cloth, span, true, steps);
+            self.triangle_bounds(cloth, span, lists, steps);
             steps.extend(t.refit_steps());
         }
+        if lists {
+            self.listed_and_walked(cloth, steps);
+        } else {
+            // One walk per triangle (a cloth too fine for lists at its thickness: `lists_pay`).
+            steps.push(Step::run(
+                SELF_PAIRS_LABEL,
+                &SELF_TRIANGLE_CONTACT,
+                vec![
+                    t.collider.id(),
+                    t.nodes.id(),
+                    t.aabbs.id(),
+                    t.sorted_bounds.id(),
+                    self.sorted.id(),
+                    self.owned.id(),
+                    cloth.x.id(),
+                    self.start.id(),
+                    cloth.v.id(),
+                    self.delta.id(),
+                    self.velocity_changes.id(),
+                ],
+                Dispatch::Threads(t.leaves),
+            ));
+        }
+        self.apply(cloth, steps);
+    }
+
+    /// The pairs of a pass from the frame's lists, and the walks of the triangles that left
+    /// their regions.
+    fn listed_and_walked(&self, cloth: &SelfContactCloth, steps: &mut Vec<Step>) {
+        let t = &self.tree;
         // Per triangle, its owned corners against the triangles of its list, its owned edges
         // against their owned edges; then the walkers' (a pass of their own: on lockstep lanes a
         // walk beside list tests would hold its neighbours).
@@ -346,6 +402,8 @@ impl SelfContactBuffers {
             &LISTED_SELF_PAIRS,
             vec![
                 t.collider.id(),
+                t.nodes.id(),
+                t.aabbs.id(),
                 t.sorted_bounds.id(),
                 self.sorted.id(),
                 self.owned.id(),
@@ -383,6 +441,10 @@ impl SelfContactBuffers {
             ],
             Dispatch::Indirect(self.walk_args),
         ));
+    }
+
+    /// The mean of the pass's corrections applied (which records the next pass's start).
+    fn apply(&self, cloth: &SelfContactCloth, steps: &mut Vec<Step>) {
         steps.push(Step::run(
             "self: apply",
             &APPLY_SELF_CONTACT,

@@ -26,7 +26,7 @@ use crate::atomics;
 use crate::lbvh::{PairWalk, WALK_BATCH};
 use crate::self_contact::{
     Corners, LeafVisitor, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights,
-    longest_side2, pair_mask, triangle_pair, walk_in_batches,
+    longest_side2, pair_mask, self_triangle_contact_at, triangle_pair, walk_in_batches,
 };
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfPassPush};
@@ -166,6 +166,21 @@ impl AnchoredTriangle {
         (self.regions[k].0.min(self.regions[m].0), self.regions[k].1.max(self.regions[m].1))
     }
 
+    /// Whether the triangle is too small for a list to pay: its shortest height (a corner to
+    /// the opposite edge, on a flat cloth the distance from a vertex to the faces beside it) is
+    /// within the thickness and two slops, so its neighbours' primitives would fill the list at
+    /// rest. It walks the tree at every pass instead (as a triangle whose list overflowed);
+    /// without this, a 128^2 cloth of 1 m (7.8 mm edges) at 5 mm spent more on its lists than
+    /// its walks cost.
+    #[inline]
+    fn too_small_for(&self, thickness: f32) -> bool {
+        let [a, b, c] = self.corners;
+        let area2 = (b.start - a.start).cross(c.start - a.start).length_squared(); // (2 area)^2
+        let reach = thickness * (1.0 + 2.0 * SLOP_THICKNESS);
+        // height = 2 area / longest side, compared squared and without a division.
+        area2 < reach * reach * longest_side2(a.start, b.start, c.start)
+    }
+
     /// The region of the whole triangle.
     #[inline]
     fn region3(&self) -> (Vec3, Vec3) {
@@ -302,6 +317,10 @@ pub fn list_self_pairs_at(
     let thickness = self_params.thickness;
     let ids = sorted[leaf as usize];
     let mine = AnchoredTriangle::load(ids, anchors);
+    if mine.too_small_for(thickness) {
+        counts[leaf as usize] = LIST_OVERFLOWED;
+        return false;
+    }
     let mine_owned = owned[ids.w as usize];
     let region = &leaf_bounds[leaf as usize];
     let reach = Vec3::splat(thickness);
@@ -333,6 +352,15 @@ pub fn list_self_pairs_at(
     }
     counts[leaf as usize] = if full || walk.overflowed { LIST_OVERFLOWED } else { count };
     walk.overflowed
+}
+
+/// Counts a leaf whose list is full (it walks at every pass of the frame) in the frame's
+/// health record.
+#[inline]
+pub fn count_full_list(leaf: u32, counts: &[u32], health: &mut Health) {
+    if counts[leaf as usize] == LIST_OVERFLOWED {
+        atomics::add(&mut health.self_full_lists, 1);
+    }
 }
 
 /// Whether triangle `t` left its predicted region in the pass spanning fractions `from..to` of
@@ -413,7 +441,8 @@ impl LeafVisitor for EscapedPairs<'_, '_> {
 
 /// Walker `leaf`'s pairs in a pass (it escaped or its list overflowed): through the tree
 /// (`self_contact::self_triangle_contact_at`) with the later leaves, and when it escaped also
-/// with the earlier leaves that do not walk (one walk over both).
+/// with the earlier leaves that do not walk (one walk over both). The pass's walk dispatch
+/// takes the escaped ones; `listed_self_pairs_at` walks for the full lists.
 #[allow(clippy::too_many_arguments)]
 pub fn walk_self_pairs_at(
     leaf: u32,
@@ -448,20 +477,29 @@ pub fn walk_self_pairs_at(
     walk_in_batches(PairWalk::all(self_params.leaf_count, query), tree, &mut both);
 }
 
-/// Sorted leaf `leaf`'s pairs in a pass from its list, skipping partners that escaped; nothing
-/// for a walker (`walk_self_pairs_at` handles it).
+/// Sorted leaf `leaf`'s pairs in a pass from its list, skipping partners that escaped; through
+/// the tree, with the later leaves, when its list is full (here, in leaf order: on a cloth whose
+/// triangles are all too small for lists every lane walks, as it would without them); nothing
+/// when it escaped (`walk_self_pairs_at` handles it).
+#[allow(clippy::too_many_arguments)]
 pub fn listed_self_pairs_at(
     leaf: u32,
-    (leaf_bounds, sorted, owned): (&[Aabb], &[UVec4], &[u32]),
+    self_params: &ColliderParams,
+    (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
+    owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
     (escaped, lists, counts): (&[u32], &[u32], &[u32]),
     out: PairResponse,
 ) {
     let count = counts[leaf as usize];
-    if count == 0 || count == LIST_OVERFLOWED || escaped[sorted[leaf as usize].w as usize] != 0 {
+    if count == 0 || escaped[sorted[leaf as usize].w as usize] != 0 {
         return;
     }
     let mut pairs = TrianglePairs::of(leaf, (leaf_bounds, sorted, owned), (x, x_prev), out);
+    if count == LIST_OVERFLOWED {
+        pairs.walk_after((nodes, aabbs, leaf_bounds), self_params.leaf_count);
+        return;
+    }
     let base = 2 * (SELF_LIST_CAPACITY * leaf) as usize;
     let mut j = 0;
     while j < count as usize {
@@ -503,11 +541,10 @@ pub fn cloth_triangle_bounds(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] indices: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] anchors: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_of: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] counts: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] bounds: &mut [Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] escaped: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] walkers: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] walk_args: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] bounds: &mut [Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] escaped: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] walkers: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] walk_args: &mut DispatchArgs,
 ) {
     if id.x >= self_params.leaf_count {
         return;
@@ -518,9 +555,8 @@ pub fn cloth_triangle_bounds(
     }
     let out = escaped_at(id.x, (x, x_prev), anchors, indices, span);
     escaped[id.x as usize] = out as u32;
-    let leaf = leaf_of[id.x as usize];
-    if out || counts[leaf as usize] == LIST_OVERFLOWED {
-        add_walker(leaf, walkers, walk_args);
+    if out {
+        add_walker(leaf_of[id.x as usize], walkers, walk_args);
     }
 }
 
@@ -553,12 +589,14 @@ pub fn list_self_pairs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] anchors: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lists: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] counts: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] health: &mut Health,
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     list_self_pairs_at(id.x, self_params, tree, owned, anchors, (lists, counts));
+    count_full_list(id.x, counts, health);
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -566,24 +604,54 @@ pub fn list_self_pairs(
 pub fn listed_self_pairs(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] leaf_bounds: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] sorted: &[UVec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] owned: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_prev: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] v: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] escaped: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] lists: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] counts: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] delta: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] velocity_changes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owned: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] escaped: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] lists: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] counts: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] velocity_changes: &mut [u32],
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
+    let tree = (nodes, aabbs, leaf_bounds, sorted);
     let out =
         PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
-    listed_self_pairs_at(id.x, (leaf_bounds, sorted, owned), (x, x_prev), (escaped, lists, counts), out);
+    let tables = (escaped, lists, counts);
+    listed_self_pairs_at(id.x, self_params, tree, owned, (x, x_prev), tables, out);
+}
+
+/// Every triangle's pairs through the tree (a cloth too fine for lists at its thickness).
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn self_triangle_contact(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owned: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] velocity_changes: &mut [u32],
+) {
+    if id.x >= self_params.leaf_count {
+        return;
+    }
+    let tree = (nodes, aabbs, leaf_bounds, sorted);
+    let out =
+        PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
+    self_triangle_contact_at(id.x, self_params, tree, owned, (x, x_prev), out);
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -613,6 +681,9 @@ pub fn walk_self_pairs(
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     let out =
         PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
-    walk_self_pairs_at(walkers[id.x as usize], self_params, tree, owned, (x, x_prev), (escaped, counts), out);
-    atomics::add(&mut health.self_walks, 1);
+    let leaf = walkers[id.x as usize];
+    walk_self_pairs_at(leaf, self_params, tree, owned, (x, x_prev), (escaped, counts), out);
+    if counts[leaf as usize] != LIST_OVERFLOWED {
+        atomics::add(&mut health.self_walks, 1); // (a full list is counted once, for the frame)
+    }
 }

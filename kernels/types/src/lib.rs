@@ -79,11 +79,13 @@ pub struct Health {
     /// passes; written by `apply_self_contact`): a cloth in contact with itself runs a pass
     /// every substep (each pass is also an iteration of its contacts).
     pub self_contacts: u32,
-    /// Cloth triangles that walked the self-collision tree instead of testing their frame's
-    /// pair list (they left their predicted region, or the list overflowed), summed over the
-    /// frame's passes (`self_pairs`).
+    /// Cloth triangles that walked the self-collision tree because they left their predicted
+    /// region, summed over the frame's passes (`self_pairs`).
     pub self_walks: u32,
-    pub _pad: [u32; 2],
+    /// Cloth triangles whose self-collision pair list was full this frame (or that are too
+    /// small for one): they walk at every pass (`self_pairs`).
+    pub self_full_lists: u32,
+    pub _pad: u32,
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
