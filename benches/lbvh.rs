@@ -36,10 +36,12 @@ fn lbvh(c: &mut Criterion) {
         // Stage split from timestamps, medians over 5 builds.
         let mut stages: Vec<(&'static str, Vec<f64>)> = Vec::new();
         let mut walls = Vec::new();
+        let mut spans = Vec::new();
         for _ in 0..5 {
             let start = Instant::now();
             let t = lbvh.rebuild(true).expect("build");
             walls.push(start.elapsed().as_secs_f64() * 1e3);
+            spans.extend(t.span_micros);
             for (label, _, micros) in t.by_label() {
                 match stages.iter_mut().find(|(l, _)| *l == label) {
                     Some((_, v)) => v.push(micros),
@@ -47,22 +49,26 @@ fn lbvh(c: &mut Criterion) {
                 }
             }
         }
-        table.push((n, stages.into_iter().map(|(l, v)| (l, median(&v))).collect::<Vec<_>>(), median(&walls)));
+        let stages = stages.into_iter().map(|(l, v)| (l, median(&v))).collect::<Vec<_>>();
+        table.push((n, stages, median(&spans), median(&walls)));
     }
     group.finish();
-    println!("\nLBVH build, GPU ms per stage (timestamps, median of 5; wall includes recording):");
+    println!(
+        "\nLBVH build, GPU ms per stage (timestamps, median of 5; span = first stage's start to last \
+         stage's end, barriers included; wall includes recording):"
+    );
     let labels: Vec<&str> = table[0].1.iter().map(|(l, _)| *l).collect();
     print!("{:>10}", "leaves");
     for l in &labels {
         print!(" {l:>14}");
     }
-    println!(" {:>10} {:>10}", "GPU total", "wall");
-    for (n, stages, wall) in &table {
+    println!(" {:>10} {:>10} {:>10}", "GPU total", "span", "wall");
+    for (n, stages, span, wall) in &table {
         print!("{n:>10}");
         for (_, micros) in stages {
             print!(" {:>14.3}", micros / 1e3);
         }
-        println!(" {:>10.3} {:>10.3}", stages.iter().map(|(_, m)| m).sum::<f64>() / 1e3, wall);
+        println!(" {:>10.3} {:>10.3} {:>10.3}", stages.iter().map(|(_, m)| m).sum::<f64>() / 1e3, span / 1e3, wall);
     }
 }
 

@@ -16,6 +16,8 @@ pub struct TimingReport {
     counts: Vec<Vec<f64>>,
     wall_ms: Vec<f64>,
     gpu_total: Vec<f64>,
+    /// Per frame: first pass's start to last pass's end (µs), for frames that had timestamps.
+    gpu_span: Vec<f64>,
     skipped: Vec<&'static str>,
 }
 
@@ -52,6 +54,7 @@ impl TimingReport {
             }
         }
         self.gpu_total.push(frame.total_micros());
+        self.gpu_span.extend(frame.span_micros);
         self.wall_ms.push(wall.as_secs_f64() * 1e3);
     }
 
@@ -73,6 +76,15 @@ impl TimingReport {
     /// Fastest summed GPU time of a frame (µs).
     pub fn min_gpu_micros(&self) -> f64 {
         self.gpu_total.iter().copied().fold(f64::INFINITY, f64::min)
+    }
+    /// Median GPU time per frame from its first pass's start to its last pass's end (µs): the
+    /// passes plus the barriers and gaps between them (0 without timestamps).
+    pub fn median_span_micros(&self) -> f64 {
+        median(&self.gpu_span)
+    }
+    /// Shortest such span of a frame (µs; 0 without timestamps).
+    pub fn min_span_micros(&self) -> f64 {
+        self.gpu_span.iter().copied().reduce(f64::min).unwrap_or(0.0)
     }
     /// (label, median dispatches per frame, median µs per frame) for each pass label.
     pub fn rows(&self) -> Vec<(&'static str, u32, f64)> {
@@ -99,10 +111,13 @@ impl TimingReport {
         }
         let _ = writeln!(
             out,
-            "{:<34} {:>10} {:>14.1}\nwall time per frame over {} frames: median {:.3} ms, min {:.3} ms",
-            "total GPU",
+            "{:<34} {:>10} {:>14.1}\n{:<34} {:>10} {:>14.1}\nwall time per frame over {} frames: median {:.3} ms, min {:.3} ms",
+            "total GPU (sum of passes)",
             self.rows().iter().map(|r| r.1).sum::<u32>(),
             self.median_gpu_micros(),
+            "GPU frame, first start to last end",
+            "",
+            self.median_span_micros(),
             self.frames(),
             self.median_wall_ms(),
             self.min_wall_ms()

@@ -207,6 +207,8 @@ pub(crate) fn timings_json(report: &TimingReport, timestamps: bool) -> Value {
         "wall_ms_median": report.median_wall_ms(),
         "wall_ms_fastest": report.min_wall_ms(),
         "gpu_us_per_frame_median": timestamps.then(|| report.median_gpu_micros()),
+        "gpu_us_frame_span_median": timestamps.then(|| report.median_span_micros()),
+        "gpu_us_frame_span_fastest": timestamps.then(|| report.min_span_micros()),
         "passes": if timestamps { Value::Array(passes) } else { Value::Null },
         "skipped": report.skipped(),
     })
