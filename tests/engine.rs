@@ -4,6 +4,7 @@
 mod common;
 
 use common::{assert_validation_clean, context};
+use drape::gpu::portability::pointer_values;
 use drape::gpu::reflect::{EXECUTION_MODEL_FRAGMENT, EXECUTION_MODEL_GL_COMPUTE, EXECUTION_MODEL_VERTEX, reflect};
 use drape::{ClothBuilder, ClothId, Model, SimSettings, Solver};
 
@@ -45,6 +46,53 @@ fn binding_tables_match_the_spirv() {
     }
 }
 
+/// No kernel holds a pointer as data: NVIDIA's shader compiler (driver 580, H100) crashed
+/// creating the pipelines of the eight kernels that did (every LBVH walk: a query struct of
+/// slices and counters carried through the walk's loop as a phi, or a visitor kept in a local
+/// variable because a struct held a reference to it), while lavapipe ran them.
+#[test]
+fn no_kernel_holds_a_pointer_as_data() {
+    let found = pointer_values(drape::KERNELS_SPV).unwrap();
+    let mut per_kernel: std::collections::BTreeMap<(&str, &str), usize> = Default::default();
+    for value in &found {
+        *per_kernel.entry((value.function.as_str(), value.kind)).or_default() += 1;
+    }
+    assert!(per_kernel.is_empty(), "pointers held as data (kernel, what: count): {per_kernel:?}");
+}
+
+/// The check finds a pointer-holding phi and local variable, and only those, in a hand-made
+/// module: a struct of a storage-buffer pointer and an int.
+#[test]
+fn pointer_check_finds_pointers_held_as_data() {
+    let op = |opcode: u32, ops: &[u32]| {
+        let mut words = vec![((ops.len() as u32 + 1) << 16) | opcode];
+        words.extend_from_slice(ops);
+        words
+    };
+    let mut words = vec![0x0723_0203, 0x0001_0500, 0, 20, 0];
+    let (function, storage_buffer) = (7, 12);
+    words.extend(op(21, &[1, 32, 0])); // %1 = OpTypeInt 32 0
+    words.extend(op(32, &[2, storage_buffer, 1])); // %2 = OpTypePointer StorageBuffer %1
+    words.extend(op(30, &[3, 2, 1])); // %3 = OpTypeStruct %2 %1
+    words.extend(op(32, &[4, function, 3])); // %4 = OpTypePointer Function %3
+    words.extend(op(32, &[12, function, 1])); // %12 = OpTypePointer Function %1
+    words.extend(op(19, &[5])); // %5 = OpTypeVoid
+    words.extend(op(33, &[6, 5])); // %6 = OpTypeFunction %5
+    words.extend(op(5, &[7, u32::from_le_bytes(*b"kern"), 0])); // OpName %7 "kern"
+    words.extend(op(54, &[5, 7, 0, 6])); // %7 = OpFunction %5 None %6
+    words.extend(op(248, &[8])); // %8 = OpLabel
+    words.extend(op(59, &[4, 9, function])); // %9 = OpVariable %4 Function: holds a pointer
+    words.extend(op(59, &[12, 13, function])); // %13 = OpVariable %12 Function: an int
+    words.extend(op(245, &[3, 10, 11, 8])); // %10 = OpPhi %3 ...: holds a pointer
+    words.extend(op(245, &[1, 14, 11, 8])); // %14 = OpPhi %1 ...: an int
+    words.extend(op(253, &[])); // OpReturn
+    words.extend(op(56, &[])); // OpFunctionEnd
+    let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+    let found = pointer_values(&bytes).unwrap();
+    let kinds: Vec<(&str, &str)> = found.iter().map(|v| (v.function.as_str(), v.kind)).collect();
+    assert_eq!(kinds, [("kern", "function variable"), ("kern", "OpPhi")]);
+}
+
 #[test]
 fn reflection_rejects_garbage() {
     assert!(reflect(b"not spirv at all....").is_err());
@@ -70,6 +118,10 @@ fn frame_timings_name_every_pass() {
         let micros = pass.micros.expect("timestamps");
         assert!(micros.is_finite() && micros > 0.0, "{}: {micros} µs", pass.label);
     }
+    // Each pass reads what the one before wrote (a barrier between every two), so the frame's
+    // span, first start to last end, holds every pass one after another.
+    let span = timings.span_micros.expect("timestamps");
+    assert!(span >= 0.999 * timings.total_micros(), "span {span} µs, passes {} µs", timings.total_micros());
     assert_validation_clean(&ctx);
 }
 

@@ -8,6 +8,7 @@ pub mod context;
 pub mod engine;
 pub mod image;
 pub mod pipeline;
+pub mod portability;
 pub mod recording;
 pub mod reflect;
 mod staging;

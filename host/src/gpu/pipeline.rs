@@ -82,10 +82,15 @@ impl Pipeline {
                 .module(module.handle)
                 .name(&entry);
             let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(pipeline.layout)];
+            // The driver compiles the kernel here: the slowest call of a solver's setup on a
+            // real GPU, and where a driver's compiler would fail.
+            log::debug!("compiling kernel {}", spec.entry);
+            let started = std::time::Instant::now();
             pipeline.pipeline = ctx
                 .device
                 .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
                 .map_err(|(_, result)| Error::Vulkan { call: "vkCreateComputePipelines", result })?[0];
+            log::debug!("compiled kernel {} in {:.1} ms", spec.entry, started.elapsed().as_secs_f64() * 1e3);
         }
         ctx.name_object(pipeline.pipeline, spec.entry);
         Ok(pipeline)

@@ -41,7 +41,7 @@ const STORAGE_CLASS_PUSH_CONSTANT: u32 = 9;
 const STORAGE_CLASS_STORAGE_BUFFER: u32 = 12;
 
 /// Decodes a literal string starting at `words[0]`; returns it and the words it used.
-fn literal_string(words: &[u32]) -> (String, usize) {
+pub(crate) fn literal_string(words: &[u32]) -> (String, usize) {
     let mut bytes = Vec::new();
     for (i, w) in words.iter().enumerate() {
         for b in w.to_le_bytes() {
@@ -54,8 +54,8 @@ fn literal_string(words: &[u32]) -> (String, usize) {
     (String::from_utf8_lossy(&bytes).into_owned(), words.len())
 }
 
-/// Reflects every entry point of a SPIR-V module (SPIR-V >= 1.4: interfaces list all globals).
-pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> {
+/// The words of a SPIR-V module, checked for its magic number.
+pub(crate) fn module_words(spirv: &[u8]) -> Result<Vec<u32>, String> {
     if !spirv.len().is_multiple_of(4) || spirv.len() < 20 {
         return Err("not a SPIR-V module (length)".into());
     }
@@ -64,6 +64,27 @@ pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> 
     if words[0] != 0x0723_0203 {
         return Err("not a SPIR-V module (magic)".into());
     }
+    Ok(words)
+}
+
+/// The instructions of a module's words (after the 5-word header): opcode and operands.
+pub(crate) fn instructions(words: &[u32]) -> Result<Vec<(u32, &[u32])>, String> {
+    let mut out = Vec::new();
+    let mut at = 5;
+    while at < words.len() {
+        let count = (words[at] >> 16) as usize;
+        if count == 0 || at + count > words.len() {
+            return Err(format!("malformed instruction at word {at}"));
+        }
+        out.push((words[at] & 0xffff, &words[at + 1..at + count]));
+        at += count;
+    }
+    Ok(out)
+}
+
+/// Reflects every entry point of a SPIR-V module (SPIR-V >= 1.4: interfaces list all globals).
+pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> {
+    let words = module_words(spirv)?;
     let mut names: HashMap<u32, String> = HashMap::new();
     let mut entries: Vec<(String, u32, u32, Vec<u32>)> = Vec::new();
     let mut local_size: HashMap<u32, [u32; 3]> = HashMap::new();
@@ -71,14 +92,7 @@ pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> 
     let mut binding: HashMap<u32, u32> = HashMap::new();
     let mut set: HashMap<u32, u32> = HashMap::new();
     let mut non_writable: HashMap<u32, bool> = HashMap::new();
-    let mut at = 5;
-    while at < words.len() {
-        let count = (words[at] >> 16) as usize;
-        let opcode = words[at] & 0xffff;
-        if count == 0 || at + count > words.len() {
-            return Err(format!("malformed instruction at word {at}"));
-        }
-        let ops = &words[at + 1..at + count];
+    for (opcode, ops) in instructions(&words)? {
         match opcode {
             OP_NAME if ops.len() >= 2 => {
                 names.insert(ops[0], literal_string(&ops[1..]).0);
@@ -107,7 +121,6 @@ pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> 
             },
             _ => {}
         }
-        at += count;
     }
     let mut out = HashMap::new();
     for (name, execution_model, function, interface) in entries {

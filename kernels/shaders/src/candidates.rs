@@ -55,44 +55,43 @@ pub fn gather_candidates<K: LeafKind>(
     list: &mut [u32],
     base: usize,
 ) -> u32 {
-    let bounds = (leaf_bounds, region, collider.thickness);
-    let mut query = GatherQuery::<K> { bounds, leaves, list, base, count: 0, full: false };
-    let overflowed = walk(nodes, aabbs, collider.leaf_count, &mut query);
-    if query.full || overflowed { CANDIDATES_OVERFLOWED } else { query.count }
+    let mut query = GatherQuery::<K> { leaf_bounds, region: *region, thickness: collider.thickness, leaves, list, base };
+    let ((count, full), overflowed) = walk(nodes, aabbs, collider.leaf_count, &mut query, (0, false));
+    if full || overflowed { CANDIDATES_OVERFLOWED } else { count }
 }
 
-/// The leaves a motion inside a region can touch, listed as a walk reaches them (the walk stops
-/// when the list is full).
+/// The leaves a motion inside a region can touch, listed as a walk reaches them (found: how
+/// many, and whether the list is full; the walk stops when it is).
 struct GatherQuery<'a, K: LeafKind> {
-    /// The leaves' boxes, the region and the thickness.
-    bounds: (&'a [Aabb], &'a Aabb, f32),
+    leaf_bounds: &'a [Aabb],
+    region: Aabb,
+    thickness: f32,
     leaves: &'a [K::Leaf],
     list: &'a mut [u32],
     base: usize,
-    count: u32,
-    full: bool,
 }
 
 impl<K: LeafKind> TreeQuery for GatherQuery<'_, K> {
+    type Found = (u32, bool);
+
     #[inline]
     fn enters(&self, b: &Aabb) -> bool {
-        K::may_touch_region(b, self.bounds.1, self.bounds.2)
+        K::may_touch_region(b, &self.region, self.thickness)
     }
 
     #[inline]
-    fn leaf(&mut self, leaf: u32) -> bool {
-        let (leaf_bounds, region, thickness) = self.bounds;
-        if !(K::may_touch_region(&leaf_bounds[leaf as usize], region, thickness)
-            && K::may_touch_leaf_region(self.leaves[leaf as usize], region, thickness))
+    fn leaf(&mut self, leaf: u32, (count, full): &mut (u32, bool)) -> bool {
+        if !(K::may_touch_region(&self.leaf_bounds[leaf as usize], &self.region, self.thickness)
+            && K::may_touch_leaf_region(self.leaves[leaf as usize], &self.region, self.thickness))
         {
             return false;
         }
-        if self.count == MAX_CANDIDATES {
-            self.full = true;
+        if *count == MAX_CANDIDATES {
+            *full = true;
             return true;
         }
-        self.list[self.base + self.count as usize] = leaf;
-        self.count += 1;
+        self.list[self.base + *count as usize] = leaf;
+        *count += 1;
         false
     }
 }

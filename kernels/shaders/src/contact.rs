@@ -151,36 +151,36 @@ pub fn traverse_with_clearance<K: LeafKind>(
 ) -> (Candidate, bool, f32) {
     let thickness = collider.thickness;
     let clearance = if K::checks_path() { thickness } else { 0.0 };
-    let mut query = HitQuery::<K> { leaves, p0, p1, thickness, left, best: NO_CANDIDATE, clearance };
-    let overflow = walk(nodes, aabbs, collider.leaf_count, &mut query);
-    (query.best, overflow, query.clearance)
+    let mut query = HitQuery::<K> { leaves, p0, p1, thickness, left };
+    let ((best, clearance), overflow) = walk(nodes, aabbs, collider.leaf_count, &mut query, (NO_CANDIDATE, clearance));
+    (best, overflow, clearance)
 }
 
 /// The earliest hit of a motion among the leaves a walk reaches, and (for kinds that check
-/// paths) the least clearance of those leaves.
+/// paths) the least clearance of those leaves (found: the best candidate and the clearance).
 struct HitQuery<'a, K: LeafKind> {
     leaves: &'a [K::Leaf],
     p0: Vec3,
     p1: Vec3,
     thickness: f32,
     left: Left,
-    best: Candidate,
-    clearance: f32,
 }
 
 impl<K: LeafKind> TreeQuery for HitQuery<'_, K> {
+    type Found = (Candidate, f32);
+
     #[inline]
     fn enters(&self, b: &Aabb) -> bool {
         K::may_touch(b, self.p0, self.p1, self.thickness)
     }
 
     #[inline]
-    fn leaf(&mut self, leaf: u32) -> bool {
+    fn leaf(&mut self, leaf: u32, (best, clearance): &mut (Candidate, f32)) -> bool {
         let l = self.leaves[leaf as usize];
         let (t, key) = hit_relative::<K>(l, self.p0, self.p1, self.thickness, self.left);
-        self.best = consider(self.best, t, key, leaf);
+        *best = consider(*best, t, key, leaf);
         if K::checks_path() {
-            self.clearance = self.clearance.min(K::clearance(l, K::relative(l, self.p0, self.left.0)));
+            *clearance = clearance.min(K::clearance(l, K::relative(l, self.p0, self.left.0)));
         }
         false
     }
@@ -220,31 +220,33 @@ pub fn path_blocked<K: LeafKind>(
     b: Vec3,
     left: Left,
 ) -> bool {
-    let mut query = PathQuery::<K> { leaves, a, b, thickness: collider.thickness, left, blocked: false };
-    let overflowed = walk(nodes, aabbs, collider.leaf_count, &mut query);
-    query.blocked || overflowed
+    let mut query = PathQuery::<K> { leaves, a, b, thickness: collider.thickness, left };
+    let (blocked, overflowed) = walk(nodes, aabbs, collider.leaf_count, &mut query, false);
+    blocked || overflowed
 }
 
-/// Whether a path crosses any leaf a walk reaches (the walk stops at the first).
+/// Whether a path crosses any leaf a walk reaches (found: blocked; the walk stops at the
+/// first).
 struct PathQuery<'a, K: LeafKind> {
     leaves: &'a [K::Leaf],
     a: Vec3,
     b: Vec3,
     thickness: f32,
     left: Left,
-    blocked: bool,
 }
 
 impl<K: LeafKind> TreeQuery for PathQuery<'_, K> {
+    type Found = bool;
+
     #[inline]
     fn enters(&self, b: &Aabb) -> bool {
         K::may_touch(b, self.a, self.b, self.thickness)
     }
 
     #[inline]
-    fn leaf(&mut self, leaf: u32) -> bool {
-        self.blocked = blocks_relative::<K>(self.leaves[leaf as usize], self.a, self.b, self.thickness, self.left);
-        self.blocked
+    fn leaf(&mut self, leaf: u32, blocked: &mut bool) -> bool {
+        *blocked = blocks_relative::<K>(self.leaves[leaf as usize], self.a, self.b, self.thickness, self.left);
+        *blocked
     }
 }
 

@@ -17,34 +17,48 @@ pub const STACK_SIZE: usize = 64;
 
 /// What a walk of the LBVH looks for: which subtrees to enter, and what to do at each leaf a
 /// walk reaches (a leaf's own box, where a query wants it, is the query's to test).
+///
+/// What the visits find lives apart from the query, in `Found` (plain values: no slices or
+/// references), and the query's own fields never change during a walk. The walk's loop then
+/// carries only plain values: a query whose fields changed would be carried whole, slices
+/// and all, and a SPIR-V phi of a value that holds pointers crashes NVIDIA's shader compiler
+/// (driver 580; `tests/engine.rs` checks every kernel for such values).
 pub trait TreeQuery {
+    /// What the walk's visits find (a count, the best hit so far, ...).
+    type Found: Copy;
     /// Whether the subtree under the node box `b` can hold something the query wants.
     fn enters(&self, b: &Aabb) -> bool;
     /// Leaf `leaf` (tree order) is reached; true stops the walk.
-    fn leaf(&mut self, leaf: u32) -> bool;
+    fn leaf(&mut self, leaf: u32, found: &mut Self::Found) -> bool;
 }
 
 /// Walks a tree of `leaf_count` leaves (nodes and their boxes; node 0 is the root) with an
 /// explicit stack, left child first, offering `query` every leaf under the subtrees it enters.
-/// Returns whether the stack overflowed (subtrees were skipped; the walk goes on without them).
-pub fn walk<Q: TreeQuery>(nodes: &[BvhNode], aabbs: &[Aabb], leaf_count: u32, query: &mut Q) -> bool {
+/// Returns what the visits found (starting from `found`) and whether the stack overflowed
+/// (subtrees were skipped; the walk goes on without them).
+pub fn walk<Q: TreeQuery>(
+    nodes: &[BvhNode],
+    aabbs: &[Aabb],
+    leaf_count: u32,
+    query: &mut Q,
+    mut found: Q::Found,
+) -> (Q::Found, bool) {
     if leaf_count == 1 {
-        query.leaf(0);
-        return false;
+        query.leaf(0, &mut found);
+        return (found, false);
     }
     let mut stack = [0u32; STACK_SIZE];
     let mut top = 1; // stack[0] = root
     let mut overflowed = false;
-    while top > 0 {
+    let mut stopped = false;
+    while top > 0 && !stopped {
         top -= 1;
         let node = nodes[stack[top] as usize];
         let mut side = 0;
-        while side < 2 {
+        while side < 2 && !stopped {
             let child = if side == 0 { node.left } else { node.right };
             if child & LEAF_BIT != 0 {
-                if query.leaf(child & !LEAF_BIT) {
-                    return overflowed;
-                }
+                stopped = query.leaf(child & !LEAF_BIT, &mut found);
             } else if query.enters(&aabbs[child as usize]) {
                 if top == STACK_SIZE {
                     overflowed = true;
@@ -56,7 +70,7 @@ pub fn walk<Q: TreeQuery>(nodes: &[BvhNode], aabbs: &[Aabb], leaf_count: u32, qu
             side += 1;
         }
     }
-    overflowed
+    (found, overflowed)
 }
 
 /// Leaves a `PairWalk` hands over at a time.

@@ -42,7 +42,7 @@
 
 use crate::atomics;
 use crate::contact::{reduce_bounds, substep_motion};
-use crate::lbvh::{PairWalk, TreeQuery, WALK_BATCH, box_meets, walk};
+use crate::lbvh::{PairWalk, WALK_BATCH, box_meets};
 use crate::pose::{SubstepMotion, to_world};
 use crate::self_pairs::anchor_particles;
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
@@ -420,15 +420,16 @@ pub trait LeafVisitor {
     fn visit(&mut self, leaf: u32);
 }
 
-/// Visits, in tree order, every leaf of a tree of `leaf_count` leaves whose box meets `lo..=hi`.
-/// Returns whether the walk's stack overflowed (leaves may be missed).
+/// Visits every leaf of a tree of `leaf_count` leaves whose box meets `lo..=hi`, in batches
+/// between stretches of the walk (`PairWalk::all`). Returns whether the walk's stack overflowed
+/// (leaves may be missed).
 pub fn walk_overlapping<V: LeafVisitor>(
-    (nodes, aabbs, leaf_bounds): (&[BvhNode], &[Aabb], &[Aabb]),
+    tree: (&[BvhNode], &[Aabb], &[Aabb]),
     leaf_count: u32,
-    (lo, hi): (Vec3, Vec3),
+    query: (Vec3, Vec3),
     visitor: &mut V,
 ) -> bool {
-    walk(nodes, aabbs, leaf_count, &mut Overlapping { leaf_bounds, lo, hi, visitor })
+    walk_in_batches(PairWalk::all(leaf_count, query), tree, visitor)
 }
 
 /// `walk_overlapping` over the leaves after `leaf` (in tree order) only, handed to the visitor
@@ -461,29 +462,6 @@ pub fn walk_in_batches<V: LeafVisitor>(
         }
     }
     walk.overflowed
-}
-
-/// The leaves whose boxes meet a box, handed to a visitor.
-struct Overlapping<'a, V: LeafVisitor> {
-    leaf_bounds: &'a [Aabb],
-    lo: Vec3,
-    hi: Vec3,
-    visitor: &'a mut V,
-}
-
-impl<V: LeafVisitor> TreeQuery for Overlapping<'_, V> {
-    #[inline]
-    fn enters(&self, b: &Aabb) -> bool {
-        box_meets(b, self.lo, self.hi)
-    }
-
-    #[inline]
-    fn leaf(&mut self, leaf: u32) -> bool {
-        if box_meets(&self.leaf_bounds[leaf as usize], self.lo, self.hi) {
-            self.visitor.visit(leaf);
-        }
-        false
-    }
 }
 
 /// The parameters (`s` on `a`-`b`, `t` on `c`-`d`, both in [0, 1]) of the closest points of

@@ -408,10 +408,12 @@ fn walks(leaf: u32, sorted: &[UVec4], escaped: &[u32], counts: &[u32]) -> bool {
 }
 
 /// The leaves an escaped triangle pairs with: every later one, and the earlier ones that do not
-/// walk themselves.
-struct EscapedPairs<'a, 'b> {
+/// walk themselves. Holds its triangle and response by value: a reference to a local that
+/// holds slices would keep that local in memory, pointers and all, which NVIDIA's shader
+/// compiler crashes on (see `lbvh::TreeQuery`).
+struct EscapedPairs<'a> {
     leaf: u32,
-    mine: &'a Corners,
+    mine: Corners,
     mine_owned: u32,
     sorted: &'a [UVec4],
     owned: &'a [u32],
@@ -419,10 +421,10 @@ struct EscapedPairs<'a, 'b> {
     counts: &'a [u32],
     x: &'a [Vec4],
     x_prev: &'a [Vec4],
-    out: &'a mut PairResponse<'b>,
+    out: PairResponse<'a>,
 }
 
-impl LeafVisitor for EscapedPairs<'_, '_> {
+impl LeafVisitor for EscapedPairs<'_> {
     fn visit(&mut self, leaf: u32) {
         if leaf == self.leaf || (leaf < self.leaf && walks(leaf, self.sorted, self.escaped, self.counts)) {
             return;
@@ -432,9 +434,9 @@ impl LeafVisitor for EscapedPairs<'_, '_> {
         let their_owned = self.owned[ids.w as usize];
         // The earlier leaf first, as every other way of finding the pair does.
         if leaf < self.leaf {
-            triangle_pair(&theirs, self.mine, pair_mask(their_owned, self.mine_owned), self.out);
+            triangle_pair(&theirs, &self.mine, pair_mask(their_owned, self.mine_owned), &mut self.out);
         } else {
-            triangle_pair(self.mine, &theirs, pair_mask(self.mine_owned, their_owned), self.out);
+            triangle_pair(&self.mine, &theirs, pair_mask(self.mine_owned, their_owned), &mut self.out);
         }
     }
 }
@@ -462,18 +464,8 @@ pub fn walk_self_pairs_at(
         return;
     }
     let query = pairs.query();
-    let mut both = EscapedPairs {
-        leaf,
-        mine: &pairs.mine,
-        mine_owned: pairs.owned,
-        sorted,
-        owned,
-        escaped,
-        counts,
-        x,
-        x_prev,
-        out: &mut pairs.out,
-    };
+    let mut both =
+        EscapedPairs { leaf, mine: pairs.mine, mine_owned: pairs.owned, sorted, owned, escaped, counts, x, x_prev, out: pairs.out };
     walk_in_batches(PairWalk::all(self_params.leaf_count, query), tree, &mut both);
 }
 
