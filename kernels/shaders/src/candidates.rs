@@ -55,7 +55,8 @@ pub fn gather_candidates<K: LeafKind>(
     list: &mut [u32],
     base: usize,
 ) -> u32 {
-    let mut query = GatherQuery::<K> { leaf_bounds, region: *region, thickness: collider.thickness, leaves, list, base };
+    let mut query =
+        GatherQuery::<K> { leaf_bounds, region: *region, thickness: collider.thickness, leaves, list, base };
     let ((count, full), overflowed) = walk(nodes, aabbs, collider.leaf_count, &mut query, (0, false));
     if full || overflowed { CANDIDATES_OVERFLOWED } else { count }
 }

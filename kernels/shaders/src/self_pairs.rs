@@ -464,8 +464,18 @@ pub fn walk_self_pairs_at(
         return;
     }
     let query = pairs.query();
-    let mut both =
-        EscapedPairs { leaf, mine: pairs.mine, mine_owned: pairs.owned, sorted, owned, escaped, counts, x, x_prev, out: pairs.out };
+    let mut both = EscapedPairs {
+        leaf,
+        mine: pairs.mine,
+        mine_owned: pairs.owned,
+        sorted,
+        owned,
+        escaped,
+        counts,
+        x,
+        x_prev,
+        out: pairs.out,
+    };
     walk_in_batches(PairWalk::all(self_params.leaf_count, query), tree, &mut both);
 }
 
