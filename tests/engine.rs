@@ -15,7 +15,13 @@ const CLOTH: ClothId = ClothId::new(0);
 /// declares: same bindings in the same order, same names, same writability, push constants.
 #[test]
 fn binding_tables_match_the_spirv() {
-    let reflected = reflect(drape::KERNELS_SPV).unwrap();
+    // Each module holds its own entry point and no other.
+    let mut reflected = std::collections::HashMap::new();
+    for &(name, spirv) in drape::KERNEL_MODULES {
+        let module = reflect(spirv).unwrap();
+        assert_eq!(module.keys().collect::<Vec<_>>(), [name], "the module of {name}");
+        reflected.extend(module);
+    }
     let compute: Vec<_> = reflected.iter().filter(|(_, e)| e.execution_model == EXECUTION_MODEL_GL_COMPUTE).collect();
     assert_eq!(compute.len(), drape::kernels::ALL.len(), "compute entry points: {compute:?}");
     // The surface shaders a renderer binds: vertex and fragment stage, push constants only.
@@ -52,12 +58,13 @@ fn binding_tables_match_the_spirv() {
 /// variable because a struct held a reference to it), while lavapipe ran them.
 #[test]
 fn no_kernel_holds_a_pointer_as_data() {
-    let found = pointer_values(drape::KERNELS_SPV).unwrap();
-    let mut per_kernel: std::collections::BTreeMap<(&str, &str), usize> = Default::default();
-    for value in &found {
-        *per_kernel.entry((value.function.as_str(), value.kind)).or_default() += 1;
+    let mut per_kernel: std::collections::BTreeMap<(&str, String, &str), usize> = Default::default();
+    for &(name, spirv) in drape::KERNEL_MODULES {
+        for value in pointer_values(spirv).unwrap() {
+            *per_kernel.entry((name, value.function, value.kind)).or_default() += 1;
+        }
     }
-    assert!(per_kernel.is_empty(), "pointers held as data (kernel, what: count): {per_kernel:?}");
+    assert!(per_kernel.is_empty(), "pointers held as data (module, function, what: count): {per_kernel:?}");
 }
 
 /// The check finds a pointer-holding phi and local variable, and only those, in a hand-made
@@ -292,22 +299,41 @@ fn a_recorded_frame_outlives_its_engine() {
 }
 
 /// The SPIR-V committed for downstream crates (embedded without `rebuild-kernels`) equals this
-/// build's fresh rust-gpu module, entry points included. CI builds with `rebuild-kernels`, so a
-/// kernel change without `DRAPE_UPDATE_SPIRV=1` and a commit of `kernels/spirv/` fails here.
+/// build's fresh rust-gpu modules, entry points included, with no stale module beside them. CI
+/// builds with `rebuild-kernels`, so a kernel change without `DRAPE_UPDATE_SPIRV=1` and a commit
+/// of `kernels/spirv/` fails here.
 #[cfg(feature = "rebuild-kernels")]
 #[test]
 fn committed_spirv_equals_a_fresh_build() {
-    let committed: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../kernels/spirv/kernels.spv"));
-    let entry_points = include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../kernels/spirv/entry_points.txt"));
+    let fix = "run `DRAPE_UPDATE_SPIRV=1 cargo build --release --features rebuild-kernels` and commit kernels/spirv/";
+    let dir = std::path::Path::new(env!("DRAPE_COMMITTED_SPIRV_DIR"));
+    let read = |name: &str| {
+        let path = dir.join(name);
+        std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}: {fix}", path.display()))
+    };
+    let entry_points = String::from_utf8(read("entry_points.txt")).unwrap();
     let committed_entries: Vec<&str> = entry_points.lines().filter(|l| !l.is_empty()).collect();
-    assert_eq!(committed_entries, drape::ENTRY_POINTS, "kernels/spirv/entry_points.txt is stale");
-    assert!(
-        committed == drape::KERNELS_SPV,
-        "kernels/spirv/kernels.spv ({} bytes) differs from the fresh build ({} bytes): run \
-         `DRAPE_UPDATE_SPIRV=1 cargo build --release --features rebuild-kernels` and commit kernels/spirv/",
-        committed.len(),
-        drape::KERNELS_SPV.len()
-    );
+    assert_eq!(committed_entries, drape::ENTRY_POINTS, "kernels/spirv/entry_points.txt is stale: {fix}");
+    let mut expected_files = vec![];
+    for &(entry, fresh) in drape::KERNEL_MODULES {
+        let file = format!("{}.spv", entry.replace("::", "."));
+        let committed = read(&file);
+        assert!(
+            committed == fresh,
+            "kernels/spirv/{file} ({} bytes) differs from the fresh build ({} bytes): {fix}",
+            committed.len(),
+            fresh.len()
+        );
+        expected_files.push(file);
+    }
+    let mut files: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|f| f.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|f| f.ends_with(".spv"))
+        .collect();
+    files.sort();
+    expected_files.sort();
+    assert_eq!(files, expected_files, "kernels/spirv/ holds modules of no entry point: {fix}");
 }
 
 /// A redirected run (stderr not a terminal) gets no progress bar: its log has no carriage

@@ -81,3 +81,8 @@ pub use stability::Stability;
 pub use state::{ClothState, State};
 
 include!(concat!(env!("OUT_DIR"), "/kernels_spv.rs"));
+
+/// The SPIR-V module of entry point `entry` (its code only), if drape has that entry point.
+pub fn kernel_module(entry: &str) -> Option<&'static [u8]> {
+    KERNEL_MODULES.iter().find(|(name, _)| *name == entry).map(|&(_, spirv)| spirv)
+}

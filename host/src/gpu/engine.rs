@@ -6,7 +6,7 @@
 use super::commands::DescriptorArena;
 use super::recording::FrameBindings;
 use super::staging::Staging;
-use super::{Buffer, Command, Context, Pipeline, RecordedFrame, ShaderModule};
+use super::{Buffer, Command, Context, Pipeline, RecordedFrame};
 use crate::error::{Error, Result};
 use crate::graph::{BufferId, Dispatch, Handle, HazardTracker, Memory, Resources, Step};
 use gpu_allocator::MemoryLocation;
@@ -25,7 +25,6 @@ pub struct Engine {
     /// Buffer `BufferId(i)` at [i].
     buffers: Vec<Arc<Buffer>>,
     staging: Mutex<Staging>,
-    module: ShaderModule,
     ctx: Arc<Context>,
 }
 
@@ -39,7 +38,6 @@ impl Engine {
             pipelines: HashMap::new(),
             buffers: Vec::new(),
             staging: Mutex::new(Staging::new(ctx)?),
-            module: ShaderModule::new(ctx, crate::KERNELS_SPV)?,
             ctx: ctx.clone(),
         })
     }
@@ -99,7 +97,7 @@ impl Engine {
         if let Some(p) = self.pipelines.get(kernel.spec.entry) {
             return Ok(p.clone());
         }
-        let pipeline = Arc::new(Pipeline::new(&self.ctx, &self.module, kernel.spec)?);
+        let pipeline = Arc::new(Pipeline::new(&self.ctx, kernel.spec)?);
         self.pipelines.insert(kernel.spec.entry, pipeline.clone());
         Ok(pipeline)
     }

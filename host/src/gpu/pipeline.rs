@@ -1,5 +1,6 @@
-//! Compute pipelines built from the embedded SPIR-V, one per entry point, each with the
-//! descriptor-set layout that its `KernelSpec` (the host's binding table) declares.
+//! Compute pipelines built from the embedded SPIR-V, one per entry point (each from its own
+//! module), each with the descriptor-set layout that its `KernelSpec` (the host's binding
+//! table) declares.
 
 use super::context::Context;
 use crate::error::{Error, Result, VkContext};
@@ -8,13 +9,22 @@ use ash::vk;
 use std::ffi::CString;
 use std::sync::Arc;
 
-/// The shader module holding every entry point.
+/// A shader module, alive while pipelines are created from it (they keep their own copy).
 pub struct ShaderModule {
     ctx: Arc<Context>,
     pub(crate) handle: vk::ShaderModule,
 }
 
 impl ShaderModule {
+    /// The embedded module of entry point `entry`.
+    pub fn for_entry(ctx: &Arc<Context>, entry: &str) -> Result<Self> {
+        let spirv = crate::kernel_module(entry).ok_or_else(|| Error::Kernel {
+            kernel: entry.into(),
+            problem: "no SPIR-V module has this entry point: rebuild drape (kernels/spirv/ is stale)".into(),
+        })?;
+        Self::new(ctx, spirv)
+    }
+
     pub fn new(ctx: &Arc<Context>, spirv: &[u8]) -> Result<Self> {
         let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
             .map_err(|e| Error::Kernel { kernel: "module".into(), problem: format!("bad SPIR-V: {e}") })?;
@@ -42,7 +52,8 @@ pub struct Pipeline {
 }
 
 impl Pipeline {
-    pub fn new(ctx: &Arc<Context>, module: &ShaderModule, spec: KernelSpec) -> Result<Self> {
+    pub fn new(ctx: &Arc<Context>, spec: KernelSpec) -> Result<Self> {
+        let module = ShaderModule::for_entry(ctx, spec.entry)?;
         let bindings: Vec<_> = (0..spec.bindings.len() as u32)
             .map(|i| {
                 vk::DescriptorSetLayoutBinding::default()

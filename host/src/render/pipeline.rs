@@ -39,8 +39,9 @@ impl SurfacePipeline {
                 .create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&push), None)
         }
         .vk("vkCreatePipelineLayout")?;
-        let module = ShaderModule::new(ctx, crate::KERNELS_SPV)?;
-        this.pipeline = this.create_pipeline(&module, extent)?;
+        let vertex = ShaderModule::for_entry(ctx, "render::surface_vertex")?;
+        let fragment = ShaderModule::for_entry(ctx, "render::surface_fragment")?;
+        this.pipeline = this.create_pipeline((&vertex, &fragment), extent)?;
         Ok(this)
     }
 
@@ -111,15 +112,19 @@ impl SurfacePipeline {
         unsafe { self.ctx.device.create_render_pass(&info, None) }.vk("vkCreateRenderPass")
     }
 
-    fn create_pipeline(&self, module: &ShaderModule, extent: vk::Extent2D) -> Result<vk::Pipeline> {
+    fn create_pipeline(
+        &self,
+        (vertex, fragment): (&ShaderModule, &ShaderModule),
+        extent: vk::Extent2D,
+    ) -> Result<vk::Pipeline> {
         let stages = [
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::VERTEX)
-                .module(module.handle)
+                .module(vertex.handle)
                 .name(c"render::surface_vertex"),
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::FRAGMENT)
-                .module(module.handle)
+                .module(fragment.handle)
                 .name(c"render::surface_fragment"),
         ];
         // drape's layout: positions and normals in separate buffers, one Vec4 per vertex each.
