@@ -100,6 +100,19 @@ fn pointer_check_finds_pointers_held_as_data() {
     assert_eq!(kinds, [("kern", "function variable"), ("kern", "OpPhi")]);
 }
 
+/// An entry point that no embedded module holds is an error that names it and the fix, not a
+/// panic.
+#[test]
+fn a_kernel_without_a_module_is_an_error() {
+    assert!(drape::kernel_module("no::such_kernel").is_none());
+    assert!(drape::ENTRY_POINTS.iter().all(|entry| drape::kernel_module(entry).is_some()));
+    let ctx = context();
+    let error = drape::gpu::ShaderModule::for_entry(&ctx, "no::such_kernel").err().expect("an error");
+    let message = error.to_string();
+    assert!(message.contains("no::such_kernel") && message.contains("kernels/spirv"), "{message}");
+    assert_validation_clean(&ctx);
+}
+
 #[test]
 fn reflection_rejects_garbage() {
     assert!(reflect(b"not spirv at all....").is_err());
