@@ -11,6 +11,7 @@ pub mod pipeline;
 pub mod portability;
 pub mod recording;
 pub mod reflect;
+pub mod spirv;
 mod staging;
 pub(crate) mod status_ring;
 

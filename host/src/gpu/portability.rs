@@ -7,17 +7,14 @@
 //! of slices whose address was taken). Lavapipe compiles both, so only this check keeps them
 //! out of the kernels. The kernels' side of the rule is in `drape_kernels::lbvh::TreeQuery`.
 
-use super::reflect::{instructions, literal_string, module_words};
+use super::spirv::{OP_ENTRY_POINT, OP_NAME, OP_VARIABLE, instructions, literal_string, module_words};
 use std::collections::{HashMap, HashSet};
 
-const OP_NAME: u32 = 5;
-const OP_ENTRY_POINT: u32 = 15;
 const OP_TYPE_ARRAY: u32 = 28;
 const OP_TYPE_RUNTIME_ARRAY: u32 = 29;
 const OP_TYPE_STRUCT: u32 = 30;
 const OP_TYPE_POINTER: u32 = 32;
 const OP_FUNCTION: u32 = 54;
-const OP_VARIABLE: u32 = 59;
 const OP_SELECT: u32 = 169;
 const OP_PHI: u32 = 245;
 const STORAGE_CLASS_FUNCTION: u32 = 7;

@@ -2,6 +2,7 @@
 //! writable) and whether it uses push constants. Used to check the host's binding tables against
 //! what the kernels really declare.
 
+use super::spirv::{OP_ENTRY_POINT, OP_NAME, OP_VARIABLE, instructions, literal_string, module_words};
 use std::collections::HashMap;
 
 /// One storage-buffer binding as the SPIR-V declares it.
@@ -28,59 +29,14 @@ pub const EXECUTION_MODEL_VERTEX: u32 = 0;
 pub const EXECUTION_MODEL_FRAGMENT: u32 = 4;
 pub const EXECUTION_MODEL_GL_COMPUTE: u32 = 5;
 
-const OP_NAME: u32 = 5;
-const OP_ENTRY_POINT: u32 = 15;
 const OP_EXECUTION_MODE: u32 = 16;
 const EXECUTION_MODE_LOCAL_SIZE: u32 = 17;
-const OP_VARIABLE: u32 = 59;
 const OP_DECORATE: u32 = 71;
 const DECORATION_NON_WRITABLE: u32 = 24;
 const DECORATION_BINDING: u32 = 33;
 const DECORATION_DESCRIPTOR_SET: u32 = 34;
 const STORAGE_CLASS_PUSH_CONSTANT: u32 = 9;
 const STORAGE_CLASS_STORAGE_BUFFER: u32 = 12;
-
-/// Decodes a literal string starting at `words[0]`; returns it and the words it used.
-pub(crate) fn literal_string(words: &[u32]) -> (String, usize) {
-    let mut bytes = Vec::new();
-    for (i, w) in words.iter().enumerate() {
-        for b in w.to_le_bytes() {
-            if b == 0 {
-                return (String::from_utf8_lossy(&bytes).into_owned(), i + 1);
-            }
-            bytes.push(b);
-        }
-    }
-    (String::from_utf8_lossy(&bytes).into_owned(), words.len())
-}
-
-/// The words of a SPIR-V module, checked for its magic number.
-pub(crate) fn module_words(spirv: &[u8]) -> Result<Vec<u32>, String> {
-    if !spirv.len().is_multiple_of(4) || spirv.len() < 20 {
-        return Err("not a SPIR-V module (length)".into());
-    }
-    let words: Vec<u32> =
-        spirv.as_chunks::<4>().0.iter().map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-    if words[0] != 0x0723_0203 {
-        return Err("not a SPIR-V module (magic)".into());
-    }
-    Ok(words)
-}
-
-/// The instructions of a module's words (after the 5-word header): opcode and operands.
-pub(crate) fn instructions(words: &[u32]) -> Result<Vec<(u32, &[u32])>, String> {
-    let mut out = Vec::new();
-    let mut at = 5;
-    while at < words.len() {
-        let count = (words[at] >> 16) as usize;
-        if count == 0 || at + count > words.len() {
-            return Err(format!("malformed instruction at word {at}"));
-        }
-        out.push((words[at] & 0xffff, &words[at + 1..at + count]));
-        at += count;
-    }
-    Ok(out)
-}
 
 /// Reflects every entry point of a SPIR-V module (SPIR-V >= 1.4: interfaces list all globals).
 pub fn reflect(spirv: &[u8]) -> Result<HashMap<String, ReflectedEntry>, String> {

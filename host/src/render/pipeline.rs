@@ -5,7 +5,12 @@ use crate::error::{Result, VkContext};
 use crate::gpu::{Context, ShaderModule};
 use ash::vk;
 use drape_types::SurfacePush;
+use std::ffi::CStr;
 use std::sync::Arc;
+
+/// The surface shaders' entry points (each in its own SPIR-V module).
+const SURFACE_VERTEX: &CStr = c"render::surface_vertex";
+const SURFACE_FRAGMENT: &CStr = c"render::surface_fragment";
 
 /// sRGB colour: the shaders write linear light, the picture stores it encoded for display.
 pub(crate) const COLOR_FORMAT: vk::Format = vk::Format::R8G8B8A8_SRGB;
@@ -39,8 +44,8 @@ impl SurfacePipeline {
                 .create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&push), None)
         }
         .vk("vkCreatePipelineLayout")?;
-        let vertex = ShaderModule::for_entry(ctx, "render::surface_vertex")?;
-        let fragment = ShaderModule::for_entry(ctx, "render::surface_fragment")?;
+        let vertex = ShaderModule::for_entry(ctx, &SURFACE_VERTEX.to_string_lossy())?;
+        let fragment = ShaderModule::for_entry(ctx, &SURFACE_FRAGMENT.to_string_lossy())?;
         this.pipeline = this.create_pipeline((&vertex, &fragment), extent)?;
         Ok(this)
     }
@@ -121,11 +126,11 @@ impl SurfacePipeline {
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::VERTEX)
                 .module(vertex.handle)
-                .name(c"render::surface_vertex"),
+                .name(SURFACE_VERTEX),
             vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::FRAGMENT)
                 .module(fragment.handle)
-                .name(c"render::surface_fragment"),
+                .name(SURFACE_FRAGMENT),
         ];
         // drape's layout: positions and normals in separate buffers, one Vec4 per vertex each.
         let bindings = [0, 1].map(|binding| {
