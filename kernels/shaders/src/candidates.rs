@@ -205,16 +205,23 @@ pub fn detect_candidates_at<K: LeafKind>(
     let left = motion.left();
     let base = i * MAX_CANDIDATES as usize;
     let mut best: Candidate = NO_CANDIDATE;
+    // A lower bound on the distance from p0 to every leaf (for kinds that check paths): the
+    // least clearance of the listed leaves, and the thickness for the rest (no point of the
+    // box comes within it of them). A path shorter than half of it needs no check, which
+    // saves a second scan of the list for most particles resting on the surface.
+    let mut clearance = if K::checks_path() { thickness } else { 0.0 };
     let mut j = 0;
     while j < query.count {
         let leaf = candidates[base + j as usize];
-        let (t, key) = hit_relative::<K>(leaves[leaf as usize], p0, p1, thickness, left);
+        let l = leaves[leaf as usize];
+        let (t, key) = hit_relative::<K>(l, p0, p1, thickness, left);
         best = consider(best, t, key, leaf);
+        if K::checks_path() {
+            clearance = clearance.min(K::clearance(l, K::relative(l, p0, left.0)));
+        }
         j += 1;
     }
-    // No clearance bound (as the brute-force loop): checking the short list costs less than
-    // bounding the clearance over it would.
-    let target = target_of::<K>(best, 0.0, leaves, (p0, p1), thickness, left);
+    let target = target_of::<K>(best, clearance, leaves, (p0, p1), thickness, left);
     let blocked = target.check
         && if point_in_aabb(target.position, &region, 0.0) {
             list_blocks::<K>(leaves, (candidates, base, query.count), (p0, target.position), thickness, left)
