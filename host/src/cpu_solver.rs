@@ -77,6 +77,7 @@ impl CpuSolver {
                 total.ran += s[0].ran;
                 total.skipped += s[0].skipped;
                 total.fallbacks += s[0].fallbacks;
+                total.listed += s[0].listed;
             }
         }
         total

@@ -27,6 +27,9 @@ pub struct FrameReport {
     /// Particle-substeps whose candidate list did not cover their motion, answered by a full
     /// LBVH walk instead (`ContactSearch::CandidateLists`).
     pub collision_fallbacks: u32,
+    /// Particles the frame's broad phase gave candidates (`ContactSearch::CandidateLists`,
+    /// all colliders together): when a collider has any, its culling passes say run at once.
+    pub collision_listed: u32,
     /// Self-collision: the triangles' tests over the frame's passes (triangles x passes, all
     /// self-colliding cloths together), and how many of those walked the tree instead of
     /// testing the frame's pair list (they left their predicted region, or their list was
@@ -153,6 +156,7 @@ impl Solver {
                 report.collision_ran += status.ran;
                 report.collision_skipped += status.skipped;
                 report.collision_fallbacks += status.fallbacks;
+                report.collision_listed += status.listed;
             }
         }
         Ok(report)

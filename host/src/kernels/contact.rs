@@ -6,8 +6,8 @@
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::candidates::{broad_phase_at, detect_candidates_at, frame_motion};
 use drape_kernels::contact::{
-    CONTACT_THREADS, CULL_THREADS, LeafKind, aabbs_overlap, detect_at, detect_brute_force_at, respond_at, root_aabb,
-    substep_motion, swept_bounds,
+    CONTACT_THREADS, CULL_THREADS, LeafKind, aabbs_overlap, detect_at, detect_brute_force_at, record_cull, respond_at,
+    root_aabb, substep_motion, swept_bounds,
 };
 use drape_types::{
     Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery,
@@ -58,6 +58,7 @@ pub const BROAD_PHASE_BINDINGS: &[BindingSpec] = &[
     read("v"),
     write("queries"),
     write("candidates"),
+    write("status"),
 ];
 
 /// The interface of a leaf kind's broad phase.
@@ -149,7 +150,8 @@ where
 {
     let threads = d.invocations();
     let push: BroadPhasePush = d.push_as();
-    let [params, collider, pose, nodes, aabbs, leaf_bounds, leaves, x, v, queries, candidates] = d.bindings()?;
+    let [params, collider, pose, nodes, aabbs, leaf_bounds, leaves, x, v, queries, candidates, status] =
+        d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = collider.first()?;
     let frame = frame_motion(&p, &pose.first::<ColliderPose>()?, &push);
@@ -157,8 +159,11 @@ where
         (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), leaves.slice::<K::Leaf>());
     let (x, v) = (x.slice::<Vec4>(), v.slice::<Vec4>());
     let (queries, candidates) = (queries.slice_mut::<ContactQuery>(), candidates.slice_mut::<u32>());
+    let status = status.first_mut::<CollisionStatus>()?;
     for i in 0..threads.min(p.particle_count) {
-        broad_phase_at::<K>(i, &p, &c, &frame, tree, (x, v), queries, candidates);
+        if broad_phase_at::<K>(i, &p, &c, &frame, tree, (x, v), queries, candidates) {
+            status.listed += 1;
+        }
     }
     Ok(())
 }
@@ -228,21 +233,19 @@ fn cull_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let [params, collider, pose, aabbs, leaf_bounds, x, x_prev, args, status] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = collider.first()?;
-    let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
-    let (x, x_prev) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>());
-    let cloth = (0..CULL_THREADS)
-        .map(|lane| swept_bounds(&motion, x, x_prev, p.particle_count, lane, CULL_THREADS))
-        .reduce(|a, b| Aabb { min: a.min.min(b.min), max: a.max.max(b.max) })
-        .ok_or("cull: no lanes")?;
-    let root = root_aabb(&c, aabbs.slice(), leaf_bounds.slice());
-    let run = aabbs_overlap(&cloth, &root, c.thickness);
-    *args.first_mut::<DispatchArgs>()? =
-        DispatchArgs { x: if run { p.particle_count.div_ceil(CONTACT_THREADS) } else { 0 }, y: 1, z: 1, _pad: 0 };
     let status = status.first_mut::<CollisionStatus>()?;
-    if run {
-        status.ran += 1;
+    let run = if status.listed != 0 {
+        true
     } else {
-        status.skipped += 1;
-    }
+        let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
+        let (x, x_prev) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>());
+        let cloth = (0..CULL_THREADS)
+            .map(|lane| swept_bounds(&motion, x, x_prev, p.particle_count, lane, CULL_THREADS))
+            .reduce(|a, b| Aabb { min: a.min.min(b.min), max: a.max.max(b.max) })
+            .ok_or("cull: no lanes")?;
+        let root = root_aabb(&c, aabbs.slice(), leaf_bounds.slice());
+        aabbs_overlap(&cloth, &root, c.thickness)
+    };
+    record_cull(run, &p, args.first_mut::<DispatchArgs>()?, status);
     Ok(())
 }

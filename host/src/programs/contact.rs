@@ -183,6 +183,7 @@ impl ContactBuffers {
                 cloth.v.id(),
                 lists.queries.id(),
                 lists.candidates.id(),
+                self.status.id(),
             ],
             push,
             Dispatch::Threads(cloth.particles),

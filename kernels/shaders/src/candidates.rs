@@ -98,7 +98,8 @@ impl<K: LeafKind> TreeQuery for GatherQuery<'_, K> {
 }
 
 /// Broad phase for particle `index` over the `frame` (`frame_motion`): its query box and
-/// candidate list (`candidates[index * MAX_CANDIDATES..]`). Pinned particles get an empty list (detect skips them anyway).
+/// candidate list (`candidates[index * MAX_CANDIDATES..]`); returns whether the list holds
+/// anything (or overflowed). Pinned particles get an empty list (detect skips them anyway).
 #[allow(clippy::too_many_arguments)]
 pub fn broad_phase_at<K: LeafKind>(
     index: u32,
@@ -109,7 +110,7 @@ pub fn broad_phase_at<K: LeafKind>(
     (x, v): (&[Vec4], &[Vec4]),
     queries: &mut [ContactQuery],
     candidates: &mut [u32],
-) {
+) -> bool {
     let i = index as usize;
     let region = query_box(frame, x[i].xyz(), v[i].xyz(), params.gravity.xyz(), collider.thickness);
     let count = if x[i].w == 0.0 {
@@ -119,9 +120,11 @@ pub fn broad_phase_at<K: LeafKind>(
         gather_candidates::<K>(collider, nodes, aabbs, (leaf_bounds, leaves), &region, candidates, base)
     };
     queries[i] = ContactQuery { low: region.min, high: region.max, count, _pad: [0; 3] };
+    count != 0
 }
 
-/// The body of every leaf kind's broad-phase entry point (threads past the cloth do nothing).
+/// The body of every leaf kind's broad-phase entry point (threads past the cloth do nothing):
+/// particles given candidates counted in `status.listed`.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn broad_phase_particle<K: LeafKind>(
@@ -132,13 +135,16 @@ pub fn broad_phase_particle<K: LeafKind>(
     pose: &ColliderPose,
     tree: BroadPhaseTree<'_, K::Leaf>,
     state: (&[Vec4], &[Vec4]),
-    queries: &mut [ContactQuery],
-    candidates: &mut [u32],
+    (queries, candidates): (&mut [ContactQuery], &mut [u32]),
+    status: &mut CollisionStatus,
 ) {
     if index >= params.particle_count {
         return;
     }
-    broad_phase_at::<K>(index, params, collider, &frame_motion(params, pose, push), tree, state, queries, candidates);
+    let frame = frame_motion(params, pose, push);
+    if broad_phase_at::<K>(index, params, collider, &frame, tree, state, queries, candidates) {
+        crate::atomics::add(&mut status.listed, 1);
+    }
 }
 
 /// The collider's motion over the whole frame the broad phase looks ahead over (its `h` is the

@@ -565,7 +565,10 @@ pub const CULL_THREADS: u32 = 256;
 
 /// One workgroup: reduce the cloth's swept bounds in shared memory, test them against the
 /// collider's root box, and write the detect and respond passes' indirect dispatch size
-/// (0 = skip).
+/// (0 = skip). When the frame's broad phase gave any particle a candidate the cloth is at the
+/// collider, where the test would say run: the pass says so without reading the cloth
+/// (measured on the bunny: ~95 of its ~100 µs per substep). Running the narrow phase where the
+/// test would have skipped it changes nothing: it finds no contact there.
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(256)))]
 pub fn cull_contact(
@@ -584,23 +587,33 @@ pub fn cull_contact(
     #[spirv(workgroup)] highs: &mut [Vec4; 256],
 ) {
     let lane = lid.x;
+    // The same value in every lane (nothing writes it during the pass), so either every lane
+    // reaches the reduction's barriers or none does.
+    if status.listed != 0 {
+        if lane == 0 {
+            record_cull(true, params, args, status);
+        }
+        return;
+    }
     let motion = substep_motion(params, pose, push);
     let own = swept_bounds(&motion, x, x_prev, params.particle_count, lane, CULL_THREADS);
     let cloth = reduce_bounds(lane, own, lows, highs);
     if lane == 0 {
         let root = root_aabb(collider, aabbs, leaf_bounds);
-        let run = aabbs_overlap(&cloth, &root, collider.thickness);
-        *args = DispatchArgs {
-            x: if run { params.particle_count.div_ceil(CONTACT_THREADS) } else { 0 },
-            y: 1,
-            z: 1,
-            _pad: 0,
-        };
-        if run {
-            status.ran += 1;
-        } else {
-            status.skipped += 1;
-        }
+        record_cull(aabbs_overlap(&cloth, &root, collider.thickness), params, args, status);
+    }
+}
+
+/// The culling pass's answer: the next passes' dispatch (`run`: one thread per particle, else
+/// none) and the substep counted as run or skipped.
+#[inline]
+pub fn record_cull(run: bool, params: &SimParams, args: &mut DispatchArgs, status: &mut CollisionStatus) {
+    *args =
+        DispatchArgs { x: if run { params.particle_count.div_ceil(CONTACT_THREADS) } else { 0 }, y: 1, z: 1, _pad: 0 };
+    if run {
+        status.ran += 1;
+    } else {
+        status.skipped += 1;
     }
 }
 
@@ -686,6 +699,7 @@ macro_rules! contact_entry_points {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[::drape_types::glam::Vec4],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] queries: &mut [::drape_types::ContactQuery],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] candidates: &mut [u32],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] status: &mut ::drape_types::CollisionStatus,
         ) {
             $crate::candidates::broad_phase_particle::<$kind>(
                 id.x,
@@ -695,8 +709,8 @@ macro_rules! contact_entry_points {
                 pose,
                 (nodes, aabbs, leaf_bounds, leaves),
                 (x, v),
-                queries,
-                candidates,
+                (queries, candidates),
+                status,
             );
         }
 

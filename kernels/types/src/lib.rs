@@ -303,6 +303,10 @@ pub struct CollisionStatus {
     /// Particle-substeps the narrow phase answered by a full traversal instead of the
     /// particle's candidate list (it left its query box, or its list had overflowed).
     pub fallbacks: u32,
+    /// Particles the frame's broad phase gave a candidate (or an overflowed list): when any,
+    /// the cloth is at the collider and the substeps' culling passes do not test.
+    pub listed: u32,
+    pub _pad: [u32; 3],
 }
 
 /// A collider triangle at the end of the frame: its corners (xyz) and unit normal (the
@@ -377,7 +381,7 @@ const _: () = assert!(core::mem::size_of::<SelfPassPush>() == 16);
 const _: () = assert!(core::mem::size_of::<BroadPhasePush>() == 16);
 const _: () = assert!(core::mem::size_of::<ContactQuery>() == 48);
 const _: () = assert!(core::mem::size_of::<SurfacePush>() == 128);
-const _: () = assert!(core::mem::size_of::<CollisionStatus>() == 16);
+const _: () = assert!(core::mem::size_of::<CollisionStatus>() == 32);
 const _: () = assert!(core::mem::size_of::<DispatchArgs>() == 16);
 const _: () = assert!(core::mem::size_of::<Contact>() == 48);
 const _: () = assert!(core::mem::size_of::<Triangle>() == 64);
