@@ -13,8 +13,8 @@
 //! gives the same earliest contact as the tree or the brute-force loop.
 
 use crate::contact::{
-    Candidate, LeafKind, Left, NO_CANDIDATE, blocks_relative, consider, detect_at, hit_relative, local_motion,
-    path_blocked, point_in_aabb, respond_at, substep_motion, target_of,
+    Candidate, LeafKind, Left, NO_CANDIDATE, blocks_relative, consider, detect_at, hit_relative, initial_clearance,
+    local_motion, lower_clearance, path_blocked, point_in_aabb, respond_at, substep_motion, target_of,
 };
 use crate::lbvh::{TreeQuery, walk};
 use crate::pose::{SubstepMotion, to_local};
@@ -215,16 +215,14 @@ pub fn detect_candidates_at<K: LeafKind>(
     // least clearance of the listed leaves, and the thickness for the rest (no point of the
     // box comes within it of them). A path shorter than half of it needs no check, which
     // saves a second scan of the list for most particles resting on the surface.
-    let mut clearance = if K::checks_path() { thickness } else { 0.0 };
+    let mut clearance = initial_clearance::<K>(thickness);
     let mut j = 0;
     while j < query.count {
         let leaf = candidates[base + j as usize];
         let l = leaves[leaf as usize];
         let (t, key) = hit_relative::<K>(l, p0, p1, thickness, left);
         best = consider(best, t, key, leaf);
-        if K::checks_path() {
-            clearance = clearance.min(K::clearance(l, K::relative(l, p0, left.0)));
-        }
+        clearance = lower_clearance::<K>(clearance, l, p0, left);
         j += 1;
     }
     let target = target_of::<K>(best, clearance, leaves, (p0, p1), thickness, left);

@@ -122,6 +122,21 @@ pub fn blocks_relative<K: LeafKind>(leaf: K::Leaf, a: Vec3, b: Vec3, thickness: 
     K::blocks(leaf, K::relative(leaf, a, left.0), K::relative(leaf, b, left.1), thickness)
 }
 
+/// The clearance bound before any leaf is seen (for kinds that check paths): the thickness,
+/// which bounds every leaf a search leaves out (its box is farther than that from the motion);
+/// 0 for kinds that do not check paths.
+#[inline]
+pub fn initial_clearance<K: LeafKind>(thickness: f32) -> f32 {
+    if K::checks_path() { thickness } else { 0.0 }
+}
+
+/// `clearance` lowered by `leaf`'s clearance from `p0` (relative to the leaf, see
+/// `LeafKind::relative`), for kinds that check paths.
+#[inline]
+pub fn lower_clearance<K: LeafKind>(clearance: f32, leaf: K::Leaf, p0: Vec3, left: Left) -> f32 {
+    if K::checks_path() { clearance.min(K::clearance(leaf, K::relative(leaf, p0, left.0))) } else { clearance }
+}
+
 /// Earliest contact of p0 -> p1 with the LBVH's leaves as they stand at the frame's end.
 /// Returns it and whether the stack overflowed (some subtrees were then not visited).
 pub fn traverse<K: LeafKind>(
@@ -150,7 +165,7 @@ pub fn traverse_with_clearance<K: LeafKind>(
     left: Left,
 ) -> (Candidate, bool, f32) {
     let thickness = collider.thickness;
-    let clearance = if K::checks_path() { thickness } else { 0.0 };
+    let clearance = initial_clearance::<K>(thickness);
     let mut query = HitQuery::<K> { leaves, p0, p1, thickness, left };
     let ((best, clearance), overflow) = walk(nodes, aabbs, collider.leaf_count, &mut query, (NO_CANDIDATE, clearance));
     (best, overflow, clearance)
@@ -179,9 +194,7 @@ impl<K: LeafKind> TreeQuery for HitQuery<'_, K> {
         let l = self.leaves[leaf as usize];
         let (t, key) = hit_relative::<K>(l, self.p0, self.p1, self.thickness, self.left);
         *best = consider(*best, t, key, leaf);
-        if K::checks_path() {
-            *clearance = clearance.min(K::clearance(l, K::relative(l, self.p0, self.left.0)));
-        }
+        *clearance = lower_clearance::<K>(*clearance, l, self.p0, self.left);
         false
     }
 }
