@@ -110,7 +110,14 @@ impl PairWalk {
 
     /// A walk for every leaf whose box meets `lo..=hi`, in batches as `new`'s.
     pub fn all(leaf_count: u32, query: (Vec3, Vec3)) -> Self {
-        PairWalk { after_only: false, ..PairWalk::new(0, leaf_count, query) }
+        let mut walk = PairWalk { after_only: false, ..PairWalk::new(0, leaf_count, query) };
+        if leaf_count == 1 {
+            // No internal node: the tree is its one leaf, which may meet the query (a
+            // one-triangle cloth under a collider's vertex).
+            walk.stack[0] = LEAF_BIT;
+            walk.top = 1;
+        }
+        walk
     }
 
     /// Whether the walk is over.
