@@ -194,6 +194,48 @@ fn obj_loads_quads_negative_indices_slashes_and_objects() {
     assert_eq!(mesh.bounds(), (Vec3::ZERO, Vec3::ONE));
 }
 
+/// A closed cube exported for rendering: flat normals and texture coordinates per face (each
+/// corner a different `v/vt/vn` triple, so a single-index loader makes 24 vertices) and two
+/// materials (tobj splits objects there). As a collider it must load as the solid it is: 8
+/// vertices, 12 triangles, closed; the negative zero of one corner is the same point.
+#[test]
+fn a_collider_exported_with_normals_and_materials_loads_closed() {
+    let mut text = String::new();
+    for x in ["-0.5", "0.5"] {
+        for y in ["0", "1"] {
+            for z in ["-0.5", "0.5"] {
+                text += &format!("v {x} {y} {z}\n");
+            }
+        }
+    }
+    text += "v -0.5 -0.0 -0.5\n"; // vertex 1 again (y = -0 is +0)
+    text += "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n";
+    let faces = [[1, 2, 4, 3], [5, 7, 8, 6], [1, 5, 6, 2], [3, 4, 8, 7], [1, 3, 7, 5], [2, 6, 8, 4]];
+    for (f, face) in faces.iter().enumerate() {
+        text += &format!("vn {f} 1 0\n");
+        if f == 3 {
+            text += "usemtl second\n";
+        }
+        let corners: Vec<String> = face.iter().enumerate().map(|(k, v)| format!("{v}/{}/{}", k + 1, f + 1)).collect();
+        text += &format!("f {}\n", corners.join(" "));
+    }
+    // A face through the copy of vertex 1 with -0.0: welded, it has vertex 1 twice: dropped.
+    text += "f 1 9 2\n";
+    let file = TempObj::new("cube-with-seams", &text);
+    let mesh = Mesh::load_obj(&file.0).unwrap();
+    assert_eq!((mesh.vertices.len(), mesh.triangles.len()), (8, 12), "{:?}", mesh.vertices);
+    assert!(drape::topology::is_closed(&mesh), "the cube must load closed");
+    assert_eq!(drape::topology::boundary_edge_count(&mesh), 0);
+    assert_closed_and_oriented(&mesh);
+    // The weld itself: a split vertex joins its first copy, in order.
+    let split =
+        Mesh { vertices: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::X, Vec3::Z], triangles: vec![[0, 1, 2], [3, 4, 2]] };
+    let (welded, joined) = split.weld_coincident();
+    assert_eq!(joined, 1);
+    assert_eq!(welded.vertices, vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z]);
+    assert_eq!(welded.triangles, vec![[0, 1, 2], [1, 3, 2]]);
+}
+
 /// Loads `text` and checks that the error names the file, the line (if any) and `expected`.
 fn assert_obj_error(name: &str, text: &str, line: Option<usize>, expected: &str) {
     let file = TempObj::new(name, text);

@@ -28,7 +28,8 @@ const MAX_TORUS_SEGMENTS: u32 = 2048;
 
 impl Mesh {
     /// Loads a Wavefront OBJ (triangulated, positions only; normals, texture coordinates, groups
-    /// and materials are ignored, all objects are merged into one mesh).
+    /// and materials are ignored, all objects are merged into one mesh, and vertices at the same
+    /// position are joined: `weld_coincident`).
     ///
     /// The file is first scanned line by line so that a bad `v` or `f` line is reported with its
     /// line number (tobj alone only says "face parse error"): unparsable, missing or non-finite
@@ -66,7 +67,27 @@ impl Mesh {
             }
         }
         validate(&vertices, &triangles).map_err(error)?;
-        Ok(Mesh { vertices, triangles })
+        let (mesh, _joined) = Mesh { vertices, triangles }.weld_coincident();
+        if mesh.triangles.is_empty() {
+            return Err(error("no triangles with area: every face has two corners at the same point".into()));
+        }
+        Ok(mesh)
+    }
+
+    /// The mesh with vertices at exactly the same position joined into one (the first, in
+    /// order) and the triangles that then have a corner twice (no area, no normal) dropped;
+    /// returns it and how many vertices were joined into others.
+    ///
+    /// A mesh exported for rendering repeats a vertex wherever its normal or texture
+    /// coordinates change (a flat-shaded cube has 24 vertices, a textured model splits along
+    /// its UV seams), and tobj splits at every material change: as a collider it would have
+    /// open seams, so no inside (`topology::is_closed`), holes to close where there are none,
+    /// and its features twice. `load_obj` welds; `from_parts` takes the mesh as given.
+    pub fn weld_coincident(&self) -> (Mesh, usize) {
+        let (remap, joined) = coincident_map(&self.vertices);
+        let vertices = welded_vertices(&self.vertices, &remap);
+        let triangles = self.triangles.iter().filter_map(|t| welded_triangle(&remap, *t)).collect();
+        (Mesh { vertices, triangles }, joined)
     }
 
     /// A mesh from vertices and triangles, checked: at least one triangle, every index in
@@ -239,6 +260,39 @@ pub(crate) fn validate(vertices: &[Vec3], triangles: &[[u32; 3]]) -> std::result
         }
     }
     Ok(())
+}
+
+/// Each vertex's index once vertices at exactly the same position are joined (new indices in
+/// order of first occurrence), and how many were joined. -0.0 and +0.0 are the same point.
+pub(crate) fn coincident_map(vertices: &[Vec3]) -> (Vec<u32>, usize) {
+    let mut first: HashMap<[u32; 3], u32> = HashMap::with_capacity(vertices.len());
+    let remap: Vec<u32> = vertices
+        .iter()
+        .map(|&v| {
+            let next = first.len() as u32;
+            *first.entry((v + Vec3::ZERO).to_array().map(f32::to_bits)).or_insert(next)
+        })
+        .collect();
+    let joined = vertices.len() - first.len();
+    (remap, joined)
+}
+
+/// The vertices that stay once `remap` (from `coincident_map`) joins coincident ones: each
+/// first occurrence, in order.
+pub(crate) fn welded_vertices(vertices: &[Vec3], remap: &[u32]) -> Vec<Vec3> {
+    let mut kept = Vec::with_capacity(vertices.len());
+    for (&v, &to) in vertices.iter().zip(remap) {
+        if to as usize == kept.len() {
+            kept.push(v);
+        }
+    }
+    kept
+}
+
+/// Triangle `t` through `remap`, or `None` when two of its corners became one vertex (no area).
+pub(crate) fn welded_triangle(remap: &[u32], t: [u32; 3]) -> Option<[u32; 3]> {
+    let [a, b, c] = t.map(|i| remap[i as usize]);
+    (a != b && b != c && a != c).then_some([a, b, c])
 }
 
 /// Counts of the elements defined so far, which relative (negative) indices count back from.
