@@ -20,6 +20,7 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         (&["--wind", "1,0,0"], usage, "--wind only applies to the swing scene"),
         (&["--scene", "pile", "--holes", "keep"], usage, "--holes does nothing in the pile scene"),
         (&["--voxels", "8"], usage, "--voxels only applies with --contact spheres"),
+        (&["--weld"], usage, "--weld only applies to a cloth from --cloth-mesh"),
         (&["--obj-every", "3"], usage, "--obj-every needs --obj-dir"),
         (&["--thickness", "1000"], usage, "(0, 0.5]"),
         (&["--friction", "-1"], usage, "[0, 10]"),
@@ -440,5 +441,50 @@ fn scene_file_colliders_are_placed_and_move() {
     std::fs::write(&again_file, &printed).unwrap();
     let again = String::from_utf8(drape(&["--scene-file", again_file.to_str().unwrap(), "--print-scene"]).stdout);
     assert_eq!(again.unwrap(), printed, "a printed scene with colliders reads back as itself");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A cloth whose file splits it at every seam (each of its 2 x 2 quads has its own 4 vertices,
+/// as exporters that write one vertex per UV do): hung from one corner in the swing scene, it
+/// comes apart without `--weld` (drape warns, and the three loose quads fall away) and holds
+/// together with it (9 particles, the cloth hangs from the pin).
+#[test]
+fn weld_joins_a_cloth_its_file_split_at_the_seams() {
+    let dir = std::env::temp_dir().join(format!("drape-weld-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj = dir.join("split.obj");
+    let mut text = String::new();
+    let mut faces = String::new();
+    for (q, (i, j)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
+        for (di, dj) in [(0, 0), (1, 0), (1, 1), (0, 1)] {
+            text += &format!("v {} 1 {}\n", 0.2 * (i + di) as f32, 0.2 * (j + dj) as f32);
+        }
+        let b = 4 * q + 1;
+        faces += &format!("f {} {} {}\nf {} {} {}\n", b, b + 3, b + 2, b, b + 2, b + 1);
+    }
+    std::fs::write(&obj, text + &faces).unwrap();
+    let run = |weld: bool| {
+        let json = dir.join(format!("report-{weld}.json"));
+        let mut command = Command::new(env!("CARGO_BIN_EXE_drape"));
+        command.args(["--scene", "swing", "--frames", "30", "--pin-vertices", "0", "--no-timestamps", "--cloth-mesh"]);
+        command.arg(&obj).arg("--json").arg(&json);
+        if weld {
+            command.arg("--weld");
+        }
+        let output = command.output().unwrap();
+        let (stdout, stderr) = (String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
+        assert!(output.status.success(), "{stdout}\n{stderr}");
+        let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        (stdout.into_owned(), stderr.into_owned(), report["lowest_particle_y_m"].as_f64().unwrap())
+    };
+    let (stdout, stderr, lowest) = run(false);
+    assert!(stdout.contains("(16 particles, 8 triangles"), "{stdout}");
+    assert!(stderr.contains("7 vertices lie exactly on earlier ones") && stderr.contains("--weld"), "{stderr}");
+    assert!(lowest < 0.0, "the loose quads must fall away (lowest particle at {lowest} m)");
+    let (stdout, stderr, lowest) = run(true);
+    assert!(stdout.contains("--weld joined 7 vertices into others (9 particles left)"), "{stdout}");
+    assert!(stdout.contains("(9 particles, 8 triangles"), "{stdout}");
+    assert!(!stderr.contains("lie exactly on earlier ones"), "{stderr}");
+    assert!(lowest > 0.3, "the welded cloth must hang from its pin (lowest particle at {lowest} m)");
     std::fs::remove_dir_all(&dir).ok();
 }

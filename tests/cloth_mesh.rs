@@ -269,6 +269,32 @@ fn temp_dir(name: &str) -> std::path::PathBuf {
     dir
 }
 
+/// The same quad written as exporters that keep one vertex per UV write it: vertex 2 (x = 1)
+/// repeated for its second texture coordinate, and a sliver triangle through both copies.
+/// `weld_coincident` joins the copy into the first (the order of the rest kept), keeps each
+/// corner's UV, and drops the triangle that then has a corner twice.
+#[test]
+fn weld_joins_a_vertex_split_for_its_uvs_and_keeps_the_uvs() {
+    let dir = temp_dir("weld");
+    let path = dir.join("split.obj");
+    let text = "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nv 1 0 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.5 0\n\
+                f 1/1 3/3 2/2\nf 1/1 4/4 3/3\nf 5/5 3/3 4/4\nf 2/2 5/5 3/3\n";
+    std::fs::write(&path, text).unwrap();
+    let mesh = ClothMesh::load_obj(&path).unwrap();
+    assert_eq!((mesh.vertices.len(), mesh.coincident_vertices()), (5, 1));
+    let (welded, joined) = mesh.weld_coincident();
+    assert_eq!(joined, 1);
+    assert_eq!(welded.vertices, vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, 1.0), Vec3::Z]);
+    assert_eq!(welded.triangles, vec![[0, 2, 1], [0, 3, 2], [1, 2, 3]]);
+    let uvs = welded.uvs.clone().expect("UVs");
+    assert_eq!(uvs.triangles, vec![[0, 2, 1], [0, 3, 2], [4, 2, 3]]);
+    assert_eq!(welded.coincident_vertices(), 0);
+    // Joined, the cloth is one piece: vertex 1's springs now reach vertex 3 across the seam.
+    let cloth = ClothBuilder::from_mesh(welded).build().unwrap();
+    assert!(cloth.structural_springs().iter().any(|&(a, b, _)| (a.min(b), a.max(b)) == (1, 3)));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// An OBJ quad whose UV seam gives vertex 1 two texture coordinates: the cloth keeps the four
 /// `v` in order (one particle per vertex, no split at the seam), the UVs per corner, and an
 /// exported frame carries them back (`f v/vt/vn`).

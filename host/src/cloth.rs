@@ -371,6 +371,14 @@ impl ClothBuilder {
         if loose > 0 {
             log::info!("cloth mesh: {loose} vertices belong to no triangle; they are pinned where they are");
         }
+        let coincident = mesh.coincident_vertices();
+        if coincident > 0 {
+            log::warn!(
+                "cloth mesh: {coincident} vertices lie exactly on earlier ones (the file splits the surface there, as \
+                 exporters do at UV or normal seams): the cloth is not joined at them and comes apart there; join \
+                 them with `ClothMesh::weld_coincident` (CLI: --weld)"
+            );
+        }
         // A mirroring transform turns the triangles inside out: keep the normals outward.
         let triangles: Vec<[u32; 3]> = if self.transform.determinant() < 0.0 {
             mesh.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect()

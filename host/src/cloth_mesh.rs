@@ -5,6 +5,7 @@
 //! the triangles' areas.
 
 use crate::error::{Error, Result};
+use crate::mesh::{coincident_map, welded_triangle, welded_vertices};
 use drape_kernels::cloth::{BEND, SPRINGS, STRUCTURAL};
 use drape_types::{ParticleSprings, SimParams, Spring};
 use glam::{Vec2, Vec3};
@@ -48,6 +49,28 @@ impl ClothMesh {
         let mesh = parse_obj(&text).map_err(error)?;
         crate::mesh::validate(&mesh.vertices, &mesh.triangles).map_err(error)?;
         Ok(mesh)
+    }
+
+    /// How many vertices lie at exactly the same position as an earlier one.
+    pub fn coincident_vertices(&self) -> usize {
+        coincident_map(&self.vertices).1
+    }
+
+    /// The cloth with vertices at exactly the same position joined into one (the first, in
+    /// order), so a surface its file split at seams holds together; triangles that then have a
+    /// corner twice are dropped with their texture coordinates. Texture coordinates stay per
+    /// corner, so the seams keep their UVs. Returns it and how many vertices were joined. The
+    /// vertex order changes (the joined ones are gone): a renderer binds the welded cloth's.
+    pub fn weld_coincident(&self) -> (ClothMesh, usize) {
+        let (remap, joined) = coincident_map(&self.vertices);
+        let vertices = welded_vertices(&self.vertices, &remap);
+        let welded: Vec<Option<[u32; 3]>> = self.triangles.iter().map(|&t| welded_triangle(&remap, t)).collect();
+        let triangles = welded.iter().flatten().copied().collect();
+        let uvs = self.uvs.as_ref().map(|uvs| ClothUvs {
+            coords: uvs.coords.clone(),
+            triangles: uvs.triangles.iter().zip(&welded).filter(|(_, w)| w.is_some()).map(|(t, _)| *t).collect(),
+        });
+        (ClothMesh { vertices, triangles, uvs }, joined)
     }
 
     /// A `rows x cols` grid of `size` (m) in the XZ plane centred on the origin, as a mesh: the

@@ -81,8 +81,13 @@ fn main() -> ExitCode {
 }
 
 /// The cloth of `--cloth-mesh`, placed for `scene` (see the flag).
-fn mesh_cloth(path: &std::path::Path, scene: Option<&DrapeScene>) -> drape::Result<ClothBuilder> {
-    let mesh = ClothMesh::load_obj(path)?;
+fn mesh_cloth(path: &std::path::Path, weld: bool, scene: Option<&DrapeScene>) -> drape::Result<ClothBuilder> {
+    let mut mesh = ClothMesh::load_obj(path)?;
+    if weld {
+        let (welded, joined) = mesh.weld_coincident();
+        say!("cloth mesh: --weld joined {joined} vertices into others ({} particles left)", welded.vertices.len());
+        mesh = welded;
+    }
     let builder = ClothBuilder::from_mesh(mesh.clone());
     let Some(s) = scene else {
         return Ok(builder);
@@ -158,7 +163,7 @@ fn run(args: &Args) -> drape::Result<()> {
     let builder = match &args.cloth_mesh {
         Some(path) => {
             let wind = if args.scene == SceneArg::Swing { args.wind } else { Vec3::ZERO };
-            mesh_cloth(path, scene.as_ref())?.external_force(wind)
+            mesh_cloth(path, args.weld, scene.as_ref())?.external_force(wind)
         }
         None => builder.listed_springs(args.listed_springs),
     };

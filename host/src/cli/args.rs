@@ -111,6 +111,12 @@ pub(crate) struct Args {
     /// file puts it.
     #[arg(long, conflicts_with = "grid")]
     pub(crate) cloth_mesh: Option<PathBuf>,
+    /// Join the `--cloth-mesh` vertices that lie at exactly the same position, as a file split
+    /// at UV or normal seams has them (many exporters write one vertex per UV): without it the
+    /// cloth comes apart along those seams (drape warns). The particles are then the joined
+    /// vertices in the file's order, the first of each set kept; UVs stay per corner.
+    #[arg(long)]
+    pub(crate) weld: bool,
     /// Pin these particles (vertex indices, comma separated; a grid's are row * cols + col).
     #[arg(long, value_delimiter = ',')]
     pub(crate) pin_vertices: Vec<u32>,
@@ -261,6 +267,9 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
         if args.scene == SceneArg::Garment {
             return Some(format!("{flag} does nothing in the garment scene, whose collider is its body"));
         }
+    }
+    if id == "weld" && args.cloth_mesh.is_none() {
+        return Some("--weld only applies to a cloth from --cloth-mesh (a grid has no seams to join)".into());
     }
     if id == "wind" && args.scene != SceneArg::Swing {
         return Some(format!("--wind only applies to the swing scene, not the {:?} scene", args.scene).to_lowercase());
