@@ -488,3 +488,51 @@ fn weld_joins_a_cloth_its_file_split_at_the_seams() {
     assert!(lowest > 0.3, "the welded cloth must hang from its pin (lowest particle at {lowest} m)");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The meshes a scene file names are found beside it, wherever drape runs from: a scene in
+/// `DIR/scene/` with `cloth-mesh = "models/cloth.obj"` and a `[[collider]]` mesh
+/// `models/ground.obj`, run from another directory, loads both; `--print-scene` writes them
+/// as absolute paths, so the printed scene reads back as itself from anywhere.
+#[test]
+fn a_scene_file_finds_its_meshes_beside_it() {
+    let dir = std::env::temp_dir().join(format!("drape-scene-paths-{}", std::process::id()));
+    let models = dir.join("scene").join("models");
+    std::fs::create_dir_all(&models).unwrap();
+    std::fs::write(models.join("cloth.obj"), "v 0 1 0\nv 0.2 1 0\nv 0.2 1 0.2\nv 0 1 0.2\nf 1 4 3\nf 1 3 2\n").unwrap();
+    std::fs::write(models.join("ground.obj"), "v -2 0.5 -2\nv 2 0.5 -2\nv 2 0.5 2\nv -2 0.5 2\nf 1 4 3\nf 1 3 2\n")
+        .unwrap();
+    let scene = dir.join("scene").join("scene.toml");
+    // No wind: it would blow so light a cloth off the ground before it lands.
+    let text = "scene = \"swing\"\nframes = 60\nno-timestamps = true\nwind = [0, 0, 0]\ncloth-mesh = \"models/cloth.obj\"\n\n\
+                [[collider]]\nmesh = \"models/ground.obj\"\n";
+    std::fs::write(&scene, text).unwrap();
+    let run = |args: &[&str]| {
+        let output = Command::new(env!("CARGO_BIN_EXE_drape"))
+            .current_dir(&dir)
+            .arg("--scene-file")
+            .arg(&scene)
+            .args(args)
+            .output();
+        let output = output.unwrap();
+        let (stdout, stderr) = (String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
+        assert!(output.status.success(), "{stdout}\n{stderr}");
+        stdout.into_owned()
+    };
+    let json = dir.join("report.json");
+    let stdout = run(&["--json", json.to_str().unwrap()]);
+    assert!(stdout.contains("(4 particles, 2 triangles"), "{stdout}");
+    assert!(stdout.contains("collider: collider1 (4 vertices, 2 triangles)"), "{stdout}");
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let lowest = report["lowest_particle_y_m"].as_f64().unwrap();
+    assert!(lowest > 0.49, "the ground beside the scene file holds the cloth (lowest particle at {lowest} m)");
+    let printed = run(&["--print-scene"]);
+    let absolute = |name: &str| std::path::absolute(models.join(name)).unwrap().display().to_string();
+    for name in ["cloth.obj", "ground.obj"] {
+        assert!(printed.contains(&format!("\"{}\"", absolute(name))), "{name} must print absolute:\n{printed}");
+    }
+    let elsewhere = dir.join("printed.toml");
+    std::fs::write(&elsewhere, &printed).unwrap();
+    let again = drape(&["--scene-file", elsewhere.to_str().unwrap(), "--print-scene"]);
+    assert_eq!(String::from_utf8_lossy(&again.stdout), printed, "the printed scene reads back as itself");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -268,6 +268,9 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
             return Some(format!("{flag} does nothing in the garment scene, whose collider is its body"));
         }
     }
+    if id == "grid" && args.cloth_mesh.is_some() {
+        return Some("--grid does nothing with --cloth-mesh, whose mesh is the cloth".into());
+    }
     if id == "weld" && args.cloth_mesh.is_none() {
         return Some("--weld only applies to a cloth from --cloth-mesh (a grid has no seams to join)".into());
     }

@@ -84,6 +84,9 @@ impl SceneCollider {
 }
 
 /// A mesh by name (built in, a model from ../shared/models) or OBJ path.
+/// The meshes `load_mesh` knows by name; any other value is an OBJ path.
+pub(crate) const BUILT_IN_MESHES: [&str; 5] = ["icosphere", "torus", "plane", "bunny", "dragon"];
+
 pub(crate) fn load_mesh(name: &str) -> drape::Result<Mesh> {
     match name {
         "icosphere" => Ok(default_mesh()),

@@ -9,7 +9,7 @@
 //! `super::colliders::ColliderTable`): a mesh, its placement and its motion, as many as wanted.
 
 use super::args::{Args, unused};
-use super::colliders::ColliderTable;
+use super::colliders::{BUILT_IN_MESHES, ColliderTable};
 use clap::error::{ContextKind, ContextValue, ErrorKind};
 use clap::parser::ValueSource;
 use clap::{ArgMatches, CommandFactory};
@@ -18,6 +18,23 @@ use std::path::Path;
 
 /// Flags a scene file cannot hold (they are about reading or printing scene files).
 const NOT_IN_FILES: [&str; 4] = ["help", "version", "scene_file", "print_scene"];
+
+/// Keys naming files the run reads (meshes): a relative path is found beside the scene file,
+/// as a scene and its models travel together. Outputs (`json`, `obj-dir`, ...) stay relative to
+/// the working directory, where the run writes.
+const READ_FROM_FILES: [&str; 2] = ["mesh", "cloth_mesh"];
+
+/// Mesh `value` of scene file `scene`: a relative path made absolute from the file's
+/// directory (so `--print-scene` writes a path that reads back from anywhere); built-in mesh
+/// names and absolute paths as they are.
+fn beside(scene: &Path, value: &str) -> String {
+    let path = Path::new(value);
+    if BUILT_IN_MESHES.contains(&value) || path.is_absolute() || value.is_empty() {
+        return value.to_string();
+    }
+    let joined = scene.parent().unwrap_or(Path::new("")).join(path);
+    std::path::absolute(&joined).unwrap_or(joined).display().to_string()
+}
 
 /// The `[[collider]]` tables of a scene file, each with where it is in the file.
 #[derive(Debug, Default, serde::Deserialize)]
@@ -42,7 +59,10 @@ pub(crate) fn matches(cli: Vec<OsString>) -> Result<(ArgMatches, Vec<ColliderTab
     let text = std::fs::read_to_string(&path)
         .map_err(|e| Args::command().error(ErrorKind::Io, format!("--scene-file {}: {e}", path.display())))?;
     let entries = file_flags(&path, &text)?;
-    let colliders = collider_tables(&path, &text)?;
+    let mut colliders = collider_tables(&path, &text)?;
+    for table in &mut colliders {
+        table.mesh = beside(&path, &table.mesh);
+    }
     let mut merged = vec![cli[0].clone()];
     for entry in &entries {
         // A flag typed on the command line overrides the file.
@@ -112,7 +132,11 @@ fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
             })?;
         let flag = format!("--{}", arg.get_long().unwrap_or(&id));
         let args = if arg.get_action().takes_values() {
-            vec![flag, flag_value(value).ok_or_else(|| usage(line, format!("`{key}` takes {}", kind_of(arg))))?]
+            let mut value = flag_value(value).ok_or_else(|| usage(line, format!("`{key}` takes {}", kind_of(arg))))?;
+            if READ_FROM_FILES.contains(&id.as_str()) {
+                value = beside(path, &value);
+            }
+            vec![flag, value]
         } else {
             match value {
                 toml::Value::Boolean(true) => vec![flag],
@@ -211,7 +235,11 @@ pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
             let Some(raw) = matches.get_raw(id) else {
                 continue; // an optional flag not given: its absence is the default
             };
-            let values: Vec<String> = raw.map(|v| v.to_string_lossy().into_owned()).collect();
+            let mut values: Vec<String> = raw.map(|v| v.to_string_lossy().into_owned()).collect();
+            if READ_FROM_FILES.contains(&id) {
+                // Absolute, so the printed file reads the same mesh wherever it is saved.
+                values = values.iter().map(|v| beside(Path::new("./scene.toml"), v)).collect();
+            }
             toml_value(&values.join(","))
         };
         match unused(args, id) {
