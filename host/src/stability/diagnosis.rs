@@ -89,7 +89,10 @@ pub fn cause(params: &SimParams, stability: &Stability, integrator: u32, max_str
         format!(
             "the substep is within the stability bound, so motion drove it: the fastest particle moved at {speed:.3e} m/s \
              in the last healthy frame (a fast throw, or contact pushing particles apart, e.g. a thickness larger than \
-             the cloth's edges); smaller substeps resolve it"
+             the cloth's edges); smaller substeps resolve that, but not a cloth pulled apart (pins holding it against \
+             a collider that drags it on, or a throw so fast that the impact outruns the springs: a real cloth would \
+             tear; if more substeps fail the same way, slow the collider or the throw, loosen the pins, or stiffen \
+             the springs)"
         )
     }
 }
