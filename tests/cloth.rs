@@ -332,6 +332,9 @@ fn blow_up_names_the_quantity_that_drove_it() {
     assert!(damped.contains("set by the damping") && damped.contains("spring damping"), "{damped}");
     let pushed = blow_up(ClothBuilder::new(8, 8).external_force(Vec3::new(1e5, 0.0, 0.0)), None);
     assert!(pushed.contains("within the stability bound") && pushed.contains("external force"), "{pushed}");
+    // Automatic substeps ran: the message offers a fixed count, not automatic substeps again.
+    assert!(pushed.contains("or fix at least") && !pushed.contains("or automatic substeps"), "{pushed}");
+    assert!(stiff.contains("(or automatic substeps)"), "fixed substeps under the bound: {stiff}");
     assert_validation_clean(&ctx);
 }
 

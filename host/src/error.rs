@@ -39,8 +39,8 @@ pub enum Error {
     /// The simulation blew up; the message names the quantity that drove it, a value of it that
     /// would be stable, and the substeps that would be.
     #[error(
-        "cloth {cloth} became unstable at frame {frame} ({detail}): {cause}; or use at least \
-         {suggested_substeps} substeps per frame (or automatic substeps)"
+        "cloth {cloth} became unstable at frame {frame} ({detail}): {cause}; {}",
+        substeps_remedy(*automatic_substeps, *suggested_substeps)
     )]
     Unstable {
         cloth: usize,
@@ -51,6 +51,8 @@ pub enum Error {
         substep: f32,
         bound: f32,
         suggested_substeps: u32,
+        /// Whether the substeps were automatic (the stability bound's), not the caller's.
+        automatic_substeps: bool,
     },
     /// A mesh file or mesh parameter is unusable; names the file and line where there is one.
     #[error("mesh {path}: {problem}")]
@@ -76,5 +78,15 @@ pub(crate) trait VkContext<T> {
 impl<T> VkContext<T> for std::result::Result<T, ash::vk::Result> {
     fn vk(self, call: &'static str) -> Result<T> {
         self.map_err(|result| Error::Vulkan { call, result })
+    }
+}
+
+/// What the blow-up message offers on substeps: a fixed count above the automatic one (which
+/// ran), or that count or automatic substeps (the caller fixed fewer).
+fn substeps_remedy(automatic: bool, suggested: u32) -> String {
+    if automatic {
+        format!("or fix at least {suggested} substeps per frame (`SimSettings::with_substeps`, CLI --substeps)")
+    } else {
+        format!("or use at least {suggested} substeps per frame (or automatic substeps)")
     }
 }

@@ -248,5 +248,6 @@ pub(crate) fn check_health(
         substep: stability.substep,
         bound: stability.max_substep,
         suggested_substeps: stability.min_stable_substeps().max(stability.substeps * 2),
+        automatic_substeps: settings.substeps.is_none(),
     })
 }
