@@ -108,7 +108,7 @@ pub struct Lbvh {
     pub leaf_bounds: Vec<Aabb>,
     /// N - 1 internal nodes (root = 0).
     pub nodes: Vec<BvhNode>,
-    /// Parent of internal node i at [i], of leaf j at [N - 1 + j]; the root's is `NO_NODE`.
+    /// Parent of internal node i at `[i]`, of leaf j at `[N - 1 + j]`; the root's is `NO_NODE`.
     pub parents: Vec<u32>,
     pub aabbs: Vec<Aabb>,
 }
