@@ -302,8 +302,9 @@ fn weld_joins_a_vertex_split_for_its_uvs_and_keeps_the_uvs() {
 fn an_obj_cloth_keeps_its_vertex_order_and_uvs() {
     let dir = temp_dir("uvs");
     let path = dir.join("quad.obj");
+    // (A comment after a face's corners is cut off, not read as a corner.)
     let text = "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.5 0\n\
-                f 1/1 3/3 2/2\nf 1/1 4/4 3/3\nf 2/5 3/3 4/4\n";
+                f 1/1 3/3 2/2 # seam\nf 1/1 4/4 3/3\nf 2/5 3/3 4/4\n";
     std::fs::write(&path, text).unwrap();
     let mesh = ClothMesh::load_obj(&path).unwrap();
     assert_eq!(mesh.vertices, vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, 1.0), Vec3::Z]);

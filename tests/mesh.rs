@@ -266,6 +266,12 @@ fn obj_errors_name_the_file_and_line() {
     assert_obj_error("noface", head, None, "no triangles");
     assert_obj_error("empty", "", None, "no triangles");
 
+    // A comment after a line's values is cut off (some exporters write them); errors keep their
+    // line numbers.
+    let commented = TempObj::new("commented", "# head\nv 0 0 0 # first\nv 1 0 0\nv 0 1 0#x\nf 1 2 3 # face\n");
+    assert_eq!(Mesh::load_obj(&commented.0).unwrap().triangles, vec![[0, 1, 2]]);
+    assert_obj_error("comment", &format!("{head}# note\nf 1 2 9 # bad\n"), Some(6), "index 9 is out of range");
+
     // Windows line endings are fine; bytes that are not UTF-8 are an error, not a panic.
     let crlf = TempObj::new("crlf", "v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 3\r\n");
     assert_eq!(Mesh::load_obj(&crlf.0).unwrap().triangles, vec![[0, 1, 2]]);

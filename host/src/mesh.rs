@@ -243,8 +243,19 @@ pub(crate) fn read_obj_text(path: &Path) -> Result<String> {
     let bytes = std::fs::read(path).map_err(|e| error(format!("cannot read the file: {e}")))?;
     let text = String::from_utf8(bytes)
         .map_err(|e| error(format!("is not UTF-8 text (invalid byte at offset {})", e.utf8_error().valid_up_to())))?;
+    let text = without_comments(text);
     scan_obj(&text).map_err(error)?;
     Ok(text)
+}
+
+/// `text` with each `#` comment cut from its line: some exporters end a `v` or `f` line with
+/// one, which tobj (and the cloth's parser) would read as a value. Line for line, so errors keep
+/// their line numbers.
+fn without_comments(text: String) -> String {
+    if !text.contains('#') {
+        return text;
+    }
+    text.lines().map(|line| line.split('#').next().unwrap_or("")).collect::<Vec<_>>().join("\n")
 }
 
 pub(crate) fn validate(vertices: &[Vec3], triangles: &[[u32; 3]]) -> std::result::Result<(), String> {
