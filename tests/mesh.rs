@@ -234,6 +234,9 @@ fn a_collider_exported_with_normals_and_materials_loads_closed() {
     assert_eq!(joined, 1);
     assert_eq!(welded.vertices, vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z]);
     assert_eq!(welded.triangles, vec![[0, 1, 2], [1, 3, 2]]);
+    // Built by hand with a bad index: that triangle is dropped, nothing panics.
+    let bad = Mesh { vertices: vec![Vec3::ZERO, Vec3::X, Vec3::Y], triangles: vec![[0, 1, 2], [0, 1, 7]] };
+    assert_eq!(bad.weld_coincident().0.triangles, vec![[0, 1, 2]]);
 }
 
 /// Loads `text` and checks that the error names the file, the line (if any) and `expected`.
@@ -271,6 +274,9 @@ fn obj_errors_name_the_file_and_line() {
     let commented = TempObj::new("commented", "# head\nv 0 0 0 # first\nv 1 0 0\nv 0 1 0#x\nf 1 2 3 # face\n");
     assert_eq!(Mesh::load_obj(&commented.0).unwrap().triangles, vec![[0, 1, 2]]);
     assert_obj_error("comment", &format!("{head}# note\nf 1 2 9 # bad\n"), Some(6), "index 9 is out of range");
+    // On a name line `#` is part of the name (a colour as a material name).
+    let named = TempObj::new("named", "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl #ff0000\nf 1 2 3\n");
+    assert_eq!(Mesh::load_obj(&named.0).unwrap().triangles, vec![[0, 1, 2]]);
 
     // Windows line endings are fine; bytes that are not UTF-8 are an error, not a panic.
     let crlf = TempObj::new("crlf", "v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 3\r\n");

@@ -375,8 +375,8 @@ impl ClothBuilder {
         if coincident > 0 {
             log::warn!(
                 "cloth mesh: {coincident} vertices lie exactly on earlier ones (the file splits the surface there, as \
-                 exporters do at UV or normal seams): the cloth is not joined at them and comes apart there; join \
-                 them with `ClothMesh::weld_coincident` (CLI: --weld)"
+                 exporters do at UV or normal seams): the cloth is not joined at them and comes apart there unless \
+                 that is meant; join them with `ClothMesh::weld_coincident` (CLI: --weld)"
             );
         }
         // A mirroring transform turns the triangles inside out: keep the normals outward.

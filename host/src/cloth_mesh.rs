@@ -51,9 +51,17 @@ impl ClothMesh {
         Ok(mesh)
     }
 
-    /// How many vertices lie at exactly the same position as an earlier one.
+    /// How many of the triangles' vertices lie at exactly the same position as an earlier one
+    /// of them (a vertex of no triangle is not part of the surface).
     pub fn coincident_vertices(&self) -> usize {
-        coincident_map(&self.vertices).1
+        let mut used = vec![false; self.vertices.len()];
+        for &i in self.triangles.iter().flatten() {
+            if let Some(u) = used.get_mut(i as usize) {
+                *u = true;
+            }
+        }
+        let surface: Vec<Vec3> = self.vertices.iter().zip(&used).filter(|(_, u)| **u).map(|(v, _)| *v).collect();
+        coincident_map(&surface).1
     }
 
     /// The cloth with vertices at exactly the same position joined into one (the first, in
@@ -61,12 +69,13 @@ impl ClothMesh {
     /// corner twice are dropped with their texture coordinates. Texture coordinates stay per
     /// corner, so the seams keep their UVs. Returns it and how many vertices were joined. The
     /// vertex order changes (the joined ones are gone): a renderer binds the welded cloth's.
+    /// Triangles that refer to no vertex are dropped; UVs that are not one per triangle are.
     pub fn weld_coincident(&self) -> (ClothMesh, usize) {
         let (remap, joined) = coincident_map(&self.vertices);
         let vertices = welded_vertices(&self.vertices, &remap);
         let welded: Vec<Option<[u32; 3]>> = self.triangles.iter().map(|&t| welded_triangle(&remap, t)).collect();
         let triangles = welded.iter().flatten().copied().collect();
-        let uvs = self.uvs.as_ref().map(|uvs| ClothUvs {
+        let uvs = self.uvs.as_ref().filter(|uvs| uvs.triangles.len() == self.triangles.len()).map(|uvs| ClothUvs {
             coords: uvs.coords.clone(),
             triangles: uvs.triangles.iter().zip(&welded).filter(|(_, w)| w.is_some()).map(|(t, _)| *t).collect(),
         });

@@ -75,8 +75,8 @@ impl Mesh {
     }
 
     /// The mesh with vertices at exactly the same position joined into one (the first, in
-    /// order) and the triangles that then have a corner twice (no area, no normal) dropped;
-    /// returns it and how many vertices were joined into others.
+    /// order) and the triangles that then have a corner twice (no area, no normal), or that
+    /// refer to no vertex, dropped; returns it and how many vertices were joined into others.
     ///
     /// A mesh exported for rendering repeats a vertex wherever its normal or texture
     /// coordinates change (a flat-shaded cube has 24 vertices, a textured model splits along
@@ -248,14 +248,23 @@ pub(crate) fn read_obj_text(path: &Path) -> Result<String> {
     Ok(text)
 }
 
-/// `text` with each `#` comment cut from its line: some exporters end a `v` or `f` line with
-/// one, which tobj (and the cloth's parser) would read as a value. Line for line, so errors keep
-/// their line numbers.
+/// `text` with the `#` comment cut from each data line (`v`, `vt`, `vn`, `f`, `l`): some
+/// exporters end one with a comment, which tobj (and the cloth's parser) would read as a value.
+/// Names keep theirs (`usemtl #ff0000` is a name). Line for line, so errors keep their line
+/// numbers.
 fn without_comments(text: String) -> String {
     if !text.contains('#') {
         return text;
     }
-    text.lines().map(|line| line.split('#').next().unwrap_or("")).collect::<Vec<_>>().join("\n")
+    text.lines().map(cut_comment).collect::<Vec<_>>().join("\n")
+}
+
+/// `line` without its `#` comment when it is a data line (see `without_comments`).
+fn cut_comment(line: &str) -> &str {
+    match line.split_whitespace().next() {
+        Some("v" | "vt" | "vn" | "f" | "l") => line.split('#').next().unwrap_or(""),
+        _ => line,
+    }
 }
 
 pub(crate) fn validate(vertices: &[Vec3], triangles: &[[u32; 3]]) -> std::result::Result<(), String> {
@@ -300,9 +309,11 @@ pub(crate) fn welded_vertices(vertices: &[Vec3], remap: &[u32]) -> Vec<Vec3> {
     kept
 }
 
-/// Triangle `t` through `remap`, or `None` when two of its corners became one vertex (no area).
+/// Triangle `t` through `remap`, or `None` when two of its corners became one vertex (no area)
+/// or it refers to a vertex that does not exist.
 pub(crate) fn welded_triangle(remap: &[u32], t: [u32; 3]) -> Option<[u32; 3]> {
-    let [a, b, c] = t.map(|i| remap[i as usize]);
+    let [a, b, c] = t.map(|i| remap.get(i as usize).copied());
+    let (a, b, c) = (a?, b?, c?);
     (a != b && b != c && a != c).then_some([a, b, c])
 }
 

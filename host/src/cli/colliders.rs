@@ -83,10 +83,11 @@ impl SceneCollider {
     }
 }
 
-/// A mesh by name (built in, a model from ../shared/models) or OBJ path.
-/// The meshes `load_mesh` knows by name; any other value is an OBJ path.
+/// The meshes `load_mesh` knows by name; any other value is an OBJ path (a scene file finds a
+/// relative one beside itself, so a name missing here would be looked for as a file).
 pub(crate) const BUILT_IN_MESHES: [&str; 5] = ["icosphere", "torus", "plane", "bunny", "dragon"];
 
+/// A mesh by name (built in, a model from ../shared/models) or OBJ path.
 pub(crate) fn load_mesh(name: &str) -> drape::Result<Mesh> {
     match name {
         "icosphere" => Ok(default_mesh()),
@@ -172,4 +173,21 @@ pub(crate) fn union_at(colliders: &[SceneCollider], t: f32) -> Mesh {
         union.triangles.extend(posed.triangles.iter().map(|t| t.map(|i| i + base)));
     }
     union
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every name `BUILT_IN_MESHES` lists is one `load_mesh` knows, not read as a file (the
+    /// models may be missing here: then the error names the model, not a file called `bunny`).
+    #[test]
+    fn every_built_in_mesh_name_is_known_to_load_mesh() {
+        for name in BUILT_IN_MESHES {
+            if let Err(e) = load_mesh(name) {
+                let message = e.to_string();
+                assert!(!message.contains(&format!("mesh {name}:")), "{name} was read as a path: {message}");
+            }
+        }
+    }
 }
