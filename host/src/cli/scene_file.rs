@@ -24,17 +24,22 @@ const NOT_IN_FILES: [&str; 4] = ["help", "version", "scene_file", "print_scene"]
 /// the working directory, where the run writes.
 const READ_FROM_FILES: [&str; 2] = ["mesh", "cloth_mesh"];
 
-/// Mesh `value` (key `id`) of scene file `scene`: a relative path made absolute from the
-/// file's directory (so `--print-scene` writes a path that reads back from anywhere); absolute
-/// paths, and built-in mesh names where a collider is meant (`mesh`), as they are.
-fn beside(scene: &Path, id: &str, value: &str) -> String {
+/// Mesh `value` (key `id`) read relative to directory `dir`: a relative path made absolute
+/// from it (so `--print-scene` writes a path that reads back from anywhere); absolute paths,
+/// and built-in mesh names where a collider is meant (`mesh`), as they are.
+fn beside(dir: &Path, id: &str, value: &str) -> String {
     let path = Path::new(value);
     let built_in = id == "mesh" && BUILT_IN_MESHES.contains(&value);
     if built_in || path.is_absolute() || value.is_empty() {
         return value.to_string();
     }
-    let joined = scene.parent().unwrap_or(Path::new("")).join(path);
+    let joined = dir.join(path);
     std::path::absolute(&joined).unwrap_or(joined).display().to_string()
+}
+
+/// The directory scene file `path` is in (its meshes' base).
+fn scene_dir(path: &Path) -> &Path {
+    path.parent().unwrap_or(Path::new(""))
 }
 
 /// The `[[collider]]` tables of a scene file, each with where it is in the file.
@@ -62,7 +67,7 @@ pub(crate) fn matches(cli: Vec<OsString>) -> Result<(ArgMatches, Vec<ColliderTab
     let entries = file_flags(&path, &text)?;
     let mut colliders = collider_tables(&path, &text)?;
     for table in &mut colliders {
-        table.mesh = beside(&path, "mesh", &table.mesh);
+        table.mesh = beside(scene_dir(&path), "mesh", &table.mesh);
     }
     let mut merged = vec![cli[0].clone()];
     for entry in &entries {
@@ -135,7 +140,7 @@ fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
         let args = if arg.get_action().takes_values() {
             let mut value = flag_value(value).ok_or_else(|| usage(line, format!("`{key}` takes {}", kind_of(arg))))?;
             if READ_FROM_FILES.contains(&id.as_str()) {
-                value = beside(path, &id, &value);
+                value = beside(scene_dir(path), &id, &value);
             }
             vec![flag, value]
         } else {
@@ -239,7 +244,7 @@ pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
             let mut values: Vec<String> = raw.map(|v| v.to_string_lossy().into_owned()).collect();
             if READ_FROM_FILES.contains(&id) {
                 // Absolute, so the printed file reads the same mesh wherever it is saved.
-                values = values.iter().map(|v| beside(Path::new("./scene.toml"), id, v)).collect();
+                values = values.iter().map(|v| beside(Path::new("."), id, v)).collect();
             }
             toml_value(&values.join(","))
         };
