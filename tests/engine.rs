@@ -6,7 +6,7 @@ mod common;
 use common::{assert_validation_clean, context};
 use drape::gpu::portability::pointer_values;
 use drape::gpu::reflect::{EXECUTION_MODEL_FRAGMENT, EXECUTION_MODEL_GL_COMPUTE, EXECUTION_MODEL_VERTEX, reflect};
-use drape::{ClothBuilder, ClothId, Model, SimSettings, Solver};
+use drape::{ClothBuilder, ClothId, Collider, ContactSearch, Integrator, Mesh, Model, SimSettings, Solver};
 
 /// The only cloth of the models here.
 const CLOTH: ClothId = ClothId::new(0);
@@ -142,6 +142,50 @@ fn frame_timings_name_every_pass() {
     // span, first start to last end, holds every pass one after another.
     let span = timings.span_micros.expect("timestamps");
     assert!(span >= 0.999 * timings.total_micros(), "span {span} µs, passes {} µs", timings.total_micros());
+    assert_validation_clean(&ctx);
+}
+
+/// With candidate lists (the default search) a collider's narrow phase runs inside the
+/// integrator's last stage, one pass per substep instead of three (stage, cull, detect); a
+/// second collider's contact runs after it in passes of its own. Both integrators.
+#[test]
+fn the_first_colliders_narrow_phase_runs_inside_the_last_stage() {
+    let ctx = context();
+    let cloth = ClothBuilder::new(16, 16).build().unwrap();
+    let colliders =
+        [Collider::mesh(&Mesh::icosphere(0.3, 2), 0.01), Collider::mesh(&Mesh::torus(0.3, 0.1, 24, 12), 0.01)];
+    let labels = |integrator: Integrator, colliders: &[Collider]| {
+        let settings = SimSettings::default().with_substeps(Some(3)).with_normals(false).with_integrator(integrator);
+        let mut sim = Solver::new(&ctx, &Model::single(&cloth, colliders, settings).unwrap()).unwrap();
+        let timings = sim.step().unwrap();
+        timings.by_label().iter().map(|(l, n, _)| (*l, *n)).collect::<Vec<_>>()
+    };
+    assert_eq!(
+        labels(Integrator::Rk4, &colliders[..1]),
+        vec![
+            ("contact: broad phase", 1),
+            ("rk4: k1", 3),
+            ("rk4: k2", 3),
+            ("rk4: k3", 3),
+            ("rk4: k4 + update + contact (lists)", 3),
+            ("health check", 1)
+        ]
+    );
+    assert_eq!(
+        labels(Integrator::SemiImplicitEuler, &colliders),
+        vec![
+            ("contact: broad phase", 2),
+            ("euler: evaluate", 3),
+            ("euler: commit + contact (lists)", 3),
+            ("contact: cull", 3),
+            ("contact: detect+respond (lists)", 3),
+            ("health check", 1)
+        ]
+    );
+    // Another search keeps its own passes after the stage.
+    let walk = [colliders[0].clone().with_search(ContactSearch::TraverseEverySubstep)];
+    let passes = labels(Integrator::Rk4, &walk);
+    assert!(passes.contains(&("rk4: k4 + update", 3)) && passes.contains(&("contact: cull", 3)), "{passes:?}");
     assert_validation_clean(&ctx);
 }
 

@@ -3,15 +3,17 @@
 //! CPU adapters of a leaf kind's detect passes (`detect_cpu::<K>`, `detect_brute_force_cpu::<K>`;
 //! each leaf kind's file declares its own detect `Kernel`s with them).
 
-use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use crate::graph::{BindingSpec, HostBuffer, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::candidates::{broad_phase_at, detect_candidates_at, frame_motion};
+use drape_kernels::integrate::{ClothForces, GridSprings, SpringList};
+use drape_kernels::update_contact::update_and_contact_particle;
 use drape_kernels::contact::{
     CONTACT_THREADS, CULL_THREADS, LeafKind, aabbs_overlap, detect_at, detect_brute_force_at, record_cull, respond_at,
     root_aabb, substep_motion, swept_bounds,
 };
 use drape_types::{
     Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery,
-    DispatchArgs, SimParams,
+    DispatchArgs, ParticleSprings, SimParams, Spring,
 };
 use glam::Vec4;
 
@@ -88,6 +90,41 @@ pub const DETECT_CANDIDATES_BINDINGS: &[BindingSpec] = &[
     write("contacts"),
     write("status"),
 ];
+
+/// The bindings of every leaf kind's update-and-contact pass (the integrator's last stage and
+/// the narrow phase in one): the integrator's (`kernels::integrate`), then the narrow phase's.
+macro_rules! update_contact_bindings {
+    ($($extra:expr),*) => {
+        &[
+            read("params"),
+            write("x"),
+            write("v"),
+            read("x_in"),
+            read("v_in"),
+            write("x_out"),
+            write("v_out"),
+            write("acc_x"),
+            write("acc_v"),
+            write("x_prev"),
+            read("collider"),
+            read("pose"),
+            read("nodes"),
+            read("aabbs"),
+            read("leaves"),
+            read("queries"),
+            read("candidates"),
+            write("contacts"),
+            write("status"),
+            $($extra),*
+        ]
+    };
+}
+
+/// The binding table of every leaf kind's update-and-contact pass for a grid cloth.
+pub const UPDATE_CONTACT_BINDINGS: &[BindingSpec] = update_contact_bindings!();
+/// ... and for a spring-list cloth (its particles' spring ranges and the springs last).
+pub const UPDATE_CONTACT_SPRINGS_BINDINGS: &[BindingSpec] =
+    update_contact_bindings!(read("particles"), read("springs"));
 
 /// The binding table of every leaf kind's brute-force detect pass.
 pub const DETECT_BRUTE_FORCE_BINDINGS: &[BindingSpec] =
@@ -189,6 +226,76 @@ where
         status.fallbacks += outcome.fell_back as u32;
         status.overflows += outcome.overflowed as u32;
         respond_at(i, &contacts[i as usize], &c, &motion, x, v);
+    }
+    Ok(())
+}
+
+/// CPU adapter of leaf kind `K`'s update-and-contact pass for a grid cloth
+/// (`UPDATE_CONTACT_BINDINGS`).
+pub fn update_contact_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String>
+where
+    K::Leaf: bytemuck::Pod,
+{
+    let (threads, push) = (d.invocations(), d.push_as());
+    let mut buffers: [&mut HostBuffer; UPDATE_CONTACT_COMMON] = d.bindings()?;
+    update_contact_each::<K, _>(threads, &push, &mut buffers, &GridSprings)
+}
+
+/// CPU adapter of leaf kind `K`'s update-and-contact pass for a spring-list cloth
+/// (`UPDATE_CONTACT_SPRINGS_BINDINGS`).
+pub fn update_contact_springs_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String>
+where
+    K::Leaf: bytemuck::Pod,
+{
+    let (threads, push) = (d.invocations(), d.push_as());
+    let mut buffers: [&mut HostBuffer; UPDATE_CONTACT_COMMON + 2] = d.bindings()?;
+    let (common, springs) = buffers.split_at_mut(UPDATE_CONTACT_COMMON);
+    let common: &mut [&mut HostBuffer; UPDATE_CONTACT_COMMON] = common.try_into().map_err(|_| "bindings")?;
+    let [particles, springs] = springs else { return Err("update-and-contact: no spring bindings".into()) };
+    let forces = SpringList { particles: particles.slice::<ParticleSprings>(), springs: springs.slice::<Spring>() };
+    update_contact_each::<K, _>(threads, &push, common, &forces)
+}
+
+/// The bindings both update-and-contact passes start with.
+const UPDATE_CONTACT_COMMON: usize = 19;
+
+/// `update_and_contact_particle` for every particle in turn (each one's work reads only its own
+/// new position, so the order cannot matter), over the passes' first 19 bindings.
+fn update_contact_each<K: LeafKind, F: ClothForces>(
+    threads: u32,
+    push: &ContactPush,
+    buffers: &mut [&mut HostBuffer; UPDATE_CONTACT_COMMON],
+    forces: &F,
+) -> Result<(), String>
+where
+    K::Leaf: bytemuck::Pod,
+{
+    let [params, x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev, collider, pose, nodes, aabbs, leaves, queries, candidates, contacts, status] =
+        buffers;
+    let p: SimParams = params.first()?;
+    let c: ColliderParams = collider.first()?;
+    let pose: ColliderPose = pose.first()?;
+    let (x, v, x_prev) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>(), x_prev.slice_mut::<Vec4>());
+    let (x_in, v_in) = (x_in.slice::<Vec4>(), v_in.slice::<Vec4>());
+    let (x_out, v_out) = (x_out.slice_mut::<Vec4>(), v_out.slice_mut::<Vec4>());
+    let (acc_x, acc_v) = (acc_x.slice_mut::<Vec4>(), acc_v.slice_mut::<Vec4>());
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<K::Leaf>());
+    let lists = (queries.slice::<ContactQuery>(), candidates.slice::<u32>());
+    let (contacts, status) = (contacts.slice_mut::<Contact>(), status.first_mut::<CollisionStatus>()?);
+    for i in 0..threads.min(p.particle_count) {
+        update_and_contact_particle::<K, F>(
+            i,
+            push,
+            &p,
+            forces,
+            (&mut *x, &mut *v, &mut *x_prev),
+            (x_in, v_in, &mut *x_out, &mut *v_out, &mut *acc_x, &mut *acc_v),
+            (&c, &pose),
+            tree,
+            lists,
+            &mut *contacts,
+            &mut *status,
+        );
     }
     Ok(())
 }

@@ -16,7 +16,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 39] = [
+pub const ALL: [&Kernel; 43] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::VERTEX_NORMALS,
@@ -48,12 +48,16 @@ pub const ALL: [&Kernel; 39] = [
     &spheres::DETECT_SPHERES_BRUTE_FORCE,
     &spheres::BROAD_PHASE_SPHERES,
     &spheres::DETECT_SPHERES_CANDIDATES,
+    &spheres::UPDATE_CONTACT_SPHERES,
+    &spheres::UPDATE_CONTACT_SPHERES_SPRINGS,
     &triangles::TRIANGLE_BOUNDS,
     &triangles::GATHER_TRIANGLES,
     &triangles::DETECT_TRIANGLES,
     &triangles::DETECT_TRIANGLES_BRUTE_FORCE,
     &triangles::BROAD_PHASE_TRIANGLES,
     &triangles::DETECT_TRIANGLES_CANDIDATES,
+    &triangles::UPDATE_CONTACT_TRIANGLES,
+    &triangles::UPDATE_CONTACT_TRIANGLES_SPRINGS,
     &contact::CULL_CONTACT,
     &contact::RESPOND_CONTACTS,
 ];

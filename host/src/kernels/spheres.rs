@@ -2,8 +2,9 @@
 //! the spheres gathered into the tree's order, and contact detection over them.
 
 use super::contact::{
-    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, DETECT_CANDIDATES_BINDINGS, broad_phase_cpu, broad_phase_spec,
-    contact_spec, detect_brute_force_cpu, detect_candidates_cpu, detect_cpu,
+    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, DETECT_CANDIDATES_BINDINGS, UPDATE_CONTACT_BINDINGS,
+    UPDATE_CONTACT_SPRINGS_BINDINGS, broad_phase_cpu, broad_phase_spec, contact_spec, detect_brute_force_cpu,
+    detect_candidates_cpu, detect_cpu, update_contact_cpu, update_contact_springs_cpu,
 };
 use super::lbvh::{THREADS, gather_cpu};
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
@@ -43,6 +44,16 @@ pub static BROAD_PHASE_SPHERES: Kernel =
 pub static DETECT_SPHERES_CANDIDATES: Kernel = Kernel {
     spec: contact_spec("spheres::detect_candidates", DETECT_CANDIDATES_BINDINGS, CONTACT_THREADS),
     cpu: detect_candidates_cpu::<Spheres>,
+};
+/// The integrator's last stage and the narrow phase over spheres in one pass (grid cloth).
+pub static UPDATE_CONTACT_SPHERES: Kernel = Kernel {
+    spec: contact_spec("spheres::update_contact", UPDATE_CONTACT_BINDINGS, CONTACT_THREADS),
+    cpu: update_contact_cpu::<Spheres>,
+};
+/// `UPDATE_CONTACT_SPHERES` for a spring-list cloth.
+pub static UPDATE_CONTACT_SPHERES_SPRINGS: Kernel = Kernel {
+    spec: contact_spec("spheres::update_contact_springs", UPDATE_CONTACT_SPRINGS_BINDINGS, CONTACT_THREADS),
+    cpu: update_contact_springs_cpu::<Spheres>,
 };
 pub static DETECT_SPHERES_BRUTE_FORCE: Kernel = Kernel {
     spec: contact_spec("spheres::detect_brute_force", DETECT_BRUTE_FORCE_BINDINGS, CONTACT_THREADS),

@@ -2,8 +2,9 @@
 //! the triangles' corners gathered into the tree's order, and contact detection over them.
 
 use super::contact::{
-    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, DETECT_CANDIDATES_BINDINGS, broad_phase_cpu, broad_phase_spec,
-    contact_spec, detect_brute_force_cpu, detect_candidates_cpu, detect_cpu,
+    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, DETECT_CANDIDATES_BINDINGS, UPDATE_CONTACT_BINDINGS,
+    UPDATE_CONTACT_SPRINGS_BINDINGS, broad_phase_cpu, broad_phase_spec, contact_spec, detect_brute_force_cpu,
+    detect_candidates_cpu, detect_cpu, update_contact_cpu, update_contact_springs_cpu,
 };
 use super::lbvh::THREADS;
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
@@ -46,6 +47,16 @@ pub static BROAD_PHASE_TRIANGLES: Kernel =
 pub static DETECT_TRIANGLES_CANDIDATES: Kernel = Kernel {
     spec: contact_spec("triangles::detect_candidates", DETECT_CANDIDATES_BINDINGS, CONTACT_THREADS),
     cpu: detect_candidates_cpu::<Triangles>,
+};
+/// The integrator's last stage and the narrow phase over triangles in one pass (grid cloth).
+pub static UPDATE_CONTACT_TRIANGLES: Kernel = Kernel {
+    spec: contact_spec("triangles::update_contact", UPDATE_CONTACT_BINDINGS, CONTACT_THREADS),
+    cpu: update_contact_cpu::<Triangles>,
+};
+/// `UPDATE_CONTACT_TRIANGLES` for a spring-list cloth.
+pub static UPDATE_CONTACT_TRIANGLES_SPRINGS: Kernel = Kernel {
+    spec: contact_spec("triangles::update_contact_springs", UPDATE_CONTACT_SPRINGS_BINDINGS, CONTACT_THREADS),
+    cpu: update_contact_springs_cpu::<Triangles>,
 };
 pub static DETECT_TRIANGLES_BRUTE_FORCE: Kernel = Kernel {
     spec: contact_spec("triangles::detect_brute_force", DETECT_BRUTE_FORCE_BINDINGS, CONTACT_THREADS),

@@ -1,10 +1,10 @@
 //! One frame of a cloth: per substep the integration stages (and the contact, if any), then the
 //! vertex normals and the blow-up check.
 
-use super::contact::{CONTACT_LABEL, ColliderBuffers, ContactBuffers};
+use super::contact::{CONTACT_LABEL, ColliderBuffers, ContactBuffers, EULER_UPDATE_CONTACT_LABEL, RK4_UPDATE_CONTACT_LABEL};
 use super::self_contact::{SelfContactBuffers, SelfContactCloth, pass_due};
 use crate::cloth::{Cloth, ClothTopology};
-use crate::graph::{Dispatch, Handle, Kernel, Resources, Step};
+use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
 use crate::kernels::integrate::{INTEGRATE_STAGE, INTEGRATE_STAGE_SPRINGS};
 use crate::kernels::normals::{CHECK_HEALTH, CHECK_HEALTH_SPRINGS, MESH_VERTEX_NORMALS, VERTEX_NORMALS};
 use drape_types::{Health, ParticleSprings, SimParams, Spring, StagePush, integrator};
@@ -90,14 +90,10 @@ impl ClothBuffers {
         SelfContactCloth { params: self.params, x: self.x, v: self.v, indices: self.indices, health: self.health }
     }
 
-    fn stage(
-        &self,
-        label: &'static str,
-        stage: u32,
-        input: (Handle<Vec4>, Handle<Vec4>),
-        output: (Handle<Vec4>, Handle<Vec4>),
-    ) -> Step {
-        let push = StagePush { stage, _pad: [0; 3] };
+    /// What an integration stage binds (`kernels::integrate`): the state, the stage's `input`
+    /// and `output`, the sums and the substep's start, then a spring-list cloth's particles
+    /// and springs.
+    pub fn stage_bindings(&self, input: (Handle<Vec4>, Handle<Vec4>), output: (Handle<Vec4>, Handle<Vec4>)) -> Vec<BufferId> {
         let mut bindings = vec![
             self.params.id(),
             self.x.id(),
@@ -110,13 +106,22 @@ impl ClothBuffers {
             self.acc_v.id(),
             self.x_prev.id(),
         ];
-        let kernel: &'static Kernel = match &self.springs {
-            None => &INTEGRATE_STAGE,
-            Some(list) => {
-                bindings.extend([list.particles.id(), list.springs.id()]);
-                &INTEGRATE_STAGE_SPRINGS
-            }
-        };
+        if let Some(list) = &self.springs {
+            bindings.extend([list.particles.id(), list.springs.id()]);
+        }
+        bindings
+    }
+
+    fn stage(
+        &self,
+        label: &'static str,
+        stage: u32,
+        input: (Handle<Vec4>, Handle<Vec4>),
+        output: (Handle<Vec4>, Handle<Vec4>),
+    ) -> Step {
+        let push = StagePush { stage, _pad: [0; 3] };
+        let kernel: &'static Kernel = if self.springs.is_some() { &INTEGRATE_STAGE_SPRINGS } else { &INTEGRATE_STAGE };
+        let bindings = self.stage_bindings(input, output);
         Step::run_with(label, kernel, bindings, bytemuck::cast(push), Dispatch::Threads(self.particles))
     }
 
@@ -197,18 +202,27 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
     }
     // The substep after the last self-collision pass: where the next pass's sweep begins.
     let mut pass_from = 0;
+    // The first collider's narrow phase runs inside the last stage when it can (one pass
+    // instead of the stage, a culling pass and a detect pass); the others after it.
+    let fused = colliders.first().filter(|(_, contact)| contact.fuses_with_update());
+    let separate = &colliders[usize::from(fused.is_some())..];
     for substep in 0..plan.substeps {
-        if plan.integrator == integrator::SEMI_IMPLICIT_EULER {
+        // Stage s reads the previous stage's output: A and B swap roles each stage.
+        let (last, (input, output), fused_label) = if plan.integrator == integrator::SEMI_IMPLICIT_EULER {
             steps.push(cloth.stage("euler: evaluate", 0, b, a));
-            steps.push(cloth.stage("euler: commit", 3, b, a));
+            ("euler: commit", (b, a), EULER_UPDATE_CONTACT_LABEL)
         } else {
-            // Stage s reads the previous stage's output: A and B swap roles each stage.
             steps.push(cloth.stage("rk4: k1", 0, b, a));
             steps.push(cloth.stage("rk4: k2", 1, a, b));
             steps.push(cloth.stage("rk4: k3", 2, b, a));
-            steps.push(cloth.stage("rk4: k4 + update", 3, a, b));
-        }
-        for (collider, contact) in colliders {
+            ("rk4: k4 + update", (a, b), RK4_UPDATE_CONTACT_LABEL)
+        };
+        let update_contact = fused.and_then(|(collider, contact)| {
+            let stage = cloth.stage_bindings(input, output);
+            contact.update_contact_step(fused_label, cloth, stage, collider, (substep, plan.substeps))
+        });
+        steps.push(update_contact.unwrap_or_else(|| cloth.stage(last, 3, input, output)));
+        for (collider, contact) in separate {
             contact.substep_steps(cloth, collider, (substep, plan.substeps), &mut steps);
         }
         if let Some(s) = &cloth.self_contact

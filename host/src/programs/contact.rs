@@ -42,6 +42,10 @@ pub enum ContactMode {
 pub const BROAD_PHASE_LABEL: &str = "contact: broad phase";
 /// Label of the narrow-phase detect pass over candidate lists.
 pub const DETECT_CANDIDATES_LABEL: &str = "contact: detect+respond (lists)";
+/// Label of RK4's last stage fused with the narrow phase over candidate lists.
+pub const RK4_UPDATE_CONTACT_LABEL: &str = "rk4: k4 + update + contact (lists)";
+/// Label of semi-implicit Euler's commit fused with the narrow phase over candidate lists.
+pub const EULER_UPDATE_CONTACT_LABEL: &str = "euler: commit + contact (lists)";
 
 /// A collider's leaves as contact sees them: the LBVH over them, the leaves in its order, and
 /// the detect kernels of their kind. Each leaf kind implements it in its own file.
@@ -57,6 +61,10 @@ pub trait ContactLeaves {
     fn broad_phase_kernel(&self) -> &'static Kernel;
     /// Detect over candidate lists (`kernels::contact::DETECT_CANDIDATES_BINDINGS`).
     fn detect_candidates_kernel(&self) -> &'static Kernel;
+    /// The integrator's last stage and detect over candidate lists in one pass
+    /// (`kernels::contact::UPDATE_CONTACT_BINDINGS`, `..._SPRINGS_BINDINGS` for a spring-list
+    /// cloth).
+    fn update_contact_kernel(&self, springs: bool) -> &'static Kernel;
     /// Builds the tree from the leaves' input.
     fn build_steps(&self) -> Vec<Step>;
     /// Refits the tree after the input moved (same leaves).
@@ -188,6 +196,52 @@ impl ContactBuffers {
             push,
             Dispatch::Threads(cloth.particles),
         ));
+    }
+
+    /// Whether this contact's substep passes can run inside the integrator's last stage
+    /// (`update_contact_step`): with candidate lists, whose narrow phase reads only each
+    /// particle's own motion.
+    pub fn fuses_with_update(&self) -> bool {
+        matches!(self.search, Search::Lists(_))
+    }
+
+    /// The integrator's last stage of substep `substep` of `substeps` of `cloth` (its binding
+    /// list `stage`, `ClothBuffers::stage_bindings`) and this contact's narrow phase against
+    /// `collider`, in one pass (`fuses_with_update`; `None` otherwise): what the stage and
+    /// `substep_steps` would do, without the culling pass and two barriers.
+    pub fn update_contact_step(
+        &self,
+        label: &'static str,
+        cloth: &ClothBuffers,
+        stage: Vec<BufferId>,
+        collider: &ColliderBuffers,
+        (substep, substeps): (u32, u32),
+    ) -> Option<Step> {
+        let Search::Lists(lists) = &self.search else { return None };
+        let (leaves, tree) = (collider.leaves.kind(), collider.tree());
+        let (mut bindings, springs) = (stage, cloth.springs.as_ref());
+        // The spring list's two bindings come last in the fused pass.
+        let spring_bindings = springs.map(|_| bindings.split_off(bindings.len() - 2));
+        bindings.extend([
+            tree.collider.id(),
+            collider.pose.id(),
+            tree.nodes.id(),
+            tree.aabbs.id(),
+            leaves.sorted_leaves(),
+            lists.queries.id(),
+            lists.candidates.id(),
+            self.contacts.id(),
+            self.status.id(),
+        ]);
+        bindings.extend(spring_bindings.into_iter().flatten());
+        let push: [u32; 4] = bytemuck::cast(substep_span(substep, substep + 1, substeps));
+        Some(Step::run_with(
+            label,
+            leaves.update_contact_kernel(springs.is_some()),
+            bindings,
+            push,
+            Dispatch::Threads(cloth.particles),
+        ))
     }
 
     /// The contact passes of substep `substep` of `substeps` of `cloth` against `collider`.

@@ -5,7 +5,7 @@
 use super::contact::ContactLeaves;
 use super::lbvh::LbvhBuffers;
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
-use crate::kernels::spheres::{BROAD_PHASE_SPHERES, DETECT_SPHERES_CANDIDATES, DETECT_SPHERES, DETECT_SPHERES_BRUTE_FORCE, GATHER_SPHERES, SPHERE_BOUNDS};
+use crate::kernels::spheres::{BROAD_PHASE_SPHERES, DETECT_SPHERES_CANDIDATES, DETECT_SPHERES, DETECT_SPHERES_BRUTE_FORCE, UPDATE_CONTACT_SPHERES, UPDATE_CONTACT_SPHERES_SPRINGS, GATHER_SPHERES, SPHERE_BOUNDS};
 use glam::Vec4;
 
 /// A sphere collider's buffers: its spheres (input and tree order) and its LBVH.
@@ -78,5 +78,8 @@ impl ContactLeaves for SphereBvh {
     }
     fn detect_candidates_kernel(&self) -> &'static Kernel {
         &DETECT_SPHERES_CANDIDATES
+    }
+    fn update_contact_kernel(&self, springs: bool) -> &'static Kernel {
+        if springs { &UPDATE_CONTACT_SPHERES_SPRINGS } else { &UPDATE_CONTACT_SPHERES }
     }
 }

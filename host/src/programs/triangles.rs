@@ -6,7 +6,7 @@
 use super::contact::ContactLeaves;
 use super::lbvh::LbvhBuffers;
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
-use crate::kernels::triangles::{BROAD_PHASE_TRIANGLES, DETECT_TRIANGLES_CANDIDATES, DETECT_TRIANGLES, DETECT_TRIANGLES_BRUTE_FORCE, GATHER_TRIANGLES, TRIANGLE_BOUNDS};
+use crate::kernels::triangles::{BROAD_PHASE_TRIANGLES, DETECT_TRIANGLES_CANDIDATES, DETECT_TRIANGLES, DETECT_TRIANGLES_BRUTE_FORCE, UPDATE_CONTACT_TRIANGLES, UPDATE_CONTACT_TRIANGLES_SPRINGS, GATHER_TRIANGLES, TRIANGLE_BOUNDS};
 use drape_types::Triangle;
 use glam::Vec4;
 
@@ -94,5 +94,8 @@ impl ContactLeaves for TriangleBvh {
     }
     fn detect_candidates_kernel(&self) -> &'static Kernel {
         &DETECT_TRIANGLES_CANDIDATES
+    }
+    fn update_contact_kernel(&self, springs: bool) -> &'static Kernel {
+        if springs { &UPDATE_CONTACT_TRIANGLES_SPRINGS } else { &UPDATE_CONTACT_TRIANGLES }
     }
 }

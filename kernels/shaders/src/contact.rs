@@ -635,9 +635,11 @@ pub fn record_cull(run: bool, params: &SimParams, args: &mut DispatchArgs, statu
 /// The contact entry points of leaf kind `$kind` (leaves of type `$leaf`), generated in the leaf
 /// kind's own module so they are named after it (`spheres::detect`, `triangles::detect`, ...):
 /// `detect` (through the LBVH), `detect_brute_force` (every leaf), `broad_phase` (once per
-/// frame: query boxes and candidate lists) and `detect_candidates` (every substep, over the
-/// lists). Their binding tables are `kernels::contact::{DETECT, DETECT_BRUTE_FORCE,
-/// BROAD_PHASE, DETECT_CANDIDATES}_BINDINGS` on the host.
+/// frame: query boxes and candidate lists), `detect_candidates` (every substep, over the
+/// lists) and `update_contact` / `update_contact_springs` (the integrator's last stage and
+/// `detect_candidates` in one pass, `crate::update_contact`). Their binding tables are
+/// `kernels::contact::{DETECT, DETECT_BRUTE_FORCE, BROAD_PHASE, DETECT_CANDIDATES,
+/// UPDATE_CONTACT, UPDATE_CONTACT_SPRINGS}_BINDINGS` on the host.
 macro_rules! contact_entry_points {
     ($kind:ty, $leaf:ty) => {
         /// Detect through the LBVH (tree order): one contact per particle.
@@ -758,6 +760,92 @@ macro_rules! contact_entry_points {
                 (nodes, aabbs, leaves),
                 (queries, candidates),
                 (x, x_prev, v),
+                contacts,
+                status,
+            );
+        }
+
+        /// The integrator's last stage and the narrow phase in one pass, for a grid cloth
+        /// (`update_contact`): bindings 0..=9 are the integrator's, 10.. the narrow phase's.
+        #[allow(clippy::too_many_arguments)]
+        #[spirv(compute(threads(64)))]
+        pub fn update_contact(
+            #[spirv(global_invocation_id)] id: ::drape_types::glam::UVec3,
+            #[spirv(push_constant)] push: &::drape_types::ContactPush,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &::drape_types::SimParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] x_in: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] v_in: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_out: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] v_out: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] acc_x: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] acc_v: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] x_prev: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] collider: &::drape_types::ColliderParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] pose: &::drape_types::ColliderPose,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] nodes: &[::drape_types::BvhNode],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] aabbs: &[::drape_types::Aabb],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] leaves: &[$leaf],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] queries: &[::drape_types::ContactQuery],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] candidates: &[u32],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 17)] contacts: &mut [::drape_types::Contact],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 18)] status: &mut ::drape_types::CollisionStatus,
+        ) {
+            $crate::update_contact::update_and_contact_particle::<$kind, _>(
+                id.x,
+                push,
+                params,
+                &$crate::integrate::GridSprings,
+                (x, v, x_prev),
+                (x_in, v_in, x_out, v_out, acc_x, acc_v),
+                (collider, pose),
+                (nodes, aabbs, leaves),
+                (queries, candidates),
+                contacts,
+                status,
+            );
+        }
+
+        /// `update_contact` for a spring-list cloth: bindings 19 and 20 hold its particles'
+        /// spring ranges and masses, and the springs.
+        #[allow(clippy::too_many_arguments)]
+        #[spirv(compute(threads(64)))]
+        pub fn update_contact_springs(
+            #[spirv(global_invocation_id)] id: ::drape_types::glam::UVec3,
+            #[spirv(push_constant)] push: &::drape_types::ContactPush,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &::drape_types::SimParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] x_in: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] v_in: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x_out: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] v_out: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] acc_x: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] acc_v: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] x_prev: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] collider: &::drape_types::ColliderParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] pose: &::drape_types::ColliderPose,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] nodes: &[::drape_types::BvhNode],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] aabbs: &[::drape_types::Aabb],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] leaves: &[$leaf],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] queries: &[::drape_types::ContactQuery],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] candidates: &[u32],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 17)] contacts: &mut [::drape_types::Contact],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 18)] status: &mut ::drape_types::CollisionStatus,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 19)] particles: &[::drape_types::ParticleSprings],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 20)] springs: &[::drape_types::Spring],
+        ) {
+            $crate::update_contact::update_and_contact_particle::<$kind, _>(
+                id.x,
+                push,
+                params,
+                &$crate::integrate::SpringList { particles, springs },
+                (x, v, x_prev),
+                (x_in, v_in, x_out, v_out, acc_x, acc_v),
+                (collider, pose),
+                (nodes, aabbs, leaves),
+                (queries, candidates),
                 contacts,
                 status,
             );

@@ -23,6 +23,7 @@ pub mod self_pairs;
 pub mod sort;
 pub mod spheres;
 pub mod triangles;
+pub mod update_contact;
 
 /// Threads per workgroup of every 1-D kernel here (the host divides by it).
 pub const WORKGROUP_SIZE: u32 = 256;
