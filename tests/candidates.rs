@@ -190,3 +190,36 @@ fn candidate_lists_frames_equal_the_full_search_on_the_gpu() {
     assert!(fallbacks > 0, "no particle left its query box: the fallback must be exercised");
     assert_validation_clean(&ctx);
 }
+
+/// Semi-implicit Euler's commit with the narrow phase inside it: every frame of a cloth falling
+/// onto a mesh equals the LBVH walk's (commit, cull, detect and respond as passes of their own)
+/// and the CPU twin, bit for bit.
+#[test]
+fn euler_commit_with_contact_equals_the_walk_and_the_cpu_twin() {
+    let ctx = context();
+    let cloth = ClothBuilder::new(16, 16)
+        .size(0.8)
+        .transform(Mat4::from_translation(Vec3::new(0.05, 0.4, 0.0)))
+        .build()
+        .unwrap();
+    let collider = Collider::mesh(&Mesh::icosphere(0.3, 3), 0.01).with_friction(0.4);
+    let settings = SimSettings::default().with_timestamps(false).with_integrator(drape::Integrator::SemiImplicitEuler);
+    let model =
+        |search: ContactSearch| Model::single(&cloth, &[collider.clone().with_search(search)], settings).unwrap();
+    let mut fused = Solver::new(&ctx, &model(ContactSearch::CandidateLists)).unwrap();
+    let mut walk = Solver::new(&ctx, &model(ContactSearch::TraverseEverySubstep)).unwrap();
+    let mut cpu = CpuSolver::new(&model(ContactSearch::CandidateLists)).unwrap();
+    let mut contact_frames = 0;
+    for f in 1..=30 {
+        let report = fused.step_report().unwrap();
+        walk.step().unwrap();
+        cpu.step().unwrap();
+        contact_frames += (report.collision_ran > 0) as u32;
+        let x = fused.positions(CLOTH).unwrap();
+        assert_eq!(x, walk.positions(CLOTH).unwrap(), "frame {f}: fused != walk");
+        assert_eq!(x, cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
+        assert_eq!(fused.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU");
+    }
+    assert!(contact_frames > 10, "the cloth must reach the sphere ({contact_frames} frames)");
+    assert_validation_clean(&ctx);
+}
