@@ -45,7 +45,7 @@ pub static CLOTH_TRIANGLE_BOUNDS: Kernel = Kernel {
             read("indices"),
             read("anchors"),
             read("leaf_of"),
-            write("bounds"),
+            write("leaf_bounds"),
             write("escaped"),
             write("walkers"),
             write("walk_args"),
@@ -171,21 +171,24 @@ fn regions_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let span: SelfPassPush = d.push_as();
     let threads = d.invocations();
-    let [self_params, x, x_prev, indices, anchors, leaf_of, bounds, escaped, walkers, walk_args] = d.bindings()?;
+    let [self_params, x, x_prev, indices, anchors, leaf_of, leaf_bounds, escaped, walkers, walk_args] =
+        d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let (x, x_prev, anchors) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), anchors.slice::<Vec4>());
     let (indices, leaf_of) = (indices.slice::<u32>(), leaf_of.slice::<u32>());
-    let (bounds, escaped) = (bounds.slice_mut::<Aabb>(), escaped.slice_mut::<u32>());
+    let (leaf_bounds, escaped) = (leaf_bounds.slice_mut::<Aabb>(), escaped.slice_mut::<u32>());
     let (walkers, walk_args) = (walkers.slice_mut::<u32>(), walk_args.first_mut::<DispatchArgs>()?);
     for t in 0..threads.min(c.leaf_count) {
-        bounds[t as usize] = cloth_triangle_bounds_at(t, (x, x_prev), indices);
+        let leaf = *leaf_of.get(t as usize).ok_or("leaf_of shorter than the triangles")?;
+        let slot = leaf_bounds.get_mut(leaf as usize).ok_or("leaf_of names a leaf past the tree")?;
+        *slot = cloth_triangle_bounds_at(t, (x, x_prev), indices);
         if span.find_walkers == 0 {
             continue;
         }
         let out = escaped_at(t, (x, x_prev), anchors, indices, &span);
         escaped[t as usize] = out as u32;
         if out {
-            add_walker(leaf_of[t as usize], walkers, walk_args);
+            add_walker(leaf, walkers, walk_args);
         }
     }
     Ok(())

@@ -75,6 +75,14 @@ impl LbvhBuffers {
         steps
     }
 
+    /// Refits the tree over leaf boxes already written in its leaf order (`sorted_bounds`):
+    /// `refit_steps` without the gather.
+    pub fn refit_sorted_steps(&self) -> Vec<Step> {
+        let mut steps = Vec::new();
+        self.push_refit(&mut steps);
+        steps
+    }
+
     /// A leaf kind's build: its pass writing `bounds`, the build, its pass gathering its own
     /// leaves into the tree's order.
     pub fn build_around(&self, boxes: Step, gather: Step) -> Vec<Step> {

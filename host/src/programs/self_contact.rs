@@ -222,7 +222,7 @@ impl SelfContactBuffers {
                 cloth.indices.id(),
                 self.anchors.id(),
                 self.leaf_of.id(),
-                t.bounds.id(),
+                t.sorted_bounds.id(),
                 self.escaped.id(),
                 self.walkers.id(),
                 self.walk_args.id(),
@@ -347,7 +347,7 @@ impl SelfContactBuffers {
         let t = &self.tree;
         let span = substep_span(from, to + 1, substeps);
         self.triangle_bounds(cloth, span, lists && features.is_empty(), steps);
-        steps.extend(t.refit_steps());
+        steps.extend(t.refit_sorted_steps());
         steps.push(Step::fill(self.delta, 0));
         steps.push(Step::fill(self.velocity_changes, 0));
         if !features.is_empty() {
@@ -362,7 +362,7 @@ impl SelfContactBuffers {
                 Dispatch::Threads(self.particles),
             ));
             self.triangle_bounds(cloth, span, lists, steps);
-            steps.extend(t.refit_steps());
+            steps.extend(t.refit_sorted_steps());
         }
         if lists {
             self.listed_and_walked(cloth, steps);

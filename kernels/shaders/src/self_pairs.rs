@@ -530,8 +530,9 @@ pub fn cloth_triangle_regions(
     bounds[id.x as usize] = triangle_region_at(id.x, anchors, indices);
 }
 
-/// Each triangle's box over the pass (push: the pass's span of the frame) and, in the pass's
-/// last run, whether it escaped its region and the pass's walkers.
+/// Each triangle's box over the pass (push: the pass's span of the frame), written straight
+/// into the tree's leaf order (`leaf_of`) for the refit, and, in the pass's last run, whether it
+/// escaped its region and the pass's walkers.
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(256)))]
 pub fn cloth_triangle_bounds(
@@ -543,7 +544,7 @@ pub fn cloth_triangle_bounds(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] indices: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] anchors: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_of: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] bounds: &mut [Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] leaf_bounds: &mut [Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] escaped: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] walkers: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] walk_args: &mut DispatchArgs,
@@ -551,14 +552,15 @@ pub fn cloth_triangle_bounds(
     if id.x >= self_params.leaf_count {
         return;
     }
-    bounds[id.x as usize] = cloth_triangle_bounds_at(id.x, (x, x_prev), indices);
+    let leaf = leaf_of[id.x as usize];
+    leaf_bounds[leaf as usize] = cloth_triangle_bounds_at(id.x, (x, x_prev), indices);
     if span.find_walkers == 0 {
         return;
     }
     let out = escaped_at(id.x, (x, x_prev), anchors, indices, span);
     escaped[id.x as usize] = out as u32;
     if out {
-        add_walker(leaf_of[id.x as usize], walkers, walk_args);
+        add_walker(leaf, walkers, walk_args);
     }
 }
 
