@@ -179,6 +179,8 @@ fn candidate_lists_frames_equal_the_full_search_on_the_gpu() {
         assert_eq!(lists.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU");
         assert_eq!(report.collision_fallbacks, cpu.collision_status().fallbacks, "frame {f}: fallback counts");
         assert_eq!(report.collision_listed, cpu.collision_status().listed, "frame {f}: listed particles");
+        let counted = (report.collision_ran, report.collision_skipped);
+        assert_eq!(counted, (cpu.collision_status().ran, cpu.collision_status().skipped), "frame {f}: substeps");
         listed_frames += (report.collision_listed > 0) as u32;
     }
     assert!(contact_frames > 10, "the cloth must reach the torus");

@@ -193,7 +193,8 @@ fn collision_gpu_equals_cpu_and_bvh_equals_brute_force() {
 }
 
 /// Skipping: without a collider no collision pass is recorded (and the timing table says so);
-/// with a collider far from the cloth the traversal is culled on the GPU every substep.
+/// with a collider far from the cloth every substep counts as skipped (no particle listed near
+/// it, so only particles that leave their query box would walk the tree).
 #[test]
 fn collision_work_is_skipped_when_not_needed() {
     let ctx = context();

@@ -396,13 +396,20 @@ fn run(args: &Args) -> drape::Result<()> {
             "collision".into(),
             json!({ "substeps_run": ran, "substeps_culled": skipped, "candidate_list_fallbacks": fallbacks }),
         );
-        say!("collision traversal: ran in {ran} substeps, culled (cloth cannot touch) in {skipped}");
         if c.search == ContactSearch::CandidateLists {
-            let particle_substeps = u64::from(ran) * built.particle_count() as u64;
+            // The narrow phase runs in every substep (inside the last integration stage): a
+            // particle that left its query box walks the tree even when none was listed.
+            say!(
+                "collision: particles listed near the collider in {ran} substeps, none in {skipped} (there only \
+                 particles that left their query box walk the tree)"
+            );
+            let particle_substeps = u64::from(ran + skipped) * built.particle_count() as u64;
             say!(
                 "candidate lists: {fallbacks} of {particle_substeps} particle-substeps fell back to a full walk ({:.2} %)",
                 100.0 * fallbacks as f64 / particle_substeps.max(1) as f64
             );
+        } else {
+            say!("collision traversal: ran in {ran} substeps, culled (cloth cannot touch) in {skipped}");
         }
     }
     let x = sim.positions(cloth)?;

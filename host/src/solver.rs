@@ -20,15 +20,18 @@ use std::sync::Arc;
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FrameReport {
     pub timings: FrameTimings,
-    /// Substeps whose collision traversal ran / was skipped by the root-box test (all
-    /// colliders together).
+    /// Substeps whose collision traversal ran / was skipped (all colliders together): by the
+    /// culling pass's root-box test, or, where the narrow phase over candidate lists runs
+    /// inside the last integration stage (a cloth's first collider), skipped when the frame's
+    /// broad phase listed no particle (`CollisionStatus::skipped`).
     pub collision_ran: u32,
     pub collision_skipped: u32,
     /// Particle-substeps whose candidate list did not cover their motion, answered by a full
     /// LBVH walk instead (`ContactSearch::CandidateLists`).
     pub collision_fallbacks: u32,
     /// Particles the frame's broad phase gave candidates (`ContactSearch::CandidateLists`,
-    /// all colliders together): when a collider has any, its culling passes say run at once.
+    /// all colliders together): when a collider has any, its culling passes (where there are
+    /// any) say run at once.
     pub collision_listed: u32,
     /// Self-collision: the triangles' tests over the frame's passes (triangles x passes, all
     /// self-colliding cloths together), and how many of those walked the tree instead of

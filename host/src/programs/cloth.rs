@@ -90,11 +90,10 @@ impl ClothBuffers {
         SelfContactCloth { params: self.params, x: self.x, v: self.v, indices: self.indices, health: self.health }
     }
 
-    /// What an integration stage binds (`kernels::integrate`): the state, the stage's `input`
-    /// and `output`, the sums and the substep's start, then a spring-list cloth's particles
-    /// and springs.
+    /// What every integration stage binds first (`kernels::integrate`): the state, the stage's
+    /// `input` and `output`, the sums and the substep's start.
     pub fn stage_bindings(&self, input: (Handle<Vec4>, Handle<Vec4>), output: (Handle<Vec4>, Handle<Vec4>)) -> Vec<BufferId> {
-        let mut bindings = vec![
+        vec![
             self.params.id(),
             self.x.id(),
             self.v.id(),
@@ -105,11 +104,13 @@ impl ClothBuffers {
             self.acc_x.id(),
             self.acc_v.id(),
             self.x_prev.id(),
-        ];
-        if let Some(list) = &self.springs {
-            bindings.extend([list.particles.id(), list.springs.id()]);
-        }
-        bindings
+        ]
+    }
+
+    /// What a spring-list cloth's kernels bind last: its particles' spring ranges and the
+    /// springs (`None` for a grid).
+    pub fn spring_bindings(&self) -> Option<[BufferId; 2]> {
+        self.springs.as_ref().map(|list| [list.particles.id(), list.springs.id()])
     }
 
     fn stage(
@@ -121,7 +122,8 @@ impl ClothBuffers {
     ) -> Step {
         let push = StagePush { stage, _pad: [0; 3] };
         let kernel: &'static Kernel = if self.springs.is_some() { &INTEGRATE_STAGE_SPRINGS } else { &INTEGRATE_STAGE };
-        let bindings = self.stage_bindings(input, output);
+        let mut bindings = self.stage_bindings(input, output);
+        bindings.extend(self.spring_bindings().into_iter().flatten());
         Step::run_with(label, kernel, bindings, bytemuck::cast(push), Dispatch::Threads(self.particles))
     }
 

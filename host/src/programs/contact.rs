@@ -2,7 +2,9 @@
 //! collider's root box writes the indirect dispatch of the next passes (zero workgroups when
 //! they cannot touch), the leaf kind's detect pass writes each particle's earliest contact, and
 //! the respond pass applies them. With candidate lists (the default) detect and respond are one
-//! pass. The brute-force mode detects by testing every leaf instead.
+//! pass over the lists, and for a cloth's first collider that pass runs inside the integrator's
+//! last stage, with no culling pass (`update_contact_step`). The brute-force mode detects by
+//! testing every leaf instead.
 
 use super::cloth::ClothBuffers;
 use super::lbvh::LbvhBuffers;
@@ -29,8 +31,9 @@ pub const RESPOND_LABEL: &str = "contact: respond";
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
 pub enum ContactMode {
     /// A broad phase once per frame gives each particle a short candidate list from one LBVH
-    /// walk; every substep culls against the root box, then tests the lists (a particle that
-    /// leaves its query box walks the LBVH instead).
+    /// walk; every substep tests the lists (a particle that leaves its query box walks the LBVH
+    /// instead), inside the integrator's last stage for a cloth's first collider, else after a
+    /// cull against the root box.
     Lists,
     /// Cull against the root box, then traverse the LBVH every substep (indirect dispatch).
     Bvh,
@@ -205,8 +208,8 @@ impl ContactBuffers {
         matches!(self.search, Search::Lists(_))
     }
 
-    /// The integrator's last stage of substep `substep` of `substeps` of `cloth` (its binding
-    /// list `stage`, `ClothBuffers::stage_bindings`) and this contact's narrow phase against
+    /// The integrator's last stage of substep `substep` of `substeps` of `cloth` (its first
+    /// bindings `stage`, `ClothBuffers::stage_bindings`) and this contact's narrow phase against
     /// `collider`, in one pass (`fuses_with_update`; `None` otherwise): what the stage and
     /// `substep_steps` would do, without the culling pass and two barriers.
     pub fn update_contact_step(
@@ -219,9 +222,7 @@ impl ContactBuffers {
     ) -> Option<Step> {
         let Search::Lists(lists) = &self.search else { return None };
         let (leaves, tree) = (collider.leaves.kind(), collider.tree());
-        let (mut bindings, springs) = (stage, cloth.springs.as_ref());
-        // The spring list's two bindings come last in the fused pass.
-        let spring_bindings = springs.map(|_| bindings.split_off(bindings.len() - 2));
+        let (mut bindings, springs) = (stage, cloth.spring_bindings());
         bindings.extend([
             tree.collider.id(),
             collider.pose.id(),
@@ -233,7 +234,8 @@ impl ContactBuffers {
             self.contacts.id(),
             self.status.id(),
         ]);
-        bindings.extend(spring_bindings.into_iter().flatten());
+        // A spring-list cloth's two bindings come last (`UPDATE_CONTACT_SPRINGS_BINDINGS`).
+        bindings.extend(springs.into_iter().flatten());
         let push: [u32; 4] = bytemuck::cast(substep_span(substep, substep + 1, substeps));
         Some(Step::run_with(
             label,

@@ -3,13 +3,16 @@
 //! A particle's last stage (`integrate` stage 3: RK4's `k4 + update`, or Euler's commit) reads
 //! its own state and its neighbours' intermediate state, never a neighbour's new position; its
 //! narrow phase (`candidates::detect_candidates_at`) reads only its own motion. So one thread
-//! can update a particle and then collide it, and the result is the two passes' bit for bit,
-//! without the culling pass, the detect pass and the barriers between them (on lavapipe each
-//! dispatch costs tens of microseconds before it does any work; a substep had six).
+//! can update a particle and then collide it, and the result is the separate passes' bit for
+//! bit, without the culling pass, the detect pass and the barriers between them (on lavapipe
+//! each dispatch costs tens of microseconds before it does any work; a substep had six).
 //!
 //! No culling pass decides whether the substep tests anything: a particle with an empty list
 //! that stays inside its query box ends at a box test, and one that left it walks the tree,
-//! whose root box rejects a motion far from the collider at once.
+//! whose root box rejects a motion far from the collider at once. (One difference from the
+//! culling pass, which tests the cloth's box against the root box grown by the thickness: a
+//! motion within the thickness's `CCD_SLACK` beyond that, in a frame that listed nothing, is
+//! walked and may get the contact the leaf kind's grown test finds, where the cull skipped it.)
 
 use crate::candidates::detect_candidates_particle;
 use crate::contact::LeafKind;

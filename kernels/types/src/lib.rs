@@ -296,15 +296,19 @@ pub struct SortPush {
 pub struct CollisionStatus {
     /// Particles whose traversal stack overflowed (contacts may be missed).
     pub overflows: u32,
-    /// Substeps whose traversal was skipped because the cloth cannot touch the collider.
+    /// Substeps whose traversal was skipped because the cloth cannot touch the collider (the
+    /// culling pass), or, where the narrow phase over candidate lists runs inside the
+    /// integrator's last stage (no culling pass), because the frame's broad phase listed no
+    /// particle: then only particles that left their query box walk the tree.
     pub skipped: u32,
-    /// Substeps whose traversal ran.
+    /// Substeps whose traversal ran (or whose frame listed particles, as above).
     pub ran: u32,
     /// Particle-substeps the narrow phase answered by a full traversal instead of the
     /// particle's candidate list (it left its query box, or its list had overflowed).
     pub fallbacks: u32,
     /// Particles the frame's broad phase gave a candidate (or an overflowed list): when any,
-    /// the cloth is at the collider and the substeps' culling passes do not test.
+    /// the cloth is at the collider and the substeps' culling passes, where there are any, do
+    /// not test.
     pub listed: u32,
     pub _pad: [u32; 3],
 }
