@@ -19,8 +19,8 @@ use crate::graph::Kernel;
 pub const ALL: [&Kernel; 43] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
-    &normals::VERTEX_NORMALS,
-    &normals::MESH_VERTEX_NORMALS,
+    &normals::NORMALS_AND_HEALTH,
+    &normals::MESH_NORMALS_AND_HEALTH,
     &normals::CHECK_HEALTH,
     &normals::CHECK_HEALTH_SPRINGS,
     &self_contact::SELF_SCENE_BOUNDS,

@@ -6,7 +6,7 @@ use super::self_contact::{SelfContactBuffers, SelfContactCloth, pass_due};
 use crate::cloth::{Cloth, ClothTopology};
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
 use crate::kernels::integrate::{INTEGRATE_STAGE, INTEGRATE_STAGE_SPRINGS};
-use crate::kernels::normals::{CHECK_HEALTH, CHECK_HEALTH_SPRINGS, MESH_VERTEX_NORMALS, VERTEX_NORMALS};
+use crate::kernels::normals::{CHECK_HEALTH, CHECK_HEALTH_SPRINGS, MESH_NORMALS_AND_HEALTH, NORMALS_AND_HEALTH};
 use drape_types::{Health, ParticleSprings, SimParams, Spring, StagePush, integrator};
 use glam::Vec4;
 
@@ -127,42 +127,36 @@ impl ClothBuffers {
         Step::run_with(label, kernel, bindings, bytemuck::cast(push), Dispatch::Threads(self.particles))
     }
 
-    fn normals(&self) -> Step {
+    /// The frame's last pass: the blow-up check, with the vertex normals in the same dispatch
+    /// when `normals` (both read the final state; neither reads what the other writes).
+    fn frame_end(&self, normals: bool) -> Step {
         let threads = Dispatch::Threads(self.particles);
-        match &self.springs {
-            None => Step::run("normals", &VERTEX_NORMALS, vec![self.params.id(), self.x.id(), self.normals.id()], threads),
-            Some(list) => {
-                let bindings = vec![
-                    self.params.id(),
-                    self.x.id(),
+        let state = [self.params.id(), self.x.id(), self.v.id(), self.x_prev.id()];
+        let mut bindings = state.to_vec();
+        let kernel: &'static Kernel = match (&self.springs, normals) {
+            (None, false) => &CHECK_HEALTH,
+            (None, true) => {
+                bindings.push(self.normals.id());
+                &NORMALS_AND_HEALTH
+            }
+            (Some(list), false) => {
+                bindings.extend([list.particles.id(), list.springs.id()]);
+                &CHECK_HEALTH_SPRINGS
+            }
+            (Some(list), true) => {
+                bindings.extend([
+                    list.particles.id(),
+                    list.springs.id(),
                     list.vertex_triangle_offsets.id(),
                     list.vertex_triangles.id(),
                     self.indices.id(),
                     self.normals.id(),
-                ];
-                Step::run("normals", &MESH_VERTEX_NORMALS, bindings, threads)
+                ]);
+                &MESH_NORMALS_AND_HEALTH
             }
-        }
-    }
-
-    fn health_check(&self) -> Step {
-        let threads = Dispatch::Threads(self.particles);
-        let (kernel, bindings): (&'static Kernel, _) = match &self.springs {
-            None => (&CHECK_HEALTH, vec![self.params.id(), self.x.id(), self.v.id(), self.x_prev.id(), self.health.id()]),
-            Some(list) => (
-                &CHECK_HEALTH_SPRINGS,
-                vec![
-                    self.params.id(),
-                    self.x.id(),
-                    self.v.id(),
-                    self.x_prev.id(),
-                    list.particles.id(),
-                    list.springs.id(),
-                    self.health.id(),
-                ],
-            ),
         };
-        Step::run("health check", kernel, bindings, threads)
+        bindings.push(self.health.id());
+        Step::run(if normals { NORMALS_AND_HEALTH_LABEL } else { "health check" }, kernel, bindings, threads)
     }
 }
 
@@ -182,6 +176,9 @@ pub struct FramePlan {
     /// tree for every triangle at every pass.
     pub self_lists: bool,
 }
+
+/// The timing table's line of the frame's last pass with vertex normals on.
+pub const NORMALS_AND_HEALTH_LABEL: &str = "normals + health check";
 
 /// The timing table's line for a sleeping cloth's frame.
 pub const ASLEEP_LABEL: &str = "cloth asleep (all passes)";
@@ -242,7 +239,9 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
             steps.push(Step::Skip { label: CONTACT_LABEL });
         }
     }
-    steps.push(if plan.normals { cloth.normals() } else { Step::Skip { label: "normals" } });
-    steps.push(cloth.health_check());
+    if !plan.normals {
+        steps.push(Step::Skip { label: "normals" });
+    }
+    steps.push(cloth.frame_end(plan.normals));
     steps
 }

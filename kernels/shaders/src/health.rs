@@ -1,9 +1,11 @@
 //! Blow-up detection, once per frame: counts non-finite particles and finds the largest
 //! structural stretch, so the host can stop with an error instead of returning NaN; and the
 //! largest speed, so the host can put a still cloth to sleep and bound the substep by motion.
+//! With vertex normals on, the check and the normals are one pass (`normals_and_health`).
 
 use crate::atomics;
 use crate::cloth::STRUCTURAL;
+use crate::normals::{mesh_vertex_normal_at, vertex_normal_at};
 use drape_types::glam::{UVec3, Vec4, Vec4Swizzles};
 use drape_types::{Health, ParticleSprings, SimParams, Spring};
 use spirv_std::spirv;
@@ -119,4 +121,50 @@ pub fn check_health(
         return;
     }
     check_health_at(params, id.x, x, v, x_prev, health);
+}
+
+/// The frame's last pass for a grid cloth: each particle's vertex normal (`normals`) and its
+/// share of the blow-up check (`health`) in one dispatch. Both read the frame's final state and
+/// neither reads what the other writes; one pass saves a dispatch and a barrier per frame.
+#[spirv(compute(threads(256)))]
+pub fn normals_and_health(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] normals: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] health: &mut Health,
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    normals[id.x as usize] = vertex_normal_at(params, id.x, x).extend(0.0);
+    check_health_at(params, id.x, x, v, x_prev, health);
+}
+
+/// `normals_and_health` for a spring-list cloth: its springs (the stretch check) and the
+/// triangles around each vertex (its normal).
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(256)))]
+pub fn mesh_normals_and_health(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] particles: &[ParticleSprings],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] springs: &[Spring],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] vertex_triangle_offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] vertex_triangles: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] normals: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] health: &mut Health,
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    normals[id.x as usize] =
+        mesh_vertex_normal_at(id.x, x, vertex_triangle_offsets, vertex_triangles, indices).extend(0.0);
+    record_health(health, particle_health_springs(id.x, x, v, x_prev, particles, springs));
 }

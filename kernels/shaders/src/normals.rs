@@ -1,10 +1,10 @@
 //! Per-vertex normals for rendering, once per frame: for a grid, the sum of the cross products
 //! of consecutive grid edges around a particle (area-weighted normals of the adjacent quads);
-//! for a mesh, the sum of its triangles' area-weighted normals; normalised.
+//! for a mesh, the sum of its triangles' area-weighted normals; normalised. They run in the
+//! frame's last pass with the blow-up check (`health::normals_and_health`).
 
 use drape_types::SimParams;
-use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
-use spirv_std::spirv;
+use drape_types::glam::{Vec3, Vec4, Vec4Swizzles};
 
 /// Unit normal of particle `index`; +Y for a flat cloth in its local XZ plane (rows along +Z,
 /// columns along +X). A fully collapsed neighbourhood yields +Y rather than NaN.
@@ -21,19 +21,6 @@ pub fn vertex_normal_at(p: &SimParams, index: u32, pos: &[Vec4]) -> Vec3 {
     let sum = up.cross(right) + left.cross(up) + down.cross(left) + right.cross(down);
     let len = sum.length();
     if len > 0.0 { sum * (1.0 / len) } else { Vec3::Y }
-}
-
-#[spirv(compute(threads(256)))]
-pub fn vertex_normals(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] normals: &mut [Vec4],
-) {
-    if id.x >= params.particle_count {
-        return;
-    }
-    normals[id.x as usize] = vertex_normal_at(params, id.x, x).extend(0.0);
 }
 
 /// Unit normal of vertex `index` of a mesh cloth: the sum of the cross products of its
@@ -60,21 +47,4 @@ pub fn mesh_vertex_normal_at(
     }
     let len = sum.length();
     if len > 0.0 { sum * (1.0 / len) } else { Vec3::Y }
-}
-
-#[spirv(compute(threads(256)))]
-pub fn mesh_vertex_normals(
-    #[spirv(global_invocation_id)] id: UVec3,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] vertex_triangle_offsets: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] vertex_triangles: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] indices: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] normals: &mut [Vec4],
-) {
-    if id.x >= params.particle_count {
-        return;
-    }
-    normals[id.x as usize] =
-        mesh_vertex_normal_at(id.x, x, vertex_triangle_offsets, vertex_triangles, indices).extend(0.0);
 }
