@@ -4,7 +4,7 @@
 //! each leaf kind's file declares its own detect `Kernel`s with them).
 
 use crate::graph::{BindingSpec, HostBuffer, HostDispatch, Kernel, KernelSpec};
-use drape_kernels::candidates::{broad_phase_at, detect_candidates_at, frame_motion};
+use drape_kernels::candidates::{broad_phase_at, detect_candidates_particle, frame_motion};
 use drape_kernels::integrate::{ClothForces, GridSprings, SpringList};
 use drape_kernels::update_contact::update_and_contact_particle;
 use drape_kernels::contact::{
@@ -216,16 +216,13 @@ where
         d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = collider.first()?;
-    let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
+    let pose: ColliderPose = pose.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<K::Leaf>());
     let lists = (queries.slice::<ContactQuery>(), candidates.slice::<u32>());
     let (x, x_prev, v) = (x.slice_mut::<Vec4>(), x_prev.slice::<Vec4>(), v.slice_mut::<Vec4>());
     let (contacts, status) = (contacts.slice_mut::<Contact>(), status.first_mut::<CollisionStatus>()?);
     for i in 0..threads.min(p.particle_count) {
-        let outcome = detect_candidates_at::<K>(i, &c, &motion, tree, lists, x, x_prev, contacts);
-        status.fallbacks += outcome.fell_back as u32;
-        status.overflows += outcome.overflowed as u32;
-        respond_at(i, &contacts[i as usize], &c, &motion, x, v);
+        detect_candidates_particle::<K>(i, &push, &p, &c, &pose, tree, lists, (&mut *x, x_prev, &mut *v), contacts, status);
     }
     Ok(())
 }

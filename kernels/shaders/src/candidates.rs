@@ -238,6 +238,29 @@ pub fn detect_candidates_at<K: LeafKind>(
     NarrowOutcome { fell_back: false, overflowed: false }
 }
 
+/// Whether particle `index` has nothing to test this substep: its list is empty and its substep
+/// motion stays inside its query box, so no leaf is within its reach (the list holds every leaf
+/// a motion inside the box can touch) and it has no contact. The narrow phase then writes and
+/// applies nothing: most of a cloth before it reaches the collider, where the full detect's
+/// contact record and response cost as much as the test (its record is read only by its own
+/// response, so the stale one left there is never used).
+#[inline]
+pub fn nothing_within_reach(
+    index: u32,
+    motion: &SubstepMotion,
+    queries: &[ContactQuery],
+    x: &[Vec4],
+    x_prev: &[Vec4],
+) -> bool {
+    let query = queries[index as usize];
+    if query.count != 0 {
+        return false;
+    }
+    let (p0, p1) = local_motion(index, motion, x, x_prev);
+    let region = Aabb { min: query.low, max: query.high };
+    point_in_aabb(p0, &region, 0.0) && point_in_aabb(p1, &region, 0.0)
+}
+
 /// The body of every leaf kind's narrow-phase entry point: detects particle `index`'s contact
 /// over its list (fallbacks and overflows counted in `status`) and applies it at once. One
 /// pass instead of a detect pass and a respond pass: a particle's detection reads only its own
@@ -260,6 +283,9 @@ pub fn detect_candidates_particle<K: LeafKind>(
         return;
     }
     let motion = substep_motion(params, pose, push);
+    if nothing_within_reach(index, &motion, lists.0, x, x_prev) {
+        return;
+    }
     let outcome = detect_candidates_at::<K>(index, collider, &motion, tree, lists, x, x_prev, contacts);
     if outcome.fell_back {
         crate::atomics::add(&mut status.fallbacks, 1);
