@@ -180,10 +180,18 @@ pub struct NarrowOutcome {
     pub fell_back: bool,
     /// That walk's stack overflowed.
     pub overflowed: bool,
+    /// Nothing was within its reach: its list is empty and its motion stayed inside its query
+    /// box (the list holds every leaf a motion inside the box can touch), so it has no contact
+    /// and its record was left as it was.
+    pub nothing: bool,
 }
 
 /// Narrow-phase detect for one particle: writes `contacts[index]`, from its candidate list when
-/// its substep motion stays inside its query box, else by a full traversal.
+/// its substep motion stays inside its query box, else by a full traversal; or, with an empty
+/// list and the motion inside the box, writes nothing (`NarrowOutcome::nothing`: no contact).
+/// That is most of a cloth before it reaches the collider, where writing the record and
+/// applying it cost as much as the test; a record is read only by its own particle's response,
+/// so the one left there is never used.
 #[allow(clippy::too_many_arguments)]
 pub fn detect_candidates_at<K: LeafKind>(
     index: u32,
@@ -205,7 +213,10 @@ pub fn detect_candidates_at<K: LeafKind>(
     let region = Aabb { min: query.low, max: query.high };
     if query.count == CANDIDATES_OVERFLOWED || !point_in_aabb(p0, &region, 0.0) || !point_in_aabb(p1, &region, 0.0) {
         let overflowed = detect_at::<K>(index, collider, motion, nodes, aabbs, leaves, x, x_prev, contacts);
-        return NarrowOutcome { fell_back: true, overflowed };
+        return NarrowOutcome { fell_back: true, overflowed, nothing: false };
+    }
+    if query.count == 0 {
+        return NarrowOutcome { nothing: true, ..NarrowOutcome::default() };
     }
     let thickness = collider.thickness;
     let left = motion.left();
@@ -235,30 +246,7 @@ pub fn detect_candidates_at<K: LeafKind>(
             path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position, left)
         };
     contacts[i] = target.contact(blocked);
-    NarrowOutcome { fell_back: false, overflowed: false }
-}
-
-/// Whether particle `index` has nothing to test this substep: its list is empty and its substep
-/// motion stays inside its query box, so no leaf is within its reach (the list holds every leaf
-/// a motion inside the box can touch) and it has no contact. The narrow phase then writes and
-/// applies nothing: most of a cloth before it reaches the collider, where the full detect's
-/// contact record and response cost as much as the test (its record is read only by its own
-/// response, so the stale one left there is never used).
-#[inline]
-pub fn nothing_within_reach(
-    index: u32,
-    motion: &SubstepMotion,
-    queries: &[ContactQuery],
-    x: &[Vec4],
-    x_prev: &[Vec4],
-) -> bool {
-    let query = queries[index as usize];
-    if query.count != 0 {
-        return false;
-    }
-    let (p0, p1) = local_motion(index, motion, x, x_prev);
-    let region = Aabb { min: query.low, max: query.high };
-    point_in_aabb(p0, &region, 0.0) && point_in_aabb(p1, &region, 0.0)
+    NarrowOutcome::default()
 }
 
 /// The body of every leaf kind's narrow-phase entry point: detects particle `index`'s contact
@@ -283,10 +271,10 @@ pub fn detect_candidates_particle<K: LeafKind>(
         return;
     }
     let motion = substep_motion(params, pose, push);
-    if nothing_within_reach(index, &motion, lists.0, x, x_prev) {
+    let outcome = detect_candidates_at::<K>(index, collider, &motion, tree, lists, x, x_prev, contacts);
+    if outcome.nothing {
         return;
     }
-    let outcome = detect_candidates_at::<K>(index, collider, &motion, tree, lists, x, x_prev, contacts);
     if outcome.fell_back {
         crate::atomics::add(&mut status.fallbacks, 1);
     }
