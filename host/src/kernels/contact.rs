@@ -92,20 +92,11 @@ pub const DETECT_CANDIDATES_BINDINGS: &[BindingSpec] = &[
 ];
 
 /// The bindings of every leaf kind's update-and-contact pass (the integrator's last stage and
-/// the narrow phase in one): the integrator's (`kernels::integrate`), then the narrow phase's.
+/// the narrow phase in one): the integrator's (`kernels::integrate`), then the narrow phase's,
+/// then `$extra`.
 macro_rules! update_contact_bindings {
     ($($extra:expr),*) => {
-        &[
-            read("params"),
-            write("x"),
-            write("v"),
-            read("x_in"),
-            read("v_in"),
-            write("x_out"),
-            write("v_out"),
-            write("acc_x"),
-            write("acc_v"),
-            write("x_prev"),
+        super::integrate::stage_bindings!(
             read("collider"),
             read("pose"),
             read("nodes"),
@@ -114,9 +105,9 @@ macro_rules! update_contact_bindings {
             read("queries"),
             read("candidates"),
             write("contacts"),
-            write("status"),
-            $($extra),*
-        ]
+            write("status")
+            $(, $extra)*
+        )
     };
 }
 

@@ -12,7 +12,9 @@ const fn write(name: &'static str) -> BindingSpec {
     BindingSpec::write(name)
 }
 
-/// The bindings both integrator kernels start with.
+/// The bindings every integration stage starts with (both integrator kernels, and the contact
+/// passes that run the last stage, `kernels::contact::UPDATE_CONTACT_BINDINGS`), then `$extra`.
+/// `read` and `write` are the caller's `BindingSpec` constructors.
 macro_rules! stage_bindings {
     ($($extra:expr),*) => {
         &[
@@ -30,6 +32,7 @@ macro_rules! stage_bindings {
         ]
     };
 }
+pub(crate) use stage_bindings;
 
 /// One Runge-Kutta (or Euler) stage for every particle of a grid cloth; push constants:
 /// `StagePush`.
