@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{Rng, assert_validation_clean, context};
+use common::{Rng, assert_fused_contact_equals_walk_and_cpu, assert_validation_clean, context};
 use drape::lbvh::{Lbvh, build_cpu, build_mesh_cpu, collider_params, mesh_collider_params};
 use drape::{ClothBuilder, ClothId, Collider, ContactSearch, CpuSolver, Mesh, Model, SimSettings, Solver};
 use drape_kernels::candidates::{NarrowOutcome, broad_phase_at, detect_candidates_at};
@@ -206,22 +206,7 @@ fn euler_commit_with_contact_equals_the_walk_and_the_cpu_twin() {
         .unwrap();
     let collider = Collider::mesh(&Mesh::icosphere(0.3, 3), 0.01).with_friction(0.4);
     let settings = SimSettings::default().with_timestamps(false).with_integrator(drape::Integrator::SemiImplicitEuler);
-    let model =
-        |search: ContactSearch| Model::single(&cloth, &[collider.clone().with_search(search)], settings).unwrap();
-    let mut fused = Solver::new(&ctx, &model(ContactSearch::CandidateLists)).unwrap();
-    let mut walk = Solver::new(&ctx, &model(ContactSearch::TraverseEverySubstep)).unwrap();
-    let mut cpu = CpuSolver::new(&model(ContactSearch::CandidateLists)).unwrap();
-    let mut contact_frames = 0;
-    for f in 1..=30 {
-        let report = fused.step_report().unwrap();
-        walk.step().unwrap();
-        cpu.step().unwrap();
-        contact_frames += (report.collision_ran > 0) as u32;
-        let x = fused.positions(CLOTH).unwrap();
-        assert_eq!(x, walk.positions(CLOTH).unwrap(), "frame {f}: fused != walk");
-        assert_eq!(x, cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
-        assert_eq!(fused.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU");
-    }
+    let contact_frames = assert_fused_contact_equals_walk_and_cpu(&ctx, &cloth, &collider, settings, 30);
     assert!(contact_frames > 10, "the cloth must reach the sphere ({contact_frames} frames)");
     assert_validation_clean(&ctx);
 }

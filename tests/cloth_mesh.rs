@@ -5,13 +5,13 @@
 
 mod common;
 
-use common::{assert_validation_clean, context, max_distance};
+use common::{assert_fused_contact_equals_walk_and_cpu, assert_validation_clean, context, max_distance};
 use drape::cloth_mesh::SpringTopology;
 use drape::reference::ReferenceCloth;
 use drape::stability::{SpringProfile, spectral_bounds};
 use drape::{
-    Cloth, ClothBuilder, ClothId, ClothMesh, ClothTopology, Collider, ContactSearch, CpuSolver, Error, Mesh, Model,
-    SimSettings, Solver,
+    Cloth, ClothBuilder, ClothId, ClothMesh, ClothTopology, Collider, CpuSolver, Error, Mesh, Model, SimSettings,
+    Solver,
 };
 use drape_kernels::cloth::{BEND, STRUCTURAL, acceleration_springs};
 use glam::{Mat4, Vec3, Vec4};
@@ -220,23 +220,7 @@ fn mesh_cloth_on_spheres_equals_the_walk_and_the_cpu_twin() {
         .unwrap();
     let spheres = vec![Vec4::new(0.0, 0.0, 0.0, 0.3), Vec4::new(0.25, 0.1, 0.0, 0.12)];
     let collider = Collider::new(spheres, 0.01).with_friction(0.3);
-    let model = |search: ContactSearch| {
-        Model::single(&cloth, &[collider.clone().with_search(search)], SimSettings::default()).unwrap()
-    };
-    let mut fused = Solver::new(&ctx, &model(ContactSearch::CandidateLists)).unwrap();
-    let mut walk = Solver::new(&ctx, &model(ContactSearch::TraverseEverySubstep)).unwrap();
-    let mut cpu = CpuSolver::new(&model(ContactSearch::CandidateLists)).unwrap();
-    let mut contact_frames = 0;
-    for frame in 1..=25 {
-        let report = fused.step_report().unwrap();
-        walk.step().unwrap();
-        cpu.step().unwrap();
-        contact_frames += (report.collision_ran > 0) as u32;
-        let x = fused.positions(CLOTH).unwrap();
-        assert_eq!(x, walk.positions(CLOTH).unwrap(), "frame {frame}: fused != walk");
-        assert_eq!(x, cpu.positions(CLOTH).unwrap(), "frame {frame}: GPU != CPU");
-        assert_eq!(fused.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {frame}: velocities");
-    }
+    let contact_frames = assert_fused_contact_equals_walk_and_cpu(&ctx, &cloth, &collider, SimSettings::default(), 25);
     assert!(contact_frames > 5, "the cloth must reach the spheres ({contact_frames} frames)");
     assert_validation_clean(&ctx);
 }

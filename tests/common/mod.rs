@@ -20,6 +20,39 @@ pub fn assert_validation_clean(ctx: &Context) {
     assert!(errors.is_empty(), "validation errors:\n{}", errors.join("\n"));
 }
 
+/// Runs `frames` frames of `cloth` against `collider` three ways: candidate lists on the GPU
+/// (the narrow phase inside the last integration stage), the LBVH walk on the GPU (cull,
+/// detect and respond in passes of their own) and candidate lists on the CPU twin; asserts that
+/// every frame's positions are equal bit for bit, and the GPU's velocities the CPU's. Returns
+/// how many frames the first run reported contact in.
+pub fn assert_fused_contact_equals_walk_and_cpu(
+    ctx: &Arc<Context>,
+    cloth: &drape::Cloth,
+    collider: &drape::Collider,
+    settings: drape::SimSettings,
+    frames: u32,
+) -> u32 {
+    use drape::{ClothId, ContactSearch, CpuSolver, Model, Solver};
+    let cloth_id = ClothId::new(0);
+    let model =
+        |search: ContactSearch| Model::single(cloth, &[collider.clone().with_search(search)], settings).unwrap();
+    let mut fused = Solver::new(ctx, &model(ContactSearch::CandidateLists)).unwrap();
+    let mut walk = Solver::new(ctx, &model(ContactSearch::TraverseEverySubstep)).unwrap();
+    let mut cpu = CpuSolver::new(&model(ContactSearch::CandidateLists)).unwrap();
+    let mut contact_frames = 0;
+    for f in 1..=frames {
+        let report = fused.step_report().unwrap();
+        walk.step().unwrap();
+        cpu.step().unwrap();
+        contact_frames += (report.collision_ran > 0) as u32;
+        let x = fused.positions(cloth_id).unwrap();
+        assert_eq!(x, walk.positions(cloth_id).unwrap(), "frame {f}: fused != walk");
+        assert_eq!(x, cpu.positions(cloth_id).unwrap(), "frame {f}: GPU != CPU");
+        assert_eq!(fused.velocities(cloth_id).unwrap(), cpu.velocities(cloth_id).unwrap(), "frame {f}: GPU != CPU");
+    }
+    contact_frames
+}
+
 /// Largest distance between corresponding xyz.
 pub fn max_distance(a: &[Vec4], b: &[Vec4]) -> f32 {
     assert_eq!(a.len(), b.len());
