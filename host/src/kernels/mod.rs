@@ -24,7 +24,7 @@ pub const ALL: [&Kernel; 43] = [
     &normals::CHECK_HEALTH,
     &normals::CHECK_HEALTH_SPRINGS,
     &self_contact::SELF_SCENE_BOUNDS,
-    &self_pairs::CLOTH_TRIANGLE_REGIONS,
+    &self_pairs::CLOTH_TRIANGLE_STARTS,
     &self_pairs::CLOTH_TRIANGLE_BOUNDS,
     &self_contact::GATHER_CLOTH_TRIANGLES,
     &self_pairs::LIST_SELF_PAIRS,

@@ -9,7 +9,7 @@ use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::contact::substep_motion;
 use drape_kernels::self_contact::{
     PairResponse, SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, collider_feature_contact_at, copy_start,
-    count_self_contact, frame_of, gather_cloth_triangle_at, longest_edge2, write_scene,
+    count_self_contact, frame_of, gather_cloth_triangle, longest_edge2, write_scene,
 };
 use drape_kernels::self_pairs::anchor_particles;
 use drape_types::{Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
@@ -50,7 +50,15 @@ pub static SELF_SCENE_BOUNDS: Kernel = Kernel {
 pub static GATHER_CLOTH_TRIANGLES: Kernel = Kernel {
     spec: spec(
         "self_contact::gather_cloth_triangles",
-        &[read("self_params"), read("indices"), read("order"), write("sorted"), write("leaf_of")],
+        &[
+            read("self_params"),
+            read("indices"),
+            read("order"),
+            read("anchors"),
+            write("sorted"),
+            write("leaf_of"),
+            write("leaf_motions"),
+        ],
         WORKGROUP_SIZE,
     ),
     cpu: gather_cpu,
@@ -142,14 +150,13 @@ fn scene_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, indices, order, sorted, leaf_of] = d.bindings()?;
+    let [self_params, indices, order, anchors, sorted, leaf_of, leaf_motions] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
-    let (indices, order, sorted) = (indices.slice::<u32>(), order.slice::<u32>(), sorted.slice_mut::<UVec4>());
-    let leaf_of = leaf_of.slice_mut::<u32>();
+    let inputs = (indices.slice::<u32>(), order.slice::<u32>(), anchors.slice::<Vec4>());
+    let (sorted, leaf_of, leaf_motions) =
+        (sorted.slice_mut::<UVec4>(), leaf_of.slice_mut::<u32>(), leaf_motions.slice_mut::<Aabb>());
     for s in 0..threads.min(c.leaf_count) {
-        let triangle = gather_cloth_triangle_at(s, indices, order);
-        sorted[s as usize] = triangle;
-        leaf_of[triangle.w as usize] = s;
+        gather_cloth_triangle(s, inputs, (&mut *sorted, &mut *leaf_of, &mut *leaf_motions));
     }
     Ok(())
 }

@@ -9,7 +9,7 @@ use drape_kernels::self_contact::PairResponse;
 use drape_kernels::self_contact::self_triangle_contact_at;
 use drape_kernels::self_pairs::{
     LIST_OVERFLOWED, WALK_THREADS, add_walker, count_full_list, cloth_triangle_bounds_at, escaped_at, list_self_pairs_at,
-    listed_self_pairs_at, triangle_region_at, walk_self_pairs_at,
+    listed_self_pairs_at, triangle_start_at, walk_self_pairs_at,
 };
 use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfPassPush};
 use glam::{UVec4, Vec4};
@@ -21,16 +21,16 @@ const fn write(name: &'static str) -> BindingSpec {
     BindingSpec::write(name)
 }
 
-/// Each triangle's region over the frame: the box its corners stay in while they hold to their
-/// predicted paths.
-pub static CLOTH_TRIANGLE_REGIONS: Kernel = Kernel {
+/// Each triangle's box at the frame's start, its corners grown by their slops (the frame's
+/// tree is built over these).
+pub static CLOTH_TRIANGLE_STARTS: Kernel = Kernel {
     spec: KernelSpec {
-        entry: "self_pairs::cloth_triangle_regions",
+        entry: "self_pairs::cloth_triangle_starts",
         bindings: &[read("self_params"), read("anchors"), read("indices"), write("bounds")],
         push_constant_size: 0,
         workgroup_size: WORKGROUP_SIZE,
     },
-    cpu: regions_cpu,
+    cpu: starts_cpu,
 };
 
 /// Each triangle's box over the pass and, in the pass's last run, whether it escaped its region
@@ -69,6 +69,8 @@ pub static LIST_SELF_PAIRS: Kernel = Kernel {
             read("sorted"),
             read("owned"),
             read("anchors"),
+            read("motion_aabbs"),
+            read("leaf_motions"),
             write("lists"),
             write("counts"),
             write("health"),
@@ -157,13 +159,13 @@ pub static WALK_SELF_PAIRS: Kernel = Kernel {
     cpu: walk_cpu,
 };
 
-fn regions_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+fn starts_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
     let [self_params, anchors, indices, bounds] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let (anchors, indices, bounds) = (anchors.slice::<Vec4>(), indices.slice::<u32>(), bounds.slice_mut::<Aabb>());
     for t in 0..threads.min(c.leaf_count) {
-        bounds[t as usize] = triangle_region_at(t, anchors, indices);
+        bounds[t as usize] = triangle_start_at(t, anchors, indices);
     }
     Ok(())
 }
@@ -196,14 +198,16 @@ fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, anchors, lists, counts, health] = d.bindings()?;
+    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, anchors, motion_aabbs, leaf_motions, lists, counts, health] =
+        d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let (owned, anchors) = (owned.slice::<u32>(), anchors.slice::<Vec4>());
+    let motions = (motion_aabbs.slice::<Aabb>(), leaf_motions.slice::<Aabb>());
     let (lists, counts) = (lists.slice_mut::<u32>(), counts.slice_mut::<u32>());
     let health = health.first_mut::<Health>()?;
     for leaf in 0..threads.min(c.leaf_count) {
-        list_self_pairs_at(leaf, &c, tree, owned, anchors, (&mut *lists, &mut *counts));
+        list_self_pairs_at(leaf, &c, tree, motions, owned, anchors, (&mut *lists, &mut *counts));
         count_full_list(leaf, counts, health);
     }
     Ok(())

@@ -83,6 +83,15 @@ impl LbvhBuffers {
         steps
     }
 
+    /// Another set of boxes over the same tree: the internal nodes' boxes (`aabbs`, one per
+    /// internal node) of the leaves' `leaf_bounds` (tree order), e.g. what the leaves' points
+    /// move by beside where they are.
+    pub fn refit_other_steps(&self, label: &'static str, leaf_bounds: Handle<Aabb>, aabbs: Handle<Aabb>) -> Vec<Step> {
+        let mut steps = Vec::new();
+        self.push_refit_of(label, leaf_bounds, aabbs, &mut steps);
+        steps
+    }
+
     /// A leaf kind's build: its pass writing `bounds`, the build, its pass gathering its own
     /// leaves into the tree's order.
     pub fn build_around(&self, boxes: Step, gather: Step) -> Vec<Step> {
@@ -110,19 +119,23 @@ impl LbvhBuffers {
     }
 
     fn push_refit(&self, steps: &mut Vec<Step>) {
+        self.push_refit_of("refit", self.sorted_bounds, self.aabbs, steps);
+    }
+
+    fn push_refit_of(&self, label: &'static str, leaf_bounds: Handle<Aabb>, aabbs: Handle<Aabb>, steps: &mut Vec<Step>) {
         steps.push(Step::fill(self.flags, 0));
         // The refit writes xyz words only; zero the w words too.
-        steps.push(Step::fill(self.aabbs, 0));
+        steps.push(Step::fill(aabbs, 0));
         steps.push(Step::run(
-            "refit",
+            label,
             &REFIT,
             vec![
                 self.collider.id(),
                 self.nodes.id(),
                 self.parents.id(),
-                self.sorted_bounds.id(),
+                leaf_bounds.id(),
                 self.flags.id(),
-                self.aabbs.id(),
+                aabbs.id(),
             ],
             Dispatch::Threads(self.leaves),
         ));

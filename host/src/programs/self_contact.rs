@@ -16,12 +16,12 @@ use crate::kernels::self_contact::{
     APPLY_COLLIDER_PUSHES, APPLY_SELF_CONTACT, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
 };
 use crate::kernels::self_pairs::{
-    CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_REGIONS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, SELF_TRIANGLE_CONTACT,
+    CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, SELF_TRIANGLE_CONTACT,
     WALK_SELF_PAIRS,
 };
 use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
 use drape_kernels::self_pairs::{ANCHOR_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS};
-use drape_types::{BroadPhasePush, ColliderParams, ContactPush, DispatchArgs, Health, SelfPassPush, SimParams};
+use drape_types::{Aabb, BroadPhasePush, ColliderParams, ContactPush, DispatchArgs, Health, SelfPassPush, SimParams};
 use std::collections::{HashMap, HashSet};
 use glam::{UVec4, Vec4};
 
@@ -49,6 +49,11 @@ pub struct SelfContactBuffers {
     pub anchors: Handle<Vec4>,
     /// Per triangle: whether it left its predicted region in the pass (1) or not (0).
     pub escaped: Handle<u32>,
+    /// Per sorted leaf, and per internal node of the frame's tree: the box of its corners'
+    /// predicted motions over the frame (the tree holds the boxes at the frame's start; the
+    /// lists walk with both, `drape_kernels::self_pairs::RelativeMotion`).
+    pub leaf_motions: Handle<Aabb>,
+    pub motion_aabbs: Handle<Aabb>,
     /// Per sorted leaf: the frame's list of later leaves it may touch, `SELF_LIST_CAPACITY`
     /// pairs of words (leaf, primitive pairs), and its count.
     pub lists: Handle<u32>,
@@ -187,6 +192,8 @@ impl SelfContactBuffers {
             owned: resources.device(format!("{name}: owned edges and corners"), triangles),
             anchors: resources.device(format!("{name}: anchors"), ANCHOR_WORDS * particles),
             escaped: resources.device(format!("{name}: escaped"), triangles),
+            leaf_motions: resources.device(format!("{name}: leaf motions"), triangles),
+            motion_aabbs: resources.device(format!("{name}: node motions"), triangles.saturating_sub(1).max(1)),
             lists: resources.device(format!("{name}: pair lists"), 2 * SELF_LIST_CAPACITY * triangles),
             counts: resources.device(format!("{name}: pair list counts"), triangles),
             leaf_of: resources.device(format!("{name}: leaf of each triangle"), triangles),
@@ -252,22 +259,31 @@ impl SelfContactBuffers {
             bytemuck::cast(BroadPhasePush { substeps, _pad: [0; 3] }),
             Dispatch::Workgroups(1),
         ));
-        let regions = Step::run(
-            "self: triangle regions",
-            &CLOTH_TRIANGLE_REGIONS,
+        let starts = Step::run(
+            "self: triangle start boxes",
+            &CLOTH_TRIANGLE_STARTS,
             vec![t.collider.id(), self.anchors.id(), cloth.indices.id(), t.bounds.id()],
             Dispatch::Threads(t.leaves),
         );
         let gather = Step::run(
             "self: gather triangles",
             &GATHER_CLOTH_TRIANGLES,
-            vec![t.collider.id(), cloth.indices.id(), t.order.id(), self.sorted.id(), self.leaf_of.id()],
+            vec![
+                t.collider.id(),
+                cloth.indices.id(),
+                t.order.id(),
+                self.anchors.id(),
+                self.sorted.id(),
+                self.leaf_of.id(),
+                self.leaf_motions.id(),
+            ],
             Dispatch::Threads(t.leaves),
         );
-        steps.extend(t.build_around(regions, gather));
+        steps.extend(t.build_around(starts, gather));
         if !lists {
             return;
         }
+        steps.extend(t.refit_other_steps("self: refit motions", self.leaf_motions, self.motion_aabbs));
         steps.push(Step::run(
             "self: pair lists",
             &LIST_SELF_PAIRS,
@@ -279,6 +295,8 @@ impl SelfContactBuffers {
                 self.sorted.id(),
                 self.owned.id(),
                 self.anchors.id(),
+                self.motion_aabbs.id(),
+                self.leaf_motions.id(),
                 self.lists.id(),
                 self.counts.id(),
                 cloth.health.id(),

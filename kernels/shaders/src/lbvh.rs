@@ -126,19 +126,27 @@ impl PairWalk {
     }
 
     /// Walks on until `found` holds `WALK_BATCH` leaves or the walk is over; returns how many
-    /// it holds (in tree order within the batch's stretch).
+    /// it holds (in tree order within the batch's stretch). Enters the boxes that meet the
+    /// walk's query box.
     pub fn next_batch(
         &mut self,
         (nodes, aabbs, leaf_bounds): (&[BvhNode], &[Aabb], &[Aabb]),
         found: &mut [u32; WALK_BATCH],
     ) -> usize {
+        let boxes = QueryBox { aabbs, leaf_bounds, lo: self.lo, hi: self.hi };
+        self.next_batch_in(nodes, boxes, found)
+    }
+
+    /// `next_batch` with another test of which subtrees and leaves to take (`boxes`; the
+    /// walk's own query box is then unused).
+    pub fn next_batch_in<B: PairBoxes>(&mut self, nodes: &[BvhNode], boxes: B, found: &mut [u32; WALK_BATCH]) -> usize {
         let mut count = 0;
         while self.top > 0 && count < WALK_BATCH {
             self.top -= 1;
             let entry = self.stack[self.top];
             if entry & LEAF_BIT != 0 {
                 let leaf = entry & !LEAF_BIT;
-                if box_meets(&leaf_bounds[leaf as usize], self.lo, self.hi) {
+                if boxes.leaf_meets(leaf) {
                     found[count] = leaf;
                     count += 1;
                 }
@@ -151,7 +159,7 @@ impl PairWalk {
                 let child = if side == 0 { node.right } else { node.left };
                 let index = child & !LEAF_BIT;
                 let later = !self.after_only || side == 0 || index > self.first;
-                if later && (child & LEAF_BIT != 0 || box_meets(&aabbs[child as usize], self.lo, self.hi)) {
+                if later && (child & LEAF_BIT != 0 || boxes.node_meets(child)) {
                     if self.top == STACK_SIZE {
                         self.overflowed = true;
                     } else {
@@ -163,6 +171,36 @@ impl PairWalk {
             }
         }
         count
+    }
+}
+
+/// Which subtrees and leaves a `PairWalk` takes. Passed by value (slices and plain values), so
+/// no local holding pointers is kept in memory (see `TreeQuery`).
+pub trait PairBoxes: Copy {
+    /// Whether the subtree under internal node `node` can hold a leaf the walk wants.
+    fn node_meets(&self, node: u32) -> bool;
+    /// Whether leaf `leaf` (tree order) is wanted.
+    fn leaf_meets(&self, leaf: u32) -> bool;
+}
+
+/// The boxes that meet the box `lo..=hi`: the tree's own.
+#[derive(Copy, Clone)]
+struct QueryBox<'a> {
+    aabbs: &'a [Aabb],
+    leaf_bounds: &'a [Aabb],
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl PairBoxes for QueryBox<'_> {
+    #[inline]
+    fn node_meets(&self, node: u32) -> bool {
+        box_meets(&self.aabbs[node as usize], self.lo, self.hi)
+    }
+
+    #[inline]
+    fn leaf_meets(&self, leaf: u32) -> bool {
+        box_meets(&self.leaf_bounds[leaf as usize], self.lo, self.hi)
     }
 }
 

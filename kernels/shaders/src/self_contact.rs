@@ -44,7 +44,7 @@ use crate::atomics;
 use crate::contact::{reduce_bounds, substep_motion};
 use crate::lbvh::{PairWalk, WALK_BATCH, box_meets};
 use crate::pose::{SubstepMotion, to_world};
-use crate::self_pairs::anchor_particles;
+use crate::self_pairs::{anchor_particles, triangle_motion_at};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
 #[cfg(target_arch = "spirv")]
@@ -147,21 +147,36 @@ pub fn gather_cloth_triangle_at(s: u32, indices: &[u32], order: &[u32]) -> UVec4
     UVec4::new(indices[i], indices[i + 1], indices[i + 2], t)
 }
 
+/// Sorted leaf `s`'s triangle (`sorted`), its leaf (`leaf_of`) and its corners' motion box over
+/// the frame (`leaf_motions`, what the frame's lists walk with: `self_pairs::triangle_motion_at`).
+#[inline]
+pub fn gather_cloth_triangle(
+    s: u32,
+    (indices, order, anchors): (&[u32], &[u32], &[Vec4]),
+    (sorted, leaf_of, leaf_motions): (&mut [UVec4], &mut [u32], &mut [Aabb]),
+) {
+    let triangle = gather_cloth_triangle_at(s, indices, order);
+    sorted[s as usize] = triangle;
+    leaf_of[triangle.w as usize] = s;
+    leaf_motions[s as usize] = triangle_motion_at(triangle, anchors);
+}
+
+#[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(256)))]
 pub fn gather_cloth_triangles(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] indices: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] order: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] sorted: &mut [UVec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] leaf_of: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] anchors: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &mut [UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_of: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] leaf_motions: &mut [Aabb],
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
-    let triangle = gather_cloth_triangle_at(id.x, indices, order);
-    sorted[id.x as usize] = triangle;
-    leaf_of[triangle.w as usize] = id.x;
+    gather_cloth_triangle(id.x, (indices, order, anchors), (sorted, leaf_of, leaf_motions));
 }
 
 /// The point of triangle (`a`, `b`, `c`) closest to `p` and its barycentric weights (Ericson,

@@ -2,7 +2,8 @@
 //! (the narrow phase), as the collider's contact does (`candidates`):
 //! - **at the frame's start** each particle gets an anchor: where it is, where its velocity
 //!   takes it by the frame's end, and a slop (`anchor_at`). The tree is built over each
-//!   triangle's region (its corners' predicted paths grown by their slops), and every triangle
+//!   triangle's box at the start grown by its corners' slops, with the box of its corners'
+//!   motions beside it (`RelativeMotion`), and every triangle
 //!   lists the later triangles (tree order) it could touch within the frame, with the primitive
 //!   pairs (vertex-face, edge-edge) that could: those whose distance at the frame's start,
 //!   less their relative predicted motion and their slops, is below the thickness
@@ -23,7 +24,7 @@
 //! corners' predicted motions.
 
 use crate::atomics;
-use crate::lbvh::{PairWalk, WALK_BATCH};
+use crate::lbvh::{PairBoxes, PairWalk, WALK_BATCH, box_meets};
 use crate::self_contact::{
     Corners, LeafVisitor, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights,
     longest_side2, pair_mask, self_triangle_contact_at, triangle_pair, walk_in_batches,
@@ -206,17 +207,78 @@ impl AnchoredTriangle {
     }
 }
 
-/// Cloth triangle `t`'s region over the frame: the box its corners stay in while they hold to
-/// their predicted paths (the frame's tree is built over these).
+/// Cloth triangle `t`'s box at the frame's start, each corner grown by its slop (the frame's
+/// tree is built over these; with `triangle_motion_at` they bound where the triangle can be
+/// relative to another over the frame, `RelativeMotion`).
 #[inline]
-pub fn triangle_region_at(t: u32, anchors: &[Vec4], indices: &[u32]) -> Aabb {
+pub fn triangle_start_at(t: u32, anchors: &[Vec4], indices: &[u32]) -> Aabb {
     let i = 3 * t as usize;
-    let (a, b, c) = (
-        Anchor::load(indices[i], anchors).region(),
-        Anchor::load(indices[i + 1], anchors).region(),
-        Anchor::load(indices[i + 2], anchors).region(),
-    );
-    Aabb { min: a.0.min(b.0).min(c.0).extend(0.0), max: a.1.max(b.1).max(c.1).extend(0.0) }
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    let mut k = 0;
+    while k < 3 {
+        let corner = Anchor::load(indices[i + k], anchors);
+        lo = lo.min(corner.start - Vec3::splat(corner.slop));
+        hi = hi.max(corner.start + Vec3::splat(corner.slop));
+        k += 1;
+    }
+    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
+}
+
+/// The box of the predicted motions over the frame of triangle `ids`' corners (xyz; gravity's
+/// share, the same for every particle, left out): every point of the triangle moves by a
+/// weighted mean of them.
+#[inline]
+pub fn triangle_motion_at(ids: UVec4, anchors: &[Vec4]) -> Aabb {
+    let motion = |p: u32| anchors[(ANCHOR_WORDS * p + 1) as usize].xyz();
+    let (a, b, c) = (motion(ids.x), motion(ids.y), motion(ids.z));
+    Aabb { min: a.min(b).min(c).extend(0.0), max: a.max(b).max(c).extend(0.0) }
+}
+
+/// The frame's tree as a list's walk tests it: a subtree may hold a triangle that comes within
+/// the thickness of the query's in the frame when its start box, moved by any fraction t of
+/// the frame of any difference between its motions and the query's, meets the query's start
+/// box grown by the thickness. Two points' predicted paths differ by (start difference) +
+/// t (motion difference) (gravity's share is common), and each point stays within its slop of
+/// its path, which the start boxes include. Neighbours on a cloth move alike, so this finds
+/// about the triangles near the query at the frame's start, where boxes swept over the frame
+/// (a free edge moving 4-7 cm a frame, 3-4 triangles) met 2-3x as many.
+#[derive(Copy, Clone)]
+struct RelativeMotion<'a> {
+    /// Internal nodes' start boxes and motion boxes.
+    aabbs: &'a [Aabb],
+    motion_aabbs: &'a [Aabb],
+    /// Leaves' start boxes and motion boxes (tree order).
+    leaf_bounds: &'a [Aabb],
+    leaf_motions: &'a [Aabb],
+    /// The query's start box grown by the thickness, and its motion box.
+    lo: Vec3,
+    hi: Vec3,
+    motion_lo: Vec3,
+    motion_hi: Vec3,
+}
+
+impl RelativeMotion<'_> {
+    /// Whether a start box `start` whose motions lie in `motion` meets the query.
+    #[inline]
+    fn meets(&self, start: &Aabb, motion: &Aabb) -> bool {
+        // The differences t (theirs - mine) over t in [0, 1] lie in this box.
+        let moved_lo = (motion.min.xyz() - self.motion_hi).min(Vec3::ZERO);
+        let moved_hi = (motion.max.xyz() - self.motion_lo).max(Vec3::ZERO);
+        box_meets(start, self.lo - moved_hi, self.hi - moved_lo)
+    }
+}
+
+impl PairBoxes for RelativeMotion<'_> {
+    #[inline]
+    fn node_meets(&self, node: u32) -> bool {
+        self.meets(&self.aabbs[node as usize], &self.motion_aabbs[node as usize])
+    }
+
+    #[inline]
+    fn leaf_meets(&self, leaf: u32) -> bool {
+        self.meets(&self.leaf_bounds[leaf as usize], &self.leaf_motions[leaf as usize])
+    }
 }
 
 /// Whether the bound says a pair of primitives `distance` apart at the frame's start, whose
@@ -303,13 +365,16 @@ fn pairs_that_may_touch(a: &AnchoredTriangle, b: &AnchoredTriangle, mask: u32, t
 }
 
 /// Sorted leaf `leaf`'s list for the frame (`lists[2 * SELF_LIST_CAPACITY * leaf..]`, count in
-/// `counts[leaf]`): the later leaves whose regions meet its region grown by the thickness, with
-/// the primitive pairs that may touch, found by one walk of the frame's tree (built over the
-/// regions). Returns whether the walk's stack overflowed (the list is marked overflowed).
+/// `counts[leaf]`): the later leaves that may come within the thickness in the frame
+/// (`RelativeMotion`), with the primitive pairs that may touch, found by one walk of the frame's
+/// tree (built over the start boxes, `motions` its motion boxes: internal nodes', leaves').
+/// Returns whether the walk's stack overflowed (the list is marked overflowed).
+#[allow(clippy::too_many_arguments)]
 pub fn list_self_pairs_at(
     leaf: u32,
     self_params: &ColliderParams,
     (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
+    (motion_aabbs, leaf_motions): (&[Aabb], &[Aabb]),
     owned: &[u32],
     anchors: &[Vec4],
     (lists, counts): (&mut [u32], &mut [u32]),
@@ -322,16 +387,26 @@ pub fn list_self_pairs_at(
         return false;
     }
     let mine_owned = owned[ids.w as usize];
-    let region = &leaf_bounds[leaf as usize];
-    let reach = Vec3::splat(thickness);
-    let query = (region.min.xyz() - reach, region.max.xyz() + reach);
-    let mut walk = PairWalk::new(leaf, self_params.leaf_count, query);
+    let (start, motion) = (&leaf_bounds[leaf as usize], &leaf_motions[leaf as usize]);
+    let reach = Vec3::splat(thickness * REACH_MARGIN + REACH_ABSOLUTE);
+    let (lo, hi) = (start.min.xyz() - reach, start.max.xyz() + reach);
+    let boxes = RelativeMotion {
+        aabbs,
+        motion_aabbs,
+        leaf_bounds,
+        leaf_motions,
+        lo,
+        hi,
+        motion_lo: motion.min.xyz(),
+        motion_hi: motion.max.xyz(),
+    };
+    let mut walk = PairWalk::new(leaf, self_params.leaf_count, (lo, hi));
     let mut found = [0u32; WALK_BATCH];
     let base = 2 * (SELF_LIST_CAPACITY * leaf) as usize;
     let mut count = 0;
     let mut full = false;
     while !walk.done() && !full {
-        let batch = walk.next_batch((nodes, aabbs, leaf_bounds), &mut found);
+        let batch = walk.next_batch_in(nodes, boxes, &mut found);
         let mut j = 0;
         while j < batch {
             let other = found[j];
@@ -515,9 +590,10 @@ pub fn listed_self_pairs_at(
     }
 }
 
-/// Each triangle's region over the frame (what the frame's tree is built over).
+/// Each triangle's box at the frame's start with its corners' slops (what the frame's tree is
+/// built over).
 #[spirv(compute(threads(256)))]
-pub fn cloth_triangle_regions(
+pub fn cloth_triangle_starts(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] anchors: &[Vec4],
@@ -527,7 +603,7 @@ pub fn cloth_triangle_regions(
     if id.x >= self_params.leaf_count {
         return;
     }
-    bounds[id.x as usize] = triangle_region_at(id.x, anchors, indices);
+    bounds[id.x as usize] = triangle_start_at(id.x, anchors, indices);
 }
 
 /// Each triangle's box over the pass (push: the pass's span of the frame), written straight
@@ -591,15 +667,18 @@ pub fn list_self_pairs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &[UVec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owned: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] anchors: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] lists: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] counts: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] motion_aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] leaf_motions: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] lists: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] counts: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] health: &mut Health,
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    list_self_pairs_at(id.x, self_params, tree, owned, anchors, (lists, counts));
+    let motions = (motion_aabbs, leaf_motions);
+    list_self_pairs_at(id.x, self_params, tree, motions, owned, anchors, (lists, counts));
     count_full_list(id.x, counts, health);
 }
 
