@@ -134,37 +134,44 @@ impl Anchor {
         (p - self.at(t)).length_squared() <= self.slop * self.slop
     }
 
-    /// The box the particle stays in over the frame while it holds: the path is a quadratic
-    /// Bezier curve (start, start + motion / 2, end), inside its control points' box, grown by
-    /// the slop.
-    #[inline]
-    fn region(&self) -> (Vec3, Vec3) {
-        let (end, control) = (self.at(1.0), self.start + self.motion * 0.5);
-        let slop = Vec3::splat(self.slop);
-        (self.start.min(end).min(control) - slop, self.start.max(end).max(control) + slop)
-    }
 }
 
-/// A triangle's corners' particles, anchors and regions.
+/// A triangle's corners' particles and anchors.
 #[derive(Copy, Clone)]
 struct AnchoredTriangle {
     ids: [u32; 3],
     corners: [Anchor; 3],
-    regions: [(Vec3, Vec3); 3],
 }
+
+/// Boxes of some of a triangle's corners: at the frame's start grown by their slops, and of
+/// their predicted motions (what `moving_boxes_meet` takes).
+type MovingBoxes = ((Vec3, Vec3), (Vec3, Vec3));
 
 impl AnchoredTriangle {
     #[inline]
     fn load(ids: UVec4, anchors: &[Vec4]) -> Self {
         let corners = [Anchor::load(ids.x, anchors), Anchor::load(ids.y, anchors), Anchor::load(ids.z, anchors)];
-        let regions = [corners[0].region(), corners[1].region(), corners[2].region()];
-        AnchoredTriangle { ids: [ids.x, ids.y, ids.z], corners, regions }
+        AnchoredTriangle { ids: [ids.x, ids.y, ids.z], corners }
     }
 
-    /// The region of corners `k` and `m` (one corner's when `k == m`).
+    /// The boxes of corners `k` and `m` (one corner's when `k == m`).
     #[inline]
-    fn region_of(&self, k: usize, m: usize) -> (Vec3, Vec3) {
-        (self.regions[k].0.min(self.regions[m].0), self.regions[k].1.max(self.regions[m].1))
+    fn boxes_of(&self, k: usize, m: usize) -> MovingBoxes {
+        let (a, b) = (self.corners[k], self.corners[m]);
+        let start = (
+            (a.start - Vec3::splat(a.slop)).min(b.start - Vec3::splat(b.slop)),
+            (a.start + Vec3::splat(a.slop)).max(b.start + Vec3::splat(b.slop)),
+        );
+        (start, (a.motion.min(b.motion), a.motion.max(b.motion)))
+    }
+
+    /// The boxes of the whole triangle.
+    #[inline]
+    fn boxes3(&self) -> MovingBoxes {
+        let ((lo, hi), (motion_lo, motion_hi)) = self.boxes_of(0, 1);
+        let c = self.corners[2];
+        let slop = Vec3::splat(c.slop);
+        ((lo.min(c.start - slop), hi.max(c.start + slop)), (motion_lo.min(c.motion), motion_hi.max(c.motion)))
     }
 
     /// Whether the triangle is too small for a list to pay: its shortest height (a corner to
@@ -180,13 +187,6 @@ impl AnchoredTriangle {
         let reach = thickness * (1.0 + 2.0 * SLOP_THICKNESS);
         // height = 2 area / longest side, compared squared and without a division.
         area2 < reach * reach * longest_side2(a.start, b.start, c.start)
-    }
-
-    /// The region of the whole triangle.
-    #[inline]
-    fn region3(&self) -> (Vec3, Vec3) {
-        let [a, b, c] = self.regions;
-        (a.0.min(b.0).min(c.0), a.1.max(b.1).max(c.1))
     }
 
     #[inline]
@@ -289,19 +289,22 @@ fn may_touch(distance: f32, motion: f32, slops: f32, thickness: f32) -> bool {
     distance - motion - slops < thickness * REACH_MARGIN + REACH_ABSOLUTE
 }
 
-/// Whether two regions come within `thickness` (the bound's cheap first test: the points stay
-/// in their regions while they hold).
+/// Whether points in boxes `a` and `b` (`MovingBoxes`) may come within `thickness` at some
+/// fraction of the frame (the bound's cheap first test, `RelativeMotion`'s for primitives).
 #[inline]
-fn regions_meet(a: (Vec3, Vec3), b: (Vec3, Vec3), thickness: f32) -> bool {
+fn moving_boxes_meet(a: MovingBoxes, b: MovingBoxes, thickness: f32) -> bool {
     let reach = Vec3::splat(thickness * REACH_MARGIN + REACH_ABSOLUTE);
-    a.0.cmple(b.1 + reach).all() && a.1.cmpge(b.0 - reach).all()
+    let (((a_lo, a_hi), (a_motion_lo, a_motion_hi)), ((b_lo, b_hi), (b_motion_lo, b_motion_hi))) = (a, b);
+    let moved_lo = (b_motion_lo - a_motion_hi).min(Vec3::ZERO);
+    let moved_hi = (b_motion_hi - a_motion_lo).max(Vec3::ZERO);
+    (a_lo - reach - moved_hi).cmple(b_hi).all() && (a_hi + reach - moved_lo).cmpge(b_lo).all()
 }
 
 /// Corner `k` of `vertex` against the face of `face`, at the frame's start (never when the
 /// corner is one of the face's: the pass skips those).
 #[inline]
 fn vertex_face_may_touch(vertex: &AnchoredTriangle, k: usize, face: &AnchoredTriangle, thickness: f32) -> bool {
-    if face.has(vertex.ids[k]) || !regions_meet(vertex.region_of(k, k), face.region3(), thickness) {
+    if face.has(vertex.ids[k]) || !moving_boxes_meet(vertex.boxes_of(k, k), face.boxes3(), thickness) {
         return false;
     }
     let p = vertex.corners[k];
@@ -323,7 +326,7 @@ fn edges_may_touch(e: &AnchoredTriangle, k: usize, f: &AnchoredTriangle, m: usiz
     if ea == fa || ea == fb || eb == fa || eb == fb {
         return false;
     }
-    if !regions_meet(e.region_of(k, (k + 1) % 3), f.region_of(m, (m + 1) % 3), thickness) {
+    if !moving_boxes_meet(e.boxes_of(k, (k + 1) % 3), f.boxes_of(m, (m + 1) % 3), thickness) {
         return false;
     }
     let (a, b) = (e.corners[k], e.corners[(k + 1) % 3]);
