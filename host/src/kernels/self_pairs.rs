@@ -47,6 +47,7 @@ pub static CLOTH_TRIANGLE_BOUNDS: Kernel = Kernel {
             read("leaf_of"),
             write("leaf_bounds"),
             write("escaped"),
+            write("strays"),
             write("walkers"),
             write("walk_args"),
         ],
@@ -97,6 +98,7 @@ pub static LISTED_SELF_PAIRS: Kernel = Kernel {
             read("x_prev"),
             read("v"),
             read("escaped"),
+            read("strays"),
             read("lists"),
             read("counts"),
             write("delta"),
@@ -173,12 +175,13 @@ fn starts_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let span: SelfPassPush = d.push_as();
     let threads = d.invocations();
-    let [self_params, x, x_prev, indices, anchors, leaf_of, leaf_bounds, escaped, walkers, walk_args] =
+    let [self_params, x, x_prev, indices, anchors, leaf_of, leaf_bounds, escaped, strays, walkers, walk_args] =
         d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let (x, x_prev, anchors) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), anchors.slice::<Vec4>());
     let (indices, leaf_of) = (indices.slice::<u32>(), leaf_of.slice::<u32>());
-    let (leaf_bounds, escaped) = (leaf_bounds.slice_mut::<Aabb>(), escaped.slice_mut::<u32>());
+    let (leaf_bounds, escaped, strays) =
+        (leaf_bounds.slice_mut::<Aabb>(), escaped.slice_mut::<u32>(), strays.slice_mut::<f32>());
     let (walkers, walk_args) = (walkers.slice_mut::<u32>(), walk_args.first_mut::<DispatchArgs>()?);
     for t in 0..threads.min(c.leaf_count) {
         let leaf = *leaf_of.get(t as usize).ok_or("leaf_of shorter than the triangles")?;
@@ -187,8 +190,9 @@ fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         if span.find_walkers == 0 {
             continue;
         }
-        let out = escaped_at(t, (x, x_prev), anchors, indices, &span);
+        let (out, stray) = escaped_at(t, (x, x_prev), anchors, indices, &span);
         escaped[t as usize] = out as u32;
+        strays[t as usize] = stray;
         if out {
             add_walker(leaf, walkers, walk_args);
         }
@@ -226,6 +230,7 @@ fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         x_prev,
         v,
         escaped,
+        strays,
         lists,
         counts,
         delta,
@@ -235,7 +240,8 @@ fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let owned = owned.slice::<u32>();
     let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
-    let lists = (escaped.slice::<u32>(), lists.slice::<u32>(), counts.slice::<u32>());
+    let escaped = (escaped.slice::<u32>(), strays.slice::<f32>());
+    let lists = (lists.slice::<u32>(), counts.slice::<u32>());
     let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
     for leaf in 0..threads.min(c.leaf_count) {
         let out = PairResponse {
@@ -245,7 +251,7 @@ fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
             delta: &mut *delta,
             velocity_changes: &mut *velocity_changes,
         };
-        listed_self_pairs_at(leaf, &c, tree, owned, (x, x_prev), lists, out);
+        listed_self_pairs_at(leaf, &c, tree, owned, (x, x_prev), escaped, lists, out);
     }
     Ok(())
 }

@@ -20,7 +20,7 @@ use crate::kernels::self_pairs::{
     WALK_SELF_PAIRS,
 };
 use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
-use drape_kernels::self_pairs::{ANCHOR_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS};
+use drape_kernels::self_pairs::{ANCHOR_WORDS, LIST_ENTRY_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS};
 use drape_types::{Aabb, BroadPhasePush, ColliderParams, ContactPush, DispatchArgs, Health, SelfPassPush, SimParams};
 use std::collections::{HashMap, HashSet};
 use glam::{UVec4, Vec4};
@@ -47,15 +47,17 @@ pub struct SelfContactBuffers {
     /// Per particle, `ANCHOR_WORDS` words: where it starts the frame with its slop, and its
     /// predicted motion over the frame (`drape_kernels::self_pairs::anchor_at`).
     pub anchors: Handle<Vec4>,
-    /// Per triangle: whether it left its predicted region in the pass (1) or not (0).
+    /// Per triangle: whether it left its predicted region in the pass (1) or not (0), and how
+    /// far its corners strayed from their predicted paths (f32).
     pub escaped: Handle<u32>,
+    pub strays: Handle<f32>,
     /// Per sorted leaf, and per internal node of the frame's tree: the box of its corners'
     /// predicted motions over the frame (the tree holds the boxes at the frame's start; the
     /// lists walk with both, `drape_kernels::self_pairs::RelativeMotion`).
     pub leaf_motions: Handle<Aabb>,
     pub motion_aabbs: Handle<Aabb>,
     /// Per sorted leaf: the frame's list of later leaves it may touch, `SELF_LIST_CAPACITY`
-    /// pairs of words (leaf, primitive pairs), and its count.
+    /// entries of `LIST_ENTRY_WORDS` (leaf, primitive pairs, their smallest gap), and its count.
     pub lists: Handle<u32>,
     pub counts: Handle<u32>,
     /// Per triangle, its sorted leaf (the inverse of the tree's order).
@@ -192,9 +194,10 @@ impl SelfContactBuffers {
             owned: resources.device(format!("{name}: owned edges and corners"), triangles),
             anchors: resources.device(format!("{name}: anchors"), ANCHOR_WORDS * particles),
             escaped: resources.device(format!("{name}: escaped"), triangles),
+            strays: resources.device(format!("{name}: strays"), triangles),
             leaf_motions: resources.device(format!("{name}: leaf motions"), triangles),
             motion_aabbs: resources.device(format!("{name}: node motions"), triangles.saturating_sub(1).max(1)),
-            lists: resources.device(format!("{name}: pair lists"), 2 * SELF_LIST_CAPACITY * triangles),
+            lists: resources.device(format!("{name}: pair lists"), LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * triangles),
             counts: resources.device(format!("{name}: pair list counts"), triangles),
             leaf_of: resources.device(format!("{name}: leaf of each triangle"), triangles),
             walkers: resources.device(format!("{name}: walkers"), triangles),
@@ -231,6 +234,7 @@ impl SelfContactBuffers {
                 self.leaf_of.id(),
                 t.sorted_bounds.id(),
                 self.escaped.id(),
+                self.strays.id(),
                 self.walkers.id(),
                 self.walk_args.id(),
             ],
@@ -429,6 +433,7 @@ impl SelfContactBuffers {
                 self.start.id(),
                 cloth.v.id(),
                 self.escaped.id(),
+                self.strays.id(),
                 self.lists.id(),
                 self.counts.id(),
                 self.delta.id(),

@@ -33,9 +33,11 @@ use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfPassPush};
 use spirv_std::spirv;
 
-/// Pairs of triangles one triangle's list holds at most (two words each: the later leaf and
-/// the primitive pairs' bits, `self_contact::pair_mask`).
+/// Pairs of triangles one triangle's list holds at most (`LIST_ENTRY_WORDS` each).
 pub const SELF_LIST_CAPACITY: u32 = 24;
+/// Words of a list's entry: the later leaf, the primitive pairs' bits (`self_contact::pair_mask`)
+/// and the smallest gap of those pairs (f32 bits, `pairs_that_may_touch`).
+pub const LIST_ENTRY_WORDS: u32 = 3;
 /// A list's count when its pairs did not fit (the triangle walks the tree at every pass).
 pub const LIST_OVERFLOWED: u32 = u32::MAX;
 /// A particle's slop: this share of the thickness, plus `SLOP_MOTION` of its velocity's motion
@@ -134,6 +136,11 @@ impl Anchor {
         (p - self.at(t)).length_squared() <= self.slop * self.slop
     }
 
+    /// How far `p`, at fraction `t` of the frame, is from the predicted path.
+    #[inline]
+    fn stray(&self, p: Vec3, t: f32) -> f32 {
+        (p - self.at(t)).length()
+    }
 }
 
 /// A triangle's corners' particles and anchors.
@@ -281,12 +288,21 @@ impl PairBoxes for RelativeMotion<'_> {
     }
 }
 
-/// Whether the bound says a pair of primitives `distance` apart at the frame's start, whose
-/// points' predicted motions differ by at most `motion`, with slops `slops`, may come within
-/// `thickness` in the frame.
+/// Whether the bound says a pair of primitives whose *gap* (their distance at the frame's
+/// start less the largest difference of their points' predicted motions) is `gap`, and whose
+/// points stray at most `strays` (together) from their predicted paths, may come within
+/// `thickness` in the frame: with the slops at the frame's start, with the strays measured at
+/// a pass (`listed_self_pairs_at`).
 #[inline]
-fn may_touch(distance: f32, motion: f32, slops: f32, thickness: f32) -> bool {
-    distance - motion - slops < thickness * REACH_MARGIN + REACH_ABSOLUTE
+fn may_touch(gap: f32, strays: f32, thickness: f32) -> bool {
+    gap - strays < thickness * REACH_MARGIN + REACH_ABSOLUTE
+}
+
+/// A primitive pair's gap when the bound keeps it (`may_touch` with the slops), else infinity.
+#[inline]
+fn kept_gap(distance: f32, motion: f32, slops: f32, thickness: f32) -> f32 {
+    let gap = distance - motion;
+    if may_touch(gap, slops, thickness) { gap } else { f32::INFINITY }
 }
 
 /// Whether points in boxes `a` and `b` (`MovingBoxes`) may come within `thickness` at some
@@ -301,33 +317,33 @@ fn moving_boxes_meet(a: MovingBoxes, b: MovingBoxes, thickness: f32) -> bool {
 }
 
 /// Corner `k` of `vertex` against the face of `face`, at the frame's start (never when the
-/// corner is one of the face's: the pass skips those).
+/// corner is one of the face's: the pass skips those): its gap if it may touch (`kept_gap`).
 #[inline]
-fn vertex_face_may_touch(vertex: &AnchoredTriangle, k: usize, face: &AnchoredTriangle, thickness: f32) -> bool {
+fn vertex_face_gap(vertex: &AnchoredTriangle, k: usize, face: &AnchoredTriangle, thickness: f32) -> f32 {
     if face.has(vertex.ids[k]) || !moving_boxes_meet(vertex.boxes_of(k, k), face.boxes3(), thickness) {
-        return false;
+        return f32::INFINITY;
     }
     let p = vertex.corners[k];
     let [a, b, c] = face.corners;
     let area2 = (b.start - a.start).cross(c.start - a.start).length_squared();
     let longest = longest_side2(a.start, b.start, c.start);
     if area2 <= 1e-8 * longest * longest {
-        return true; // no closest point to measure from a collapsed face: kept
+        return f32::NEG_INFINITY; // no closest point to measure from a collapsed face: kept
     }
     let (q, _) = closest_with_weights(p.start, a.start, b.start, c.start);
-    may_touch((p.start - q).length(), face.largest_motion_from(p.motion), p.slop + face.largest_slop(), thickness)
+    kept_gap((p.start - q).length(), face.largest_motion_from(p.motion), p.slop + face.largest_slop(), thickness)
 }
 
 /// Edge `k` of `e` against edge `m` of `f`, at the frame's start (never when they share a
-/// particle: the pass skips those).
+/// particle: the pass skips those): its gap if it may touch (`kept_gap`).
 #[inline]
-fn edges_may_touch(e: &AnchoredTriangle, k: usize, f: &AnchoredTriangle, m: usize, thickness: f32) -> bool {
+fn edges_gap(e: &AnchoredTriangle, k: usize, f: &AnchoredTriangle, m: usize, thickness: f32) -> f32 {
     let (ea, eb, fa, fb) = (e.ids[k], e.ids[(k + 1) % 3], f.ids[m], f.ids[(m + 1) % 3]);
     if ea == fa || ea == fb || eb == fa || eb == fb {
-        return false;
+        return f32::INFINITY;
     }
     if !moving_boxes_meet(e.boxes_of(k, (k + 1) % 3), f.boxes_of(m, (m + 1) % 3), thickness) {
-        return false;
+        return f32::INFINITY;
     }
     let (a, b) = (e.corners[k], e.corners[(k + 1) % 3]);
     let (c, d) = (f.corners[m], f.corners[(m + 1) % 3]);
@@ -339,35 +355,38 @@ fn edges_may_touch(e: &AnchoredTriangle, k: usize, f: &AnchoredTriangle, m: usiz
         .max((b.motion - c.motion).length())
         .max((b.motion - d.motion).length());
     let slops = a.slop.max(b.slop) + c.slop.max(d.slop);
-    may_touch(gap.length(), motion, slops, thickness)
+    kept_gap(gap.length(), motion, slops, thickness)
 }
 
 /// The primitive pairs of `mask` (`self_contact::pair_mask`) between triangles `a` (the
-/// earlier) and `b` that may touch within the frame.
+/// earlier) and `b` that may touch within the frame, and the smallest of their gaps (what a
+/// pass compares with the strays it measures: `listed_self_pairs_at`).
 #[inline]
-fn pairs_that_may_touch(a: &AnchoredTriangle, b: &AnchoredTriangle, mask: u32, thickness: f32) -> u32 {
+fn pairs_that_may_touch(a: &AnchoredTriangle, b: &AnchoredTriangle, mask: u32, thickness: f32) -> (u32, f32) {
     let mut kept = 0;
+    let mut smallest = f32::INFINITY;
     let mut bit = 0;
     while bit < 15 {
         if mask & (1 << bit) != 0 {
             let k = (bit % 3) as usize;
-            let touch = if bit < 3 {
-                vertex_face_may_touch(a, k, b, thickness)
+            let gap = if bit < 3 {
+                vertex_face_gap(a, k, b, thickness)
             } else if bit < 6 {
-                vertex_face_may_touch(b, k, a, thickness)
+                vertex_face_gap(b, k, a, thickness)
             } else {
-                edges_may_touch(a, ((bit - 6) / 3) as usize, b, k, thickness)
+                edges_gap(a, ((bit - 6) / 3) as usize, b, k, thickness)
             };
-            if touch {
+            if gap < f32::INFINITY {
                 kept |= 1 << bit;
+                smallest = smallest.min(gap);
             }
         }
         bit += 1;
     }
-    kept
+    (kept, smallest)
 }
 
-/// Sorted leaf `leaf`'s list for the frame (`lists[2 * SELF_LIST_CAPACITY * leaf..]`, count in
+/// Sorted leaf `leaf`'s list for the frame (`lists[LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf..]`, count in
 /// `counts[leaf]`): the later leaves that may come within the thickness in the frame
 /// (`RelativeMotion`), with the primitive pairs that may touch, found by one walk of the frame's
 /// tree (built over the start boxes, `motions` its motion boxes: internal nodes', leaves').
@@ -405,7 +424,7 @@ pub fn list_self_pairs_at(
     };
     let mut walk = PairWalk::new(leaf, self_params.leaf_count, (lo, hi));
     let mut found = [0u32; WALK_BATCH];
-    let base = 2 * (SELF_LIST_CAPACITY * leaf) as usize;
+    let base = (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf) as usize;
     let mut count = 0;
     let mut full = false;
     while !walk.done() && !full {
@@ -415,13 +434,15 @@ pub fn list_self_pairs_at(
             let other = found[j];
             let theirs = sorted[other as usize];
             let mask = pair_mask(mine_owned, owned[theirs.w as usize]);
-            let kept = pairs_that_may_touch(&mine, &AnchoredTriangle::load(theirs, anchors), mask, thickness);
+            let (kept, gap) = pairs_that_may_touch(&mine, &AnchoredTriangle::load(theirs, anchors), mask, thickness);
             if kept != 0 {
                 if count == SELF_LIST_CAPACITY {
                     full = true;
                 } else {
-                    lists[base + 2 * count as usize] = other;
-                    lists[base + 2 * count as usize + 1] = kept;
+                    let entry = base + (LIST_ENTRY_WORDS * count) as usize;
+                    lists[entry] = other;
+                    lists[entry + 1] = kept;
+                    lists[entry + 2] = gap.to_bits();
                     count += 1;
                 }
             }
@@ -443,7 +464,9 @@ pub fn count_full_list(leaf: u32, counts: &[u32], health: &mut Health) {
 
 /// Whether triangle `t` left its predicted region in the pass spanning fractions `from..to` of
 /// the frame: a corner more than its slop from its predicted path at the pass's start
-/// (`x_prev`) or end (`x`).
+/// (`x_prev`) or end (`x`); and the farthest its corners strayed from their paths there (so,
+/// as they move linearly over the pass, anywhere in it: what `listed_self_pairs_at` compares
+/// with a listed pair's gap).
 #[inline]
 pub fn escaped_at(
     t: u32,
@@ -451,19 +474,20 @@ pub fn escaped_at(
     anchors: &[Vec4],
     indices: &[u32],
     span: &SelfPassPush,
-) -> bool {
+) -> (bool, f32) {
     let i = 3 * t as usize;
     let mut escaped = false;
+    let mut stray = 0.0f32;
     let mut k = 0;
     while k < 3 {
         let p = indices[i + k];
         let anchor = Anchor::load(p, anchors);
-        escaped = escaped
-            || !anchor.holds(x_prev[p as usize].xyz(), span.from)
-            || !anchor.holds(x[p as usize].xyz(), span.to);
+        let (then, now) = (x_prev[p as usize].xyz(), x[p as usize].xyz());
+        escaped = escaped || !anchor.holds(then, span.from) || !anchor.holds(now, span.to);
+        stray = stray.max(anchor.stray(then, span.from)).max(anchor.stray(now, span.to));
         k += 1;
     }
-    escaped
+    (escaped, stray)
 }
 
 /// The box of cloth triangle `t` (corners `indices[3t..3t + 3]`) over the pass: at the
@@ -568,7 +592,8 @@ pub fn listed_self_pairs_at(
     (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
     owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
-    (escaped, lists, counts): (&[u32], &[u32], &[u32]),
+    (escaped, strays): (&[u32], &[f32]),
+    (lists, counts): (&[u32], &[u32]),
     out: PairResponse,
 ) {
     let count = counts[leaf as usize];
@@ -580,14 +605,19 @@ pub fn listed_self_pairs_at(
         pairs.walk_after((nodes, aabbs, leaf_bounds), self_params.leaf_count);
         return;
     }
-    let base = 2 * (SELF_LIST_CAPACITY * leaf) as usize;
+    let base = (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf) as usize;
+    let my_stray = strays[sorted[leaf as usize].w as usize];
     let mut j = 0;
     while j < count as usize {
-        let other = lists[base + 2 * j];
-        let ids = sorted[other as usize];
-        if escaped[ids.w as usize] == 0 {
+        let entry = base + LIST_ENTRY_WORDS as usize * j;
+        let ids = sorted[lists[entry] as usize];
+        // The pair's gap less how far both strayed in this pass: still apart by the thickness
+        // in all of the pass (the list's bound with the strays for the slops), nothing to test.
+        let near =
+            may_touch(f32::from_bits(lists[entry + 2]), my_stray + strays[ids.w as usize], self_params.thickness);
+        if escaped[ids.w as usize] == 0 && near {
             let theirs = Corners::load(ids, (x, x_prev));
-            triangle_pair(&pairs.mine, &theirs, lists[base + 2 * j + 1], &mut pairs.out);
+            triangle_pair(&pairs.mine, &theirs, lists[entry + 1], &mut pairs.out);
         }
         j += 1;
     }
@@ -611,7 +641,7 @@ pub fn cloth_triangle_starts(
 
 /// Each triangle's box over the pass (push: the pass's span of the frame), written straight
 /// into the tree's leaf order (`leaf_of`) for the refit, and, in the pass's last run, whether it
-/// escaped its region and the pass's walkers.
+/// escaped its region, how far it strayed (`escaped_at`) and the pass's walkers.
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(256)))]
 pub fn cloth_triangle_bounds(
@@ -625,8 +655,9 @@ pub fn cloth_triangle_bounds(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_of: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] leaf_bounds: &mut [Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] escaped: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] walkers: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] walk_args: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] strays: &mut [f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] walkers: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] walk_args: &mut DispatchArgs,
 ) {
     if id.x >= self_params.leaf_count {
         return;
@@ -636,8 +667,9 @@ pub fn cloth_triangle_bounds(
     if span.find_walkers == 0 {
         return;
     }
-    let out = escaped_at(id.x, (x, x_prev), anchors, indices, span);
+    let (out, stray) = escaped_at(id.x, (x, x_prev), anchors, indices, span);
     escaped[id.x as usize] = out as u32;
+    strays[id.x as usize] = stray;
     if out {
         add_walker(leaf, walkers, walk_args);
     }
@@ -699,10 +731,11 @@ pub fn listed_self_pairs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] escaped: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] lists: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] counts: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] delta: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] velocity_changes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] strays: &[f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] lists: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] counts: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] velocity_changes: &mut [u32],
 ) {
     if id.x >= self_params.leaf_count {
         return;
@@ -710,8 +743,7 @@ pub fn listed_self_pairs(
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     let out =
         PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
-    let tables = (escaped, lists, counts);
-    listed_self_pairs_at(id.x, self_params, tree, owned, (x, x_prev), tables, out);
+    listed_self_pairs_at(id.x, self_params, tree, owned, (x, x_prev), (escaped, strays), (lists, counts), out);
 }
 
 /// Every triangle's pairs through the tree (a cloth too fine for lists at its thickness).
