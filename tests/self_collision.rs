@@ -117,7 +117,7 @@ fn pair_lists_and_walks_find_the_pairs_the_tree_walk_finds() {
 fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
     use drape::cpu::CpuExecutor;
     use drape::graph::Resources;
-    use drape::programs::self_contact::{SelfContactBuffers, SelfContactCloth};
+    use drape::programs::self_contact::{SELF_TREE_REBUILD_FRAMES, SelfContactBuffers, SelfContactCloth};
     use drape_types::{Aabb, BvhNode, Health, SimParams};
 
     let (thickness, friction) = (0.005, 0.5);
@@ -144,11 +144,14 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
         ..SimParams::default()
     };
     let (mut listed, mut walked) = (0u64, 0u64);
+    // One executor for all frames: the tree is built every SELF_TREE_REBUILD_FRAMES frames and
+    // refit over the frame's start boxes in between, as a solver does.
+    let mut cpu = CpuExecutor::new(&resources);
     for frame in 1..=60 {
         let (before, v_before) = (sim.positions(CLOTH).unwrap(), sim.velocities(CLOTH).unwrap());
         sim.step().unwrap();
         let (x, v) = (sim.positions(CLOTH).unwrap(), sim.velocities(CLOTH).unwrap());
-        let mut cpu = CpuExecutor::new(&resources);
+        let rebuild = (frame - 1) % SELF_TREE_REBUILD_FRAMES == 0;
         cpu.upload(own.params, &[params]).unwrap();
         cpu.upload(own.indices, cloth.triangles.as_flattened()).unwrap();
         cpu.upload(own.health, &[Health::default()]).unwrap();
@@ -163,7 +166,7 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
         };
         cpu.upload(own.v, &predicted).unwrap();
         let mut steps = vec![];
-        s.frame_start_steps(&own, substeps, true, &mut steps);
+        s.frame_start_steps(&own, substeps, (true, rebuild), &mut steps);
         cpu.run(&steps).unwrap();
         // One pass over the whole frame, to where the solver took the cloth.
         cpu.upload(own.x, &x).unwrap();

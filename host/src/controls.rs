@@ -113,6 +113,9 @@ pub(crate) struct ClothControl {
     params_dirty: bool,
     /// The self-collision's thickness or friction changed since the GPU last had them.
     self_dirty: bool,
+    /// Frames the self-collision tree has been refit since it was last built (`None`: not
+    /// built yet), and whether the frame about to run builds it (`SelfTreeSchedule`).
+    self_tree: SelfTreeSchedule,
     pins: Vec<(u32, PinChange)>,
 }
 
@@ -181,6 +184,7 @@ impl Controls {
                 motion: ClothMotion::new(),
                 params_dirty: false,
                 self_dirty: false,
+                self_tree: SelfTreeSchedule::new(),
                 pins: Vec::new(),
             })
             .collect();
@@ -211,7 +215,8 @@ impl Controls {
                 // A cloth in contact with itself iterates its contacts every substep.
                 let passes = (!c.motion.self_contact).then_some(c.motion.contact_substeps);
                 let self_lists = c.self_collision.is_some_and(|t| lists_pay(c.shortest_height, t));
-                FramePlan { self_lists, ..self.settings.plan(&c.params, &c.stability, c.motion.asleep, passes) }
+                let plan = self.settings.plan(&c.params, &c.stability, c.motion.asleep, passes);
+                FramePlan { self_lists, self_rebuild: c.self_tree.rebuild, ..plan }
             })
             .collect()
     }
@@ -492,6 +497,9 @@ impl Controls {
     /// everything published.
     pub fn begin_frame(&mut self, program: &SolverProgram) -> Vec<Step> {
         self.plan_motion();
+        for c in self.cloths.iter_mut().filter(|c| c.self_collision.is_some() && !c.motion.asleep) {
+            self.replan |= c.self_tree.next_frame();
+        }
         let mut steps = Vec::new();
         for (c, buffers) in self.cloths.iter_mut().zip(&program.cloths) {
             if std::mem::take(&mut c.params_dirty) {
@@ -800,3 +808,54 @@ macro_rules! runtime_setters {
     };
 }
 pub(crate) use runtime_setters;
+
+/// When a self-colliding cloth's tree is built and when refit.
+#[derive(Copy, Clone, Debug)]
+pub(crate) struct SelfTreeSchedule {
+    /// Frames refit since the last build (`None`: never built).
+    age: Option<u32>,
+    /// The frame about to run builds the tree.
+    pub rebuild: bool,
+}
+
+impl SelfTreeSchedule {
+    pub fn new() -> Self {
+        SelfTreeSchedule { age: None, rebuild: true }
+    }
+
+    /// Schedules the frame about to run (one that runs: not asleep); returns whether its plan
+    /// changed (build instead of refit, or back).
+    pub fn next_frame(&mut self) -> bool {
+        let rebuild = self.age.is_none_or(|age| age + 1 >= crate::programs::self_contact::SELF_TREE_REBUILD_FRAMES);
+        self.age = Some(if rebuild { 0 } else { self.age.map_or(0, |age| age + 1) });
+        std::mem::replace(&mut self.rebuild, rebuild) != rebuild
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::SelfTreeSchedule;
+    use crate::programs::self_contact::SELF_TREE_REBUILD_FRAMES;
+
+    /// The first frame builds the tree (the constructor's plan already says so: no replan),
+    /// the next `SELF_TREE_REBUILD_FRAMES - 1` refit it, then it is built again; the plan
+    /// changes (a replan) exactly where build and refit alternate.
+    #[test]
+    fn the_self_tree_is_built_every_few_frames_and_refit_between() {
+        let mut schedule = SelfTreeSchedule::new();
+        assert!(schedule.rebuild, "the first frame's plan builds");
+        let mut builds = Vec::new();
+        let mut replans = Vec::new();
+        for frame in 0..3 * SELF_TREE_REBUILD_FRAMES {
+            if schedule.next_frame() {
+                replans.push(frame);
+            }
+            if schedule.rebuild {
+                builds.push(frame);
+            }
+        }
+        let n = SELF_TREE_REBUILD_FRAMES;
+        assert_eq!(builds, vec![0, n, 2 * n]);
+        assert_eq!(replans, vec![1, n, n + 1, 2 * n, 2 * n + 1]);
+    }
+}

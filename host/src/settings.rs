@@ -206,6 +206,7 @@ impl SimSettings {
             asleep,
             self_passes,
             self_lists: false,
+            self_rebuild: true,
         }
     }
 

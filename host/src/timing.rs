@@ -15,6 +15,8 @@ pub struct TimingReport {
     /// Per label: dispatches per frame (they vary when the substeps or passes do).
     counts: Vec<Vec<f64>>,
     wall_ms: Vec<f64>,
+    /// Per frame: its dispatches (with timestamps).
+    dispatches: Vec<f64>,
     gpu_total: Vec<f64>,
     /// Per frame: first pass's start to last pass's end (µs), for frames that had timestamps.
     gpu_span: Vec<f64>,
@@ -35,7 +37,11 @@ pub fn median(values: &[f64]) -> f64 {
 impl TimingReport {
     /// Adds one frame: its GPU pass timings and its wall-clock time (submit to results).
     pub fn add(&mut self, frame: &FrameTimings, wall: Duration) {
-        for (label, count, micros) in frame.by_label() {
+        let by_label = frame.by_label();
+        if !by_label.is_empty() {
+            self.dispatches.push(by_label.iter().map(|(_, count, _)| f64::from(*count)).sum());
+        }
+        for (label, count, micros) in by_label {
             let slot = match self.labels.iter().position(|l| *l == label) {
                 Some(i) => i,
                 None => {
@@ -86,7 +92,16 @@ impl TimingReport {
     pub fn min_span_micros(&self) -> f64 {
         self.gpu_span.iter().copied().reduce(f64::min).unwrap_or(0.0)
     }
-    /// (label, median dispatches per frame, median µs per frame) for each pass label.
+    /// Frames that ran pass `label` (a tree's rebuild runs in some frames only).
+    pub fn frames_running(&self, label: &str) -> usize {
+        self.labels.iter().position(|l| *l == label).map_or(0, |i| self.samples[i].len())
+    }
+    /// Median dispatches per frame.
+    pub fn median_dispatches(&self) -> f64 {
+        median(&self.dispatches)
+    }
+    /// (label, median dispatches per frame, median µs per frame) for each pass label, over the
+    /// frames that ran it (`frames_running`).
     pub fn rows(&self) -> Vec<(&'static str, u32, f64)> {
         self.labels
             .iter()
@@ -104,16 +119,21 @@ impl TimingReport {
         let mut out = String::new();
         let _ = writeln!(out, "{:<34} {:>10} {:>14} {:>14}", "pass", "dispatches", "GPU µs/frame", "µs/dispatch");
         for (label, n, micros) in self.rows() {
-            let _ = writeln!(out, "{label:<34} {n:>10} {micros:>14.1} {:>14.1}", micros / n.max(1) as f64);
+            let _ = write!(out, "{label:<34} {n:>10} {micros:>14.1} {:>14.1}", micros / n.max(1) as f64);
+            let ran = self.frames_running(label);
+            if ran < self.frames() {
+                let _ = write!(out, "   in {ran} of {} frames", self.frames());
+            }
+            let _ = writeln!(out);
         }
         for label in &self.skipped {
             let _ = writeln!(out, "{label:<34} {:>10} {:>14} {:>14}", 0, "skipped", "-");
         }
         let _ = writeln!(
             out,
-            "{:<34} {:>10} {:>14.1}\n{:<34} {:>10} {:>14.1}\nwall time per frame over {} frames: median {:.3} ms, min {:.3} ms",
+            "{:<34} {:>10.0} {:>14.1}\n{:<34} {:>10} {:>14.1}\nwall time per frame over {} frames: median {:.3} ms, min {:.3} ms",
             "total GPU (sum of passes)",
-            self.rows().iter().map(|r| r.1).sum::<u32>(),
+            self.median_dispatches(),
             self.median_gpu_micros(),
             "GPU frame, first start to last end",
             "",

@@ -200,7 +200,14 @@ pub(crate) fn timings_json(report: &TimingReport, timestamps: bool) -> Value {
     let passes: Vec<Value> = report
         .rows()
         .into_iter()
-        .map(|(label, dispatches, micros)| json!({ "pass": label, "dispatches": dispatches, "gpu_us_per_frame": micros }))
+        .map(|(label, dispatches, micros)| {
+            json!({
+                "pass": label,
+                "dispatches": dispatches,
+                "gpu_us_per_frame": micros,
+                "frames_running": report.frames_running(label),
+            })
+        })
         .collect();
     json!({
         "awake_frames": report.frames(),

@@ -175,6 +175,9 @@ pub struct FramePlan {
     /// Self-collision tests the frame's pair lists (`self_contact::lists_pay`), or walks the
     /// tree for every triangle at every pass.
     pub self_lists: bool,
+    /// The frame builds the self-collision tree anew (else it refits the last one:
+    /// `self_contact::SELF_TREE_REBUILD_FRAMES`).
+    pub self_rebuild: bool,
 }
 
 /// The timing table's line of the frame's last pass with vertex normals on.
@@ -197,7 +200,8 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
         contact.frame_start_steps(cloth, collider, plan.substeps, &mut steps);
     }
     if let Some(s) = &cloth.self_contact {
-        s.frame_start_steps(&cloth.self_contact_cloth(), plan.substeps, plan.self_lists, &mut steps);
+        let tree = (plan.self_lists, plan.self_rebuild);
+        s.frame_start_steps(&cloth.self_contact_cloth(), plan.substeps, tree, &mut steps);
     }
     // The substep after the last self-collision pass: where the next pass's sweep begins.
     let mut pass_from = 0;
