@@ -103,7 +103,10 @@ fn the_tree_finds_the_pairs_the_brute_force_loop_finds() {
 /// pile's frames, each frame one pass from its start to its end, the summed corrections and
 /// friction are equal word for word. Predicted from the velocities at the frame's start (and
 /// gravity) many triangles leave their region and walk; predicted from the motion the frame
-/// made (no gravity) none does, and the lists alone must hold every pair.
+/// made (no gravity) none does, and the lists alone must hold every pair. In every frame each
+/// list also equals the bound's choice over every later leaf without the tree
+/// (`assert_lists_equal_brute_force`); the tree is built every `SELF_TREE_REBUILD_FRAMES` frames
+/// and refit between, as a solver does.
 #[test]
 fn pair_lists_and_walks_find_the_pairs_the_tree_walk_finds() {
     let exact = lists_and_walks_against_the_tree_walk(true);
@@ -168,6 +171,7 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
         let mut steps = vec![];
         s.frame_start_steps(&own, substeps, (true, rebuild), &mut steps);
         cpu.run(&steps).unwrap();
+        assert_lists_equal_brute_force(&cpu, &s, (t, n), (&owned, thickness), frame);
         // One pass over the whole frame, to where the solver took the cloth.
         cpu.upload(own.x, &x).unwrap();
         cpu.upload(own.v, &v).unwrap();
@@ -198,6 +202,49 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
     }
     println!("exact prediction {exact_prediction}: triangle-passes {listed} from lists, {walked} walked");
     (listed, walked)
+}
+
+/// Every leaf's list (the frame's tree over start boxes and motion boxes, walked with the
+/// relative motion) holds exactly the later leaves, primitive pairs and smallest gaps that the
+/// bound keeps over every later leaf without the tree (`listed_pair_bound`); overflowed lists
+/// (or triangles too small for one) are left out. Returns nothing; panics where they differ.
+fn assert_lists_equal_brute_force(
+    cpu: &drape::cpu::CpuExecutor,
+    s: &drape::programs::self_contact::SelfContactBuffers,
+    (t, n): (u32, u32),
+    (owned, thickness): (&[u32], f32),
+    frame: u32,
+) {
+    use drape_kernels::self_pairs::{
+        ANCHOR_WORDS, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, listed_pair_bound,
+    };
+    let sorted: Vec<glam::UVec4> = cpu.read(s.sorted, t as usize).unwrap();
+    let anchors: Vec<Vec4> = cpu.read(s.anchors, (ANCHOR_WORDS * n) as usize).unwrap();
+    let counts: Vec<u32> = cpu.read(s.counts, t as usize).unwrap();
+    let lists: Vec<u32> = cpu.read(s.lists, (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * t) as usize).unwrap();
+    let mut compared = 0;
+    for leaf in 0..t {
+        if counts[leaf as usize] == LIST_OVERFLOWED {
+            continue;
+        }
+        let base = (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf) as usize;
+        let mut listed: Vec<(u32, u32, u32)> = (0..counts[leaf as usize] as usize)
+            .map(|j| {
+                let e = base + LIST_ENTRY_WORDS as usize * j;
+                (lists[e], lists[e + 1], lists[e + 2])
+            })
+            .collect();
+        listed.sort_unstable();
+        let brute: Vec<(u32, u32, u32)> = (leaf + 1..t)
+            .filter_map(|other| {
+                let (kept, gap) = listed_pair_bound((leaf, other), thickness, (&sorted, owned, &anchors));
+                (kept != 0).then_some((other, kept, gap.to_bits()))
+            })
+            .collect();
+        assert_eq!(listed, brute, "frame {frame}, leaf {leaf}: the list against every later leaf");
+        compared += 1;
+    }
+    assert!(compared > t / 2, "frame {frame}: only {compared} of {t} lists compared");
 }
 
 /// The small pile with self-collision (120 frames, folding onto itself on the ground), with

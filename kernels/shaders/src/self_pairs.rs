@@ -386,6 +386,20 @@ fn pairs_that_may_touch(a: &AnchoredTriangle, b: &AnchoredTriangle, mask: u32, t
     (kept, smallest)
 }
 
+/// What a list keeps of sorted leaves `leaf` and `other` (`leaf` < `other`): the primitive pairs
+/// that may touch within the frame and their smallest gap (`pairs_that_may_touch`; no mask
+/// bits: none), without the tree. The baseline a list's walk must equal.
+pub fn listed_pair_bound(
+    (leaf, other): (u32, u32),
+    thickness: f32,
+    (sorted, owned, anchors): (&[UVec4], &[u32], &[Vec4]),
+) -> (u32, f32) {
+    let (mine, theirs) = (sorted[leaf as usize], sorted[other as usize]);
+    let mask = pair_mask(owned[mine.w as usize], owned[theirs.w as usize]);
+    let (a, b) = (AnchoredTriangle::load(mine, anchors), AnchoredTriangle::load(theirs, anchors));
+    pairs_that_may_touch(&a, &b, mask, thickness)
+}
+
 /// Sorted leaf `leaf`'s list for the frame (`lists[LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf..]`, count in
 /// `counts[leaf]`): the later leaves that may come within the thickness in the frame
 /// (`RelativeMotion`), with the primitive pairs that may touch, found by one walk of the frame's
