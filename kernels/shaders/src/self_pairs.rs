@@ -24,7 +24,7 @@
 //! corners' predicted motions.
 
 use crate::atomics;
-use crate::lbvh::{PairBoxes, PairWalk, WALK_BATCH, box_meets};
+use crate::lbvh::{PairBoxes, PairWalk, WALK_BATCH};
 use crate::self_contact::{
     Corners, LeafVisitor, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights,
     longest_side2, pair_mask, self_triangle_contact_at, triangle_pair, walk_in_batches,
@@ -220,16 +220,8 @@ impl AnchoredTriangle {
 #[inline]
 pub fn triangle_start_at(t: u32, anchors: &[Vec4], indices: &[u32]) -> Aabb {
     let i = 3 * t as usize;
-    let mut lo = Vec3::splat(f32::INFINITY);
-    let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    let mut k = 0;
-    while k < 3 {
-        let corner = Anchor::load(indices[i + k], anchors);
-        lo = lo.min(corner.start - Vec3::splat(corner.slop));
-        hi = hi.max(corner.start + Vec3::splat(corner.slop));
-        k += 1;
-    }
-    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
+    let ids = UVec4::new(indices[i], indices[i + 1], indices[i + 2], t);
+    aabb_of(AnchoredTriangle::load(ids, anchors).boxes3().0)
 }
 
 /// The box of the predicted motions over the frame of triangle `ids`' corners (xyz; gravity's
@@ -237,9 +229,12 @@ pub fn triangle_start_at(t: u32, anchors: &[Vec4], indices: &[u32]) -> Aabb {
 /// weighted mean of them.
 #[inline]
 pub fn triangle_motion_at(ids: UVec4, anchors: &[Vec4]) -> Aabb {
-    let motion = |p: u32| anchors[(ANCHOR_WORDS * p + 1) as usize].xyz();
-    let (a, b, c) = (motion(ids.x), motion(ids.y), motion(ids.z));
-    Aabb { min: a.min(b).min(c).extend(0.0), max: a.max(b).max(c).extend(0.0) }
+    aabb_of(AnchoredTriangle::load(ids, anchors).boxes3().1)
+}
+
+#[inline]
+fn aabb_of((lo, hi): (Vec3, Vec3)) -> Aabb {
+    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
 }
 
 /// The frame's tree as a list's walk tests it: a subtree may hold a triangle that comes within
@@ -258,21 +253,18 @@ struct RelativeMotion<'a> {
     /// Leaves' start boxes and motion boxes (tree order).
     leaf_bounds: &'a [Aabb],
     leaf_motions: &'a [Aabb],
-    /// The query's start box grown by the thickness, and its motion box.
-    lo: Vec3,
-    hi: Vec3,
-    motion_lo: Vec3,
-    motion_hi: Vec3,
+    /// The query triangle's start box and motion box, and the thickness.
+    query: MovingBoxes,
+    thickness: f32,
 }
 
 impl RelativeMotion<'_> {
-    /// Whether a start box `start` whose motions lie in `motion` meets the query.
+    /// Whether a start box `start` whose motions lie in `motion` meets the query (the test a
+    /// list's primitive pairs start with, on the triangles' boxes).
     #[inline]
     fn meets(&self, start: &Aabb, motion: &Aabb) -> bool {
-        // The differences t (theirs - mine) over t in [0, 1] lie in this box.
-        let moved_lo = (motion.min.xyz() - self.motion_hi).min(Vec3::ZERO);
-        let moved_hi = (motion.max.xyz() - self.motion_lo).max(Vec3::ZERO);
-        box_meets(start, self.lo - moved_hi, self.hi - moved_lo)
+        let theirs = ((start.min.xyz(), start.max.xyz()), (motion.min.xyz(), motion.max.xyz()));
+        moving_boxes_meet(self.query, theirs, self.thickness)
     }
 }
 
@@ -424,19 +416,10 @@ pub fn list_self_pairs_at(
     }
     let mine_owned = owned[ids.w as usize];
     let (start, motion) = (&leaf_bounds[leaf as usize], &leaf_motions[leaf as usize]);
-    let reach = Vec3::splat(thickness * REACH_MARGIN + REACH_ABSOLUTE);
-    let (lo, hi) = (start.min.xyz() - reach, start.max.xyz() + reach);
-    let boxes = RelativeMotion {
-        aabbs,
-        motion_aabbs,
-        leaf_bounds,
-        leaf_motions,
-        lo,
-        hi,
-        motion_lo: motion.min.xyz(),
-        motion_hi: motion.max.xyz(),
-    };
-    let mut walk = PairWalk::new(leaf, self_params.leaf_count, (lo, hi));
+    let query = ((start.min.xyz(), start.max.xyz()), (motion.min.xyz(), motion.max.xyz()));
+    let boxes = RelativeMotion { aabbs, motion_aabbs, leaf_bounds, leaf_motions, query, thickness };
+    // The walk's own query box goes unused: `boxes` decides (`PairWalk::next_batch_in`).
+    let mut walk = PairWalk::new(leaf, self_params.leaf_count, query.0);
     let mut found = [0u32; WALK_BATCH];
     let base = (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf) as usize;
     let mut count = 0;
