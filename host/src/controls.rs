@@ -826,8 +826,12 @@ impl SelfTreeSchedule {
     /// Schedules the frame about to run (one that runs: not asleep); returns whether its plan
     /// changed (build instead of refit, or back).
     pub fn next_frame(&mut self) -> bool {
-        let rebuild = self.age.is_none_or(|age| age + 1 >= crate::programs::self_contact::SELF_TREE_REBUILD_FRAMES);
-        self.age = Some(if rebuild { 0 } else { self.age.map_or(0, |age| age + 1) });
+        let age = match self.age {
+            Some(age) if age + 1 < crate::programs::self_contact::SELF_TREE_REBUILD_FRAMES => age + 1,
+            _ => 0,
+        };
+        self.age = Some(age);
+        let rebuild = age == 0;
         std::mem::replace(&mut self.rebuild, rebuild) != rebuild
     }
 }
