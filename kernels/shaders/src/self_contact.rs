@@ -17,7 +17,8 @@
 //! do not run masked inside the walk's loop on lockstep lanes), and each pair loads the two
 //! triangles' corners once; every test first checks its primitives' swept boxes;
 //! - **collider features against the cloth**: every collider triangle, moving (and deforming)
-//!   with the collider, walks the cloth's tree with its swept box; the vertices it owns are
+//!   with the collider, walks the cloth's tree with its swept box (one much larger than the
+//!   cloth's edges, once per sharp feature with that feature's box); the vertices it owns are
 //!   tested against the cloth triangles' faces and the edges it owns against their edges (each
 //!   collider vertex and edge belongs to one of its triangles, like the cloth's), so neither a
 //!   spike's tip nor a ridge can pass through a cloth cell between particles (the collider does
@@ -898,6 +899,8 @@ pub fn self_triangle_contact_brute_force_at(
 struct ColliderFeaturePairs<'a> {
     /// The collider triangle in the world at the pass's start and end (weights 0).
     feature: Corners,
+    /// The features this walk tests: owned, sharp enough for the cloth, and (when the triangle
+    /// walks once per feature) the walk's own.
     owned: u32,
     /// How far the surface folds at each of its edges (`fold`) and at each corner (the sharper
     /// of the two edges at it: a spike's tip folds every edge around it, a smooth body's
@@ -1065,19 +1068,21 @@ pub fn collider_feature_contact_at(
         edge_fold((2, feature.z), corners, mesh, motion),
     );
     let vertex_folds = folds.max(Vec3::new(folds.z, folds.x, folds.y)); // corner k: edges k and k + 2
-    // No feature sharp enough for the cloth's longest edge (at the frame's start, grown by
-    // `EDGE_GROWTH2`): nothing this triangle could test (most of a smooth body).
+    // The features sharp enough for the cloth's longest edge (at the frame's start, grown by
+    // `EDGE_GROWTH2`); none (most of a smooth body): nothing this triangle could test.
     let longest2 = self_params.scene_max.w * EDGE_GROWTH2;
-    let mut any = false;
+    let mut sharp = 0;
     let mut k = 0;
     while k < 3 {
-        let edge = owned & (1 << k) != 0 && sharp_for(component_f(folds, k), longest2, thickness);
-        let vertex =
-            owned & (VERTEX_OWNED_BIT << k) != 0 && sharp_for(component_f(vertex_folds, k), longest2, thickness);
-        any = any || edge || vertex;
+        if owned & (1 << k) != 0 && sharp_for(component_f(folds, k), longest2, thickness) {
+            sharp |= 1 << k;
+        }
+        if owned & (VERTEX_OWNED_BIT << k) != 0 && sharp_for(component_f(vertex_folds, k), longest2, thickness) {
+            sharp |= VERTEX_OWNED_BIT << k;
+        }
         k += 1;
     }
-    if !any {
+    if sharp == 0 {
         return false;
     }
     // Each corner's velocity over the pass (the pose's motion and the mesh's deformation).
@@ -1085,7 +1090,7 @@ pub fn collider_feature_contact_at(
     let velocities = [(a.1 - a.0) * per_second, (b.1 - b.0) * per_second, (c.1 - c.0) * per_second];
     let mut pairs = ColliderFeaturePairs {
         feature: moving,
-        owned,
+        owned: sharp,
         folds,
         vertex_folds,
         velocities,
@@ -1096,8 +1101,48 @@ pub fn collider_feature_contact_at(
         out,
         pushes,
     };
-    walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo, hi), &mut pairs)
+    // A triangle much larger than the cloth's edges (a ground plane, a box's side) would reach
+    // every cloth triangle over it, though its features (its rim, its corners) lie far from
+    // most: then each sharp feature walks the tree with its own box (a 6 m ground's one walk
+    // tested the whole pile, 2048 triangles, in one thread). Otherwise one walk tests them all.
+    let one_by_one = spans_many_cloth_edges(hi - lo, longest2);
+    let mut overflowed = false;
+    let mut feature: u32 = 0;
+    while feature < 6 {
+        let (bit, (k, m)) = if feature < 3 {
+            (1 << feature, (feature, (feature + 1) % 3))
+        } else {
+            (VERTEX_OWNED_BIT << (feature - 3), (feature - 3, feature - 3))
+        };
+        let (walk, query) = if one_by_one {
+            let (flo, fhi) = pairs.feature.swept_box(k as usize, m as usize);
+            (bit, (flo - reach, fhi + reach))
+        } else {
+            (sharp, (lo, hi))
+        };
+        if sharp & walk != 0 {
+            pairs.owned = walk;
+            let tree = (nodes, aabbs, leaf_bounds);
+            overflowed |= walk_overlapping(tree, self_params.leaf_count, query, &mut pairs);
+        }
+        feature = if one_by_one { feature + 1 } else { 6 };
+    }
+    overflowed
 }
+
+/// Whether a collider triangle whose swept box (grown by the thickness) has `extent` spans
+/// many cloth edges (`cloth_edge2`, the longest squared): then its features walk the cloth's
+/// tree one by one, each with its own box (`collider_feature_contact_at`).
+#[inline]
+pub fn spans_many_cloth_edges(extent: Vec3, cloth_edge2: f32) -> bool {
+    let longest = extent.max_element();
+    longest * longest > FEATURE_WALK_EDGES * FEATURE_WALK_EDGES * cloth_edge2
+}
+
+/// Cloth edges a collider triangle must span before its features walk one by one: a walk per
+/// feature repeats the loads of the cloth triangles near two features (a corner and its edges),
+/// which on a dense collider cost more than the few extra triangles one walk tests.
+pub const FEATURE_WALK_EDGES: f32 = 4.0;
 
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
