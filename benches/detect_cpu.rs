@@ -77,6 +77,36 @@ fn main() {
                     );
                 }
             });
+            // Per particle, once more: a GPU dispatch lasts as long as its slowest thread.
+            let mut per_particle: Vec<(f64, u32)> = (0..n as u32)
+                .map(|i| {
+                    let start = Instant::now();
+                    detect_at::<Triangles>(
+                        i,
+                        &c,
+                        &step,
+                        &tree.nodes,
+                        &tree.aabbs,
+                        &tree.triangles,
+                        &x,
+                        &x_prev,
+                        &mut contacts,
+                    );
+                    (start.elapsed().as_secs_f64() * 1e6, i)
+                })
+                .collect();
+            per_particle.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let (slowest, who) = per_particle[n - 1];
+            let motion = (x[who as usize] - x_prev[who as usize]).truncate().length();
+            println!(
+                "{name} frame {target:>3}: walk per particle: median {:.2} us, p99 {:.2} us, slowest {slowest:.2} us \
+                 (particle {who}, moved {:.1} mm; next {:.2} / {:.2} us)",
+                per_particle[n / 2].0,
+                per_particle[n * 99 / 100].0,
+                motion * 1e3,
+                per_particle[n - 2].0,
+                per_particle[n - 3].0,
+            );
             let mut queries = vec![ContactQuery::default(); n];
             let mut lists = vec![0u32; n * MAX_CANDIDATES as usize];
             let broad = fastest(|| {
