@@ -54,12 +54,17 @@ pub fn walk<Q: TreeQuery>(
     while top > 0 && !stopped {
         top -= 1;
         let node = nodes[stack[top] as usize];
+        // Both children's boxes are loaded before either is tested (a leaf's slot loads the
+        // root's box, unused): on a GPU a walk is a chain of dependent loads, and each level is
+        // then one round of box loads after the node's, not two.
+        let left_box = aabbs[internal_or_root(node.left)];
+        let right_box = aabbs[internal_or_root(node.right)];
         let mut side = 0;
         while side < 2 && !stopped {
             let child = if side == 0 { node.left } else { node.right };
             if child & LEAF_BIT != 0 {
                 stopped = query.leaf(child & !LEAF_BIT, &mut found);
-            } else if query.enters(&aabbs[child as usize]) {
+            } else if query.enters(&if side == 0 { left_box } else { right_box }) {
                 if top == STACK_SIZE {
                     overflowed = true;
                 } else {
@@ -71,6 +76,12 @@ pub fn walk<Q: TreeQuery>(
         }
     }
     (found, overflowed)
+}
+
+/// The index in the internal nodes' boxes of `child`: its own, or the root's for a leaf.
+#[inline]
+fn internal_or_root(child: u32) -> usize {
+    if child & LEAF_BIT != 0 { 0 } else { child as usize }
 }
 
 /// Leaves a `PairWalk` hands over at a time.
@@ -153,13 +164,17 @@ impl PairWalk {
                 continue;
             }
             let node = nodes[entry as usize];
+            // Both children's boxes loaded before either is tested, as in `walk`.
+            let right_boxes = boxes.node_boxes(internal_or_root(node.right) as u32);
+            let left_boxes = boxes.node_boxes(internal_or_root(node.left) as u32);
             // Right first, so the left child is popped first (tree order).
             let mut side = 0;
             while side < 2 {
                 let child = if side == 0 { node.right } else { node.left };
                 let index = child & !LEAF_BIT;
                 let later = !self.after_only || side == 0 || index > self.first;
-                if later && (child & LEAF_BIT != 0 || boxes.node_meets(child)) {
+                let child_boxes = if side == 0 { right_boxes } else { left_boxes };
+                if later && (child & LEAF_BIT != 0 || boxes.node_meets(&child_boxes)) {
                     if self.top == STACK_SIZE {
                         self.overflowed = true;
                     } else {
@@ -177,8 +192,12 @@ impl PairWalk {
 /// Which subtrees and leaves a `PairWalk` takes. Passed by value (slices and plain values), so
 /// no local holding pointers is kept in memory (see `TreeQuery`).
 pub trait PairBoxes: Copy {
-    /// Whether the subtree under internal node `node` can hold a leaf the walk wants.
-    fn node_meets(&self, node: u32) -> bool;
+    /// What the walk loads of an internal node to test it (plain values).
+    type NodeBoxes: Copy;
+    /// Internal node `node`'s boxes.
+    fn node_boxes(&self, node: u32) -> Self::NodeBoxes;
+    /// Whether the subtree under an internal node with `boxes` can hold a leaf the walk wants.
+    fn node_meets(&self, boxes: &Self::NodeBoxes) -> bool;
     /// Whether leaf `leaf` (tree order) is wanted.
     fn leaf_meets(&self, leaf: u32) -> bool;
 }
@@ -193,9 +212,16 @@ struct QueryBox<'a> {
 }
 
 impl PairBoxes for QueryBox<'_> {
+    type NodeBoxes = Aabb;
+
     #[inline]
-    fn node_meets(&self, node: u32) -> bool {
-        box_meets(&self.aabbs[node as usize], self.lo, self.hi)
+    fn node_boxes(&self, node: u32) -> Aabb {
+        self.aabbs[node as usize]
+    }
+
+    #[inline]
+    fn node_meets(&self, b: &Aabb) -> bool {
+        box_meets(b, self.lo, self.hi)
     }
 
     #[inline]

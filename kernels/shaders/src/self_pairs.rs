@@ -269,9 +269,17 @@ impl RelativeMotion<'_> {
 }
 
 impl PairBoxes for RelativeMotion<'_> {
+    /// The node's start box and motion box.
+    type NodeBoxes = (Aabb, Aabb);
+
     #[inline]
-    fn node_meets(&self, node: u32) -> bool {
-        self.meets(&self.aabbs[node as usize], &self.motion_aabbs[node as usize])
+    fn node_boxes(&self, node: u32) -> (Aabb, Aabb) {
+        (self.aabbs[node as usize], self.motion_aabbs[node as usize])
+    }
+
+    #[inline]
+    fn node_meets(&self, (start, motion): &(Aabb, Aabb)) -> bool {
+        self.meets(start, motion)
     }
 
     #[inline]
