@@ -8,12 +8,36 @@ use drape::lbvh::build_mesh_cpu;
 use drape::scenes::{DrapeScene, shared_model};
 use drape::{ClothId, Context, Mesh, Model, SimSettings, Solver, Validation};
 use drape_kernels::candidates::{broad_phase_at, detect_candidates_at};
-use drape_kernels::contact::detect_at;
+use drape_kernels::contact::{LeafKind, detect_at, local_motion};
+use drape_kernels::lbvh::{self, TreeQuery};
 use drape_kernels::pose::SubstepMotion;
 use drape_kernels::triangles::Triangles;
-use drape_types::{ColliderPose, Contact, ContactQuery, MAX_CANDIDATES};
+use drape_types::{Aabb, ColliderPose, Contact, ContactQuery, MAX_CANDIDATES};
 use glam::Vec4;
 use std::time::Instant;
+
+/// Counts what a contact walk visits: internal nodes entered, leaves handed to the narrow phase.
+struct VisitCount {
+    p0: glam::Vec3,
+    p1: glam::Vec3,
+    thickness: f32,
+    entered: std::cell::Cell<u32>,
+}
+
+impl TreeQuery for VisitCount {
+    type Found = (u32, u32);
+
+    fn enters(&self, b: &Aabb) -> bool {
+        let enters = Triangles::may_touch(b, self.p0, self.p1, self.thickness);
+        self.entered.set(self.entered.get() + enters as u32);
+        enters
+    }
+
+    fn leaf(&mut self, _leaf: u32, found: &mut (u32, u32)) -> bool {
+        found.1 += 1;
+        false
+    }
+}
 
 fn fastest(mut f: impl FnMut()) -> f64 {
     (0..5)
@@ -98,9 +122,18 @@ fn main() {
             per_particle.sort_by(|a, b| a.0.total_cmp(&b.0));
             let (slowest, who) = per_particle[n - 1];
             let motion = (x[who as usize] - x_prev[who as usize]).truncate().length();
+            let visits = |i: u32| {
+                let (p0, p1) = local_motion(i, &step, &x, &x_prev);
+                let mut count = VisitCount { p0, p1, thickness: c.thickness, entered: Default::default() };
+                let leaves = lbvh::walk(&tree.nodes, &tree.aabbs, c.leaf_count, &mut count, (0u32, 0u32)).0.1;
+                (count.entered.get() + 1, leaves) // + the root
+            };
+            let (nodes_slowest, leaves_slowest) = visits(who);
+            let (nodes_median, leaves_median) = visits(per_particle[n / 2].1);
             println!(
-                "{name} frame {target:>3}: walk per particle: median {:.2} us, p99 {:.2} us, slowest {slowest:.2} us \
-                 (particle {who}, moved {:.1} mm; next {:.2} / {:.2} us)",
+                "{name} frame {target:>3}: walk per particle: median {:.2} us ({nodes_median} nodes entered, \
+                 {leaves_median} leaves tested), p99 {:.2} us, slowest {slowest:.2} us (particle {who}, moved {:.1} mm, \
+                 {nodes_slowest} nodes entered, {leaves_slowest} leaves tested; next {:.2} / {:.2} us)",
                 per_particle[n / 2].0,
                 per_particle[n * 99 / 100].0,
                 motion * 1e3,
