@@ -51,28 +51,43 @@ pub fn walk<Q: TreeQuery>(
     let mut top = 1; // stack[0] = root
     let mut overflowed = false;
     let mut stopped = false;
+    let mut batch = [0u32; WALK_BATCH];
     while top > 0 && !stopped {
-        top -= 1;
-        let node = nodes[stack[top] as usize];
-        // Both children's boxes are loaded before either is tested (a leaf's slot loads the
-        // root's box, unused): on a GPU a walk is a chain of dependent loads, and each level is
-        // then one round of box loads after the node's, not two.
-        let left_box = aabbs[internal_or_root(node.left)];
-        let right_box = aabbs[internal_or_root(node.right)];
-        let mut side = 0;
-        while side < 2 && !stopped {
-            let child = if side == 0 { node.left } else { node.right };
-            if child & LEAF_BIT != 0 {
-                stopped = query.leaf(child & !LEAF_BIT, &mut found);
-            } else if query.enters(&if side == 0 { left_box } else { right_box }) {
-                if top == STACK_SIZE {
-                    overflowed = true;
-                } else {
-                    stack[top] = child;
-                    top += 1;
+        // A stretch of the walk through internal nodes, collecting the leaves it meets, then
+        // the leaves' tests: a GPU's warp (or llvmpipe's SIMD lanes) runs its lanes in
+        // lockstep, so a leaf test inside the node loop would run, masked, at every step where
+        // any lane met a leaf; after the stretch it runs as often as the busiest lane has
+        // leaves. The tests see the same leaves in the same order.
+        let mut count = 0;
+        while top > 0 && count + 2 <= WALK_BATCH {
+            top -= 1;
+            let node = nodes[stack[top] as usize];
+            // Both children's boxes are loaded before either is tested (a leaf's slot loads
+            // the root's box, unused): on a GPU a walk is a chain of dependent loads, and each
+            // level is then one round of box loads after the node's, not two.
+            let left_box = aabbs[internal_or_root(node.left)];
+            let right_box = aabbs[internal_or_root(node.right)];
+            let mut side = 0;
+            while side < 2 {
+                let child = if side == 0 { node.left } else { node.right };
+                if child & LEAF_BIT != 0 {
+                    batch[count] = child & !LEAF_BIT;
+                    count += 1;
+                } else if query.enters(&if side == 0 { left_box } else { right_box }) {
+                    if top == STACK_SIZE {
+                        overflowed = true;
+                    } else {
+                        stack[top] = child;
+                        top += 1;
+                    }
                 }
+                side += 1;
             }
-            side += 1;
+        }
+        let mut k = 0;
+        while k < count && !stopped {
+            stopped = query.leaf(batch[k], &mut found);
+            k += 1;
         }
     }
     (found, overflowed)
