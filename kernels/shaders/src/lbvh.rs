@@ -446,13 +446,16 @@ pub fn refit_from_leaf(
 ) {
     let mut node = parents[parent_slot(leaf | LEAF_BIT, n) as usize];
     while node != NO_NODE {
+        // The tree's shape does not change in a refit: its loads go out with the flag's atomic
+        // (on a GPU each level of the climb is a chain of loads that wait on memory).
+        let children = nodes[node as usize];
+        let parent = parents[node as usize];
         if atomics::add_acq_rel(&mut flags[node as usize], 1) == 0 {
             return;
         }
-        let children = nodes[node as usize];
         let b = union(child_aabb(children.left, leaf_bounds, words), child_aabb(children.right, leaf_bounds, words));
         store_aabb(words, node, b);
-        node = parents[node as usize];
+        node = parent;
     }
 }
 
