@@ -86,36 +86,25 @@ fn main() {
             let x_prev: Vec<Vec4> =
                 x.iter().zip(&v).map(|(x, v)| (x.truncate() - v.truncate() * params.substep).extend(x.w)).collect();
             let mut contacts = vec![Contact::NONE; n];
-            let walk = fastest(|| {
-                for i in 0..n as u32 {
-                    detect_at::<Triangles>(
-                        i,
-                        &c,
-                        &step,
-                        &tree.nodes,
-                        &tree.aabbs,
-                        &tree.triangles,
-                        &x,
-                        &x_prev,
-                        &mut contacts,
-                    );
-                }
-            });
+            let mut detect = |i: u32| {
+                detect_at::<Triangles>(
+                    i,
+                    &c,
+                    &step,
+                    &tree.nodes,
+                    &tree.aabbs,
+                    &tree.triangles,
+                    &x,
+                    &x_prev,
+                    &mut contacts,
+                );
+            };
+            let walk = fastest(|| (0..n as u32).for_each(&mut detect));
             // Per particle, once more: a GPU dispatch lasts as long as its slowest thread.
             let mut per_particle: Vec<(f64, u32)> = (0..n as u32)
                 .map(|i| {
                     let start = Instant::now();
-                    detect_at::<Triangles>(
-                        i,
-                        &c,
-                        &step,
-                        &tree.nodes,
-                        &tree.aabbs,
-                        &tree.triangles,
-                        &x,
-                        &x_prev,
-                        &mut contacts,
-                    );
+                    detect(i);
                     (start.elapsed().as_secs_f64() * 1e6, i)
                 })
                 .collect();
