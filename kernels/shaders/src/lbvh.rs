@@ -114,10 +114,8 @@ pub const WALK_BATCH: usize = 16;
 /// is not entered.
 pub struct PairWalk {
     first: u32,
-    /// Whether only leaves after `first` are wanted (else every leaf the query box meets).
+    /// Whether only leaves after `first` are wanted (else every leaf the query takes).
     after_only: bool,
-    lo: Vec3,
-    hi: Vec3,
     /// Pending entries: internal nodes whose boxes met the query, and leaves (`LEAF_BIT`) yet
     /// to be tested.
     stack: [u32; STACK_SIZE],
@@ -127,16 +125,17 @@ pub struct PairWalk {
 }
 
 impl PairWalk {
-    /// A walk for leaf `first` of a tree of `leaf_count` leaves, with the query box `lo..=hi`.
-    pub fn new(first: u32, leaf_count: u32, (lo, hi): (Vec3, Vec3)) -> Self {
+    /// A walk for leaf `first` of a tree of `leaf_count` leaves: the later leaves its query
+    /// takes (a box, `next_batch`; or any `PairBoxes`, `next_batch_in`).
+    pub fn new(first: u32, leaf_count: u32) -> Self {
         // A single leaf has no pairs (and no internal node).
         let top = if leaf_count > 1 { 1 } else { 0 };
-        PairWalk { first, after_only: true, lo, hi, stack: [0u32; STACK_SIZE], top, overflowed: false }
+        PairWalk { first, after_only: true, stack: [0u32; STACK_SIZE], top, overflowed: false }
     }
 
-    /// A walk for every leaf whose box meets `lo..=hi`, in batches as `new`'s.
-    pub fn all(leaf_count: u32, query: (Vec3, Vec3)) -> Self {
-        let mut walk = PairWalk { after_only: false, ..PairWalk::new(0, leaf_count, query) };
+    /// A walk for every leaf its query takes, in batches as `new`'s.
+    pub fn all(leaf_count: u32) -> Self {
+        let mut walk = PairWalk { after_only: false, ..PairWalk::new(0, leaf_count) };
         if leaf_count == 1 {
             // No internal node: the tree is its one leaf, which may meet the query (a
             // one-triangle cloth under a collider's vertex).
@@ -152,19 +151,18 @@ impl PairWalk {
     }
 
     /// Walks on until `found` holds `WALK_BATCH` leaves or the walk is over; returns how many
-    /// it holds (in tree order within the batch's stretch). Enters the boxes that meet the
-    /// walk's query box.
+    /// it holds (in tree order within the batch's stretch). Takes the boxes that meet the
+    /// query box `lo..=hi`.
     pub fn next_batch(
         &mut self,
         (nodes, aabbs, leaf_bounds): (&[BvhNode], &[Aabb], &[Aabb]),
+        (lo, hi): (Vec3, Vec3),
         found: &mut [u32; WALK_BATCH],
     ) -> usize {
-        let boxes = QueryBox { aabbs, leaf_bounds, lo: self.lo, hi: self.hi };
-        self.next_batch_in(nodes, boxes, found)
+        self.next_batch_in(nodes, QueryBox { aabbs, leaf_bounds, lo, hi }, found)
     }
 
-    /// `next_batch` with another test of which subtrees and leaves to take (`boxes`; the
-    /// walk's own query box is then unused).
+    /// `next_batch` with another test of which subtrees and leaves to take (`boxes`).
     pub fn next_batch_in<B: PairBoxes>(&mut self, nodes: &[BvhNode], boxes: B, found: &mut [u32; WALK_BATCH]) -> usize {
         let mut count = 0;
         while self.top > 0 && count < WALK_BATCH {

@@ -445,7 +445,7 @@ pub fn walk_overlapping<V: LeafVisitor>(
     query: (Vec3, Vec3),
     visitor: &mut V,
 ) -> bool {
-    walk_in_batches(PairWalk::all(leaf_count, query), tree, visitor)
+    walk_in_batches(PairWalk::all(leaf_count), tree, query, visitor)
 }
 
 /// `walk_overlapping` over the leaves after `leaf` (in tree order) only, handed to the visitor
@@ -457,20 +457,21 @@ pub fn walk_overlapping_after<V: LeafVisitor>(
     query: (Vec3, Vec3),
     visitor: &mut V,
 ) -> bool {
-    walk_in_batches(PairWalk::new(leaf, leaf_count, query), tree, visitor)
+    walk_in_batches(PairWalk::new(leaf, leaf_count), tree, query, visitor)
 }
 
-/// Runs `walk`, handing its leaves to `visitor` in batches between stretches of the walk.
-/// Returns whether the walk's stack overflowed.
+/// Runs `walk` with the query box `query`, handing its leaves to `visitor` in batches between
+/// stretches of the walk. Returns whether the walk's stack overflowed.
 #[inline]
 pub fn walk_in_batches<V: LeafVisitor>(
     mut walk: PairWalk,
     tree: (&[BvhNode], &[Aabb], &[Aabb]),
+    query: (Vec3, Vec3),
     visitor: &mut V,
 ) -> bool {
     let mut found = [0u32; WALK_BATCH];
     while !walk.done() {
-        let count = walk.next_batch(tree, &mut found);
+        let count = walk.next_batch(tree, query, &mut found);
         let mut k = 0;
         while k < count {
             visitor.visit(found[k]);
@@ -1105,6 +1106,8 @@ pub fn collider_feature_contact_at(
     // every cloth triangle over it, though its features (its rim, its corners) lie far from
     // most: then each sharp feature walks the tree with its own box (a 6 m ground's one walk
     // tested the whole pile, 2048 triangles, in one thread). Otherwise one walk tests them all.
+    // Both ways go through the one call of the walk below, which inlines large: a second call
+    // made the kernel's SPIR-V 1.7x the size.
     let one_by_one = spans_many_cloth_edges(hi - lo, longest2);
     let mut overflowed = false;
     let mut feature: u32 = 0;

@@ -426,8 +426,7 @@ pub fn list_self_pairs_at(
     let (start, motion) = (&leaf_bounds[leaf as usize], &leaf_motions[leaf as usize]);
     let query = ((start.min.xyz(), start.max.xyz()), (motion.min.xyz(), motion.max.xyz()));
     let boxes = RelativeMotion { aabbs, motion_aabbs, leaf_bounds, leaf_motions, query, thickness };
-    // The walk's own query box goes unused: `boxes` decides (`PairWalk::next_batch_in`).
-    let mut walk = PairWalk::new(leaf, self_params.leaf_count, query.0);
+    let mut walk = PairWalk::new(leaf, self_params.leaf_count);
     let mut found = [0u32; WALK_BATCH];
     let base = (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf) as usize;
     let mut count = 0;
@@ -583,7 +582,7 @@ pub fn walk_self_pairs_at(
         x_prev,
         out: pairs.out,
     };
-    walk_in_batches(PairWalk::all(self_params.leaf_count, query), tree, &mut both);
+    walk_in_batches(PairWalk::all(self_params.leaf_count), tree, query, &mut both);
 }
 
 /// Sorted leaf `leaf`'s pairs in a pass from its list, skipping partners that escaped; through
