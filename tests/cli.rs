@@ -135,33 +135,46 @@ fn json_report_and_quiet() {
     assert_eq!(report["intersections_final_frame"]["cloth_cloth"], 0);
 }
 
+/// The JSON report of a quiet run with `args` (`name` keeps runs of parallel tests apart).
+fn json_report(name: &str, args: &[&str]) -> serde_json::Value {
+    let path = std::env::temp_dir().join(format!("drape-{name}-{}.json", std::process::id()));
+    let mut all = args.to_vec();
+    all.extend(["--quiet", "--json", path.to_str().unwrap()]);
+    let output = drape(&all);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let report = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    std::fs::remove_file(&path).ok();
+    report
+}
+
 /// `--sleep`: the settling pile sleeps once its motion stays under 0.5 m/s (from about frame
 /// 150 of this strip), and never with `--sleep 0`.
 #[test]
 fn sleep_flag_puts_the_settled_pile_to_sleep_or_not() {
     let asleep = |sleep: &str| {
-        let path = std::env::temp_dir().join(format!("drape-sleep-{sleep}-{}.json", std::process::id()));
-        let output = drape(&[
-            "--scene",
-            "pile",
-            "--grid",
-            "16",
-            "--frames",
-            "400",
-            "--sleep",
-            sleep,
-            "--quiet",
-            "--json",
-            path.to_str().unwrap(),
-        ]);
-        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-        let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-        std::fs::remove_file(&path).ok();
-        report["schedule"]["frames_asleep"].as_u64().unwrap()
+        let args = ["--scene", "pile", "--grid", "16", "--frames", "400", "--sleep", sleep];
+        json_report(&format!("sleep-{sleep}"), &args)["schedule"]["frames_asleep"].as_u64().unwrap()
     };
     let slept = asleep("0.5");
     assert!(slept > 0, "the pile must settle and sleep within 250 frames");
     assert_eq!(asleep("0"), 0, "--sleep 0 never sleeps");
+}
+
+/// `--tile-sleep`: in `scenes/swing-ground.toml` the part of the cloth lying on the ground
+/// sleeps tile by tile while the part hanging from the pins moves (the cloth as a whole never
+/// sleeps); `--tile-sleep off` sleeps no tile.
+#[test]
+fn tile_sleep_flag_sleeps_the_resting_part_of_the_cloth_or_not() {
+    let tiles = |on: &str| {
+        let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/swing-ground.toml");
+        let args = ["--scene-file", scene, "--grid", "24", "--frames", "150", "--tile-sleep", on];
+        let report = json_report(&format!("tiles-{on}"), &args);
+        assert_eq!(report["schedule"]["frames_asleep"].as_u64(), Some(0), "the hanging part keeps the cloth awake");
+        report["schedule"]["tiles_asleep_max"].as_f64()
+    };
+    let most = tiles("on").expect("tile sleeping is on: the report gives the share of tiles asleep");
+    assert!(most > 0.3, "most of the resting part must sleep within 150 frames (at most {most} of the tiles)");
+    assert_eq!(tiles("off"), None, "--tile-sleep off declares no tiles");
 }
 
 /// Every example scene in scenes/ runs (2 frames here; flags override the file) and its report

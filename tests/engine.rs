@@ -130,7 +130,15 @@ fn frame_timings_name_every_pass() {
     let labels: Vec<_> = timings.by_label().iter().map(|(l, n, _)| (*l, *n)).collect();
     assert_eq!(
         labels,
-        vec![("rk4: k1", 3), ("rk4: k2", 3), ("rk4: k3", 3), ("rk4: k4 + update", 3), ("health check", 1)]
+        vec![
+            ("sleep: tiles", 1),
+            ("rk4: k1", 3),
+            ("rk4: k2", 3),
+            ("rk4: k3", 3),
+            ("rk4: k4 + update", 3),
+            ("health check", 1),
+            ("sleep: tile motion", 1)
+        ]
     );
     assert_eq!(timings.skipped, vec!["contact", "normals"]);
     assert!(ctx.info().timestamp_valid_bits > 0, "lavapipe and real GPUs have compute timestamps");
@@ -163,23 +171,27 @@ fn the_first_colliders_narrow_phase_runs_inside_the_last_stage() {
     assert_eq!(
         labels(Integrator::Rk4, &colliders[..1]),
         vec![
+            ("sleep: tiles", 1),
             ("contact: broad phase", 1),
             ("rk4: k1", 3),
             ("rk4: k2", 3),
             ("rk4: k3", 3),
             ("rk4: k4 + update + contact (lists)", 3),
-            ("health check", 1)
+            ("health check", 1),
+            ("sleep: tile motion", 1)
         ]
     );
     assert_eq!(
         labels(Integrator::SemiImplicitEuler, &colliders),
         vec![
+            ("sleep: tiles", 1),
             ("contact: broad phase", 2),
             ("euler: evaluate", 3),
             ("euler: commit + contact (lists)", 3),
             ("contact: cull", 3),
             ("contact: detect+respond (lists)", 3),
-            ("health check", 1)
+            ("health check", 1),
+            ("sleep: tile motion", 1)
         ]
     );
     // Another search keeps its own passes after the stage.
@@ -334,9 +346,11 @@ fn a_cloth_frame_records_only_the_barriers_its_data_needs() {
     let cloth = ClothBuilder::new(16, 16).pin_top_corners().build().unwrap();
     let settings = SimSettings::default().with_substeps(Some(3)).with_normals(true);
     let mut sim = Solver::new(&ctx, &Model::single(&cloth, &[], settings).unwrap()).unwrap();
-    // fill health, 12 stages, normals, health check = 15 commands; the fill needs no barrier
-    // before stage 1, normals and the health check both only read x after stage 12.
-    assert_eq!(sim.barriers_per_frame(), 12, "one before each stage after the first, one before normals+health");
+    // fill health, which tiles sleep, 12 stages, normals and health check, each tile's motion
+    // = 16 commands: the tiles' decision counts into the health the fill cleared and sets the
+    // velocities' flags the first stage reads; the motion only reads x after stage 12, as the
+    // normals and the health check do.
+    assert_eq!(sim.barriers_per_frame(), 14, "one before the tiles, one before each stage, one before normals+health");
     sim.step().unwrap();
     assert_validation_clean(&ctx);
 }

@@ -158,3 +158,125 @@ fn fast_motion_near_self_collision_raises_the_substeps() {
     assert!(plain.iter().all(|&n| n == bound), "off, the bound's substeps throughout");
     assert_validation_clean(&ctx);
 }
+
+/// One cloth of two 8 x 8 patches, one tile each (`drape_kernels::tiles::TILE_PARTICLES` = 64):
+/// patch A (particles 0..64) lies 2 cm over the ground, patch B (64..128) starts 20 m up and
+/// falls beside the ground through the whole test.
+fn resting_and_falling_patches() -> (drape::Cloth, Collider) {
+    let patch = drape::ClothMesh::grid(8, 8, 0.3);
+    let at = |offset: Vec3| patch.vertices.iter().map(move |&v| v + offset);
+    let vertices: Vec<Vec3> = at(Vec3::new(-0.5, 0.02, 0.0)).chain(at(Vec3::new(1.6, 20.0, 0.0))).collect();
+    let triangles: Vec<[u32; 3]> =
+        patch.triangles.iter().copied().chain(patch.triangles.iter().map(|t| t.map(|i| i + 64))).collect();
+    let cloth = ClothBuilder::from_mesh(drape::ClothMesh::from_parts(vertices, triangles).unwrap()).build().unwrap();
+    let (_, ground) = cloth_over_ground();
+    (cloth, ground)
+}
+
+/// Whether every particle of `range` carries the sleep flag (`v.w`), or none does.
+fn flags(sim: &Solver, range: std::ops::Range<usize>) -> (bool, bool) {
+    let v = sim.velocities(CLOTH).unwrap();
+    let slept: Vec<bool> = v[range].iter().map(|v| v.w != 0.0).collect();
+    (slept.iter().all(|&s| s), slept.iter().all(|&s| !s))
+}
+
+/// Part of a cloth sleeps while the rest moves: the patch on the ground settles and its tile
+/// sleeps (its particles bit for bit still, their flags set) while the falling patch keeps
+/// falling and the cloth as a whole never sleeps; the CPU twin sleeps the same tile at the same
+/// frame, bit for bit. A collider moving near it, and a force, wake it.
+#[test]
+fn a_resting_part_of_a_cloth_sleeps_while_the_rest_moves() {
+    let ctx = context();
+    let (cloth, ground) = resting_and_falling_patches();
+    let model = Model::single(&cloth, std::slice::from_ref(&ground), settings()).unwrap();
+    let mut sim = Solver::new(&ctx, &model).unwrap();
+    let mut cpu = CpuSolver::new(&model).unwrap();
+    let mut first = None;
+    for frame in 1..=150 {
+        let report = sim.step_report().unwrap();
+        cpu.step().unwrap();
+        assert_eq!(report.tiles, 2, "frame {frame}: {report:?}");
+        assert_eq!(report.cloths_asleep, 0, "frame {frame}: the falling patch keeps the cloth awake");
+        assert_eq!(sim.positions(CLOTH).unwrap(), cpu.positions(CLOTH).unwrap(), "frame {frame}: GPU != CPU twin");
+        assert_eq!(sim.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {frame}");
+        if report.tiles_asleep > 0 {
+            assert_eq!(report.tiles_asleep, 1, "frame {frame}: only the resting patch may sleep");
+            first.get_or_insert(frame);
+        } else {
+            assert!(first.is_none(), "frame {frame}: the resting patch woke by itself");
+        }
+    }
+    let first = first.expect("the resting patch must sleep within 150 frames");
+    println!("the resting patch's tile slept from frame {first}");
+    assert!(first > 20, "it cannot sleep before it landed and stayed still for 20 frames");
+    assert_eq!(flags(&sim, 0..64), (true, false), "the sleeping patch's particles carry the flag");
+    assert_eq!(flags(&sim, 64..128), (false, true), "the falling patch's do not");
+    let resting = sim.positions(CLOTH).unwrap();
+    let falling = resting[64].y;
+    for _ in 0..30 {
+        assert_eq!(sim.step_report().unwrap().tiles_asleep, 1);
+    }
+    let now = sim.positions(CLOTH).unwrap();
+    assert_eq!(now[..64], resting[..64], "a sleeping tile must not drift");
+    assert!(now[64].y < falling - 1.0, "the awake patch keeps falling ({} -> {} m)", falling, now[64].y);
+    // The ground rises 1 cm over the next frame: the tile wakes and follows it.
+    sim.set_collider_pose(GROUND, Quat::IDENTITY, Vec3::new(0.0, 0.01, 0.0)).unwrap();
+    assert_eq!(sim.step_report().unwrap().tiles_asleep, 0, "a collider moving under the tile wakes it");
+    assert_eq!(flags(&sim, 0..64), (false, true));
+    for _ in 0..5 {
+        sim.step().unwrap();
+    }
+    let lifted = sim.positions(CLOTH).unwrap();
+    let rise = lifted[..64].iter().zip(&resting[..64]).map(|(a, b)| a.y - b.y).sum::<f32>() / 64.0;
+    assert!(rise > 0.008, "the woken patch must follow the ground up 1 cm (rose {rise} m)");
+    // Settled again, a force wakes it.
+    let mut slept = false;
+    for _ in 0..150 {
+        if sim.step_report().unwrap().tiles_asleep == 1 {
+            slept = true;
+            break;
+        }
+    }
+    assert!(slept, "the lifted patch must settle and sleep again");
+    sim.set_external_force(Vec3::new(0.0, 0.0, 0.01)).unwrap();
+    assert_eq!(sim.step_report().unwrap().tiles_asleep, 0, "a new force wakes every tile");
+    assert_validation_clean(&ctx);
+}
+
+/// Tile sleeping off: no tiles, and no particle ever carries the sleep flag.
+#[test]
+fn tile_sleep_off_declares_no_tiles() {
+    let ctx = context();
+    let (cloth, ground) = resting_and_falling_patches();
+    let model = Model::single(&cloth, std::slice::from_ref(&ground), settings().with_tile_sleep(false)).unwrap();
+    let mut sim = Solver::new(&ctx, &model).unwrap();
+    for _ in 0..60 {
+        let report = sim.step_report().unwrap();
+        assert_eq!((report.tiles, report.tiles_asleep), (0, 0));
+    }
+    assert_eq!(flags(&sim, 0..128), (false, true));
+    assert_validation_clean(&ctx);
+}
+
+/// A state read while the resting patch counts its calm frames restores its tiles too: the
+/// replay sleeps the same tile in the same frames and ends bit for bit where the first run did
+/// (with the tiles woken instead, the patch would count its calm frames again and sleep later).
+#[test]
+fn a_restored_state_replays_its_sleeping_tiles() {
+    let ctx = context();
+    let (cloth, ground) = resting_and_falling_patches();
+    let model = Model::single(&cloth, std::slice::from_ref(&ground), settings()).unwrap();
+    let mut sim = Solver::new(&ctx, &model).unwrap();
+    for _ in 0..15 {
+        sim.step().unwrap();
+    }
+    let saved = sim.state().unwrap();
+    let asleep = |sim: &mut Solver| (0..30).map(|_| sim.step_report().unwrap().tiles_asleep).collect::<Vec<_>>();
+    let first = asleep(&mut sim);
+    assert!(first.contains(&1) && first[0] == 0, "the resting patch falls asleep after the checkpoint: {first:?}");
+    let end = sim.state().unwrap();
+    sim.set_state(&saved).unwrap();
+    assert_eq!(asleep(&mut sim), first, "the replay sleeps the same tiles in the same frames");
+    assert!(sim.state().unwrap() == end, "the replay ends where the first run did");
+    assert_validation_clean(&ctx);
+}

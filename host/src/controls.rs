@@ -117,6 +117,11 @@ pub(crate) struct ClothControl {
     /// built yet), and whether the frame about to run builds it (`SelfTreeSchedule`).
     self_tree: SelfTreeSchedule,
     pins: Vec<(u32, PinChange)>,
+    /// A change that may move the whole cloth happened: the next frame starts with every tile
+    /// awake (`programs::tiles`).
+    tiles_woken: bool,
+    /// Moving colliders' boxes the tiles were last handed (0: none, nothing to write).
+    tiles_moving: usize,
 }
 
 impl ClothControl {
@@ -186,6 +191,8 @@ impl Controls {
                 self_dirty: false,
                 self_tree: SelfTreeSchedule::new(),
                 pins: Vec::new(),
+                tiles_woken: false,
+                tiles_moving: 0,
             })
             .collect();
         let colliders = colliders
@@ -230,16 +237,18 @@ impl Controls {
     pub fn wake_all(&mut self) {
         for c in &mut self.cloths {
             self.replan |= c.motion.wake();
+            c.tiles_woken = true;
         }
     }
 
     /// Puts cloth `index`'s motion history back (a restored state): its substeps and sleep
-    /// follow.
-    pub fn restore_motion(&mut self, index: usize, motion: ClothMotion) {
+    /// follow; its tiles wake unless their state came back too (`tiles_restored`).
+    pub fn restore_motion(&mut self, index: usize, motion: ClothMotion, tiles_restored: bool) {
         let settings = self.settings;
         if let Some(c) = self.cloths.get_mut(index) {
             c.motion = motion;
             c.apply_contact(&settings);
+            c.tiles_woken = !tiles_restored;
             self.replan = true;
         }
     }
@@ -260,7 +269,9 @@ impl Controls {
 
     /// Wakes one cloth.
     pub fn wake(&mut self, cloth: ClothId) -> Result<()> {
-        let woke = self.cloth_mut(cloth)?.motion.wake();
+        let c = self.cloth_mut(cloth)?;
+        c.tiles_woken = true;
+        let woke = c.motion.wake();
         self.replan |= woke;
         Ok(())
     }
@@ -496,7 +507,7 @@ impl Controls {
     /// The writes (and refits) the next frame starts with; empty when nothing changed. Marks
     /// everything published.
     pub fn begin_frame(&mut self, program: &SolverProgram) -> Vec<Step> {
-        self.plan_motion();
+        let moving = self.plan_motion();
         for c in self.cloths.iter_mut().filter(|c| c.self_collision.is_some() && !c.motion.asleep) {
             self.replan |= c.self_tree.next_frame();
         }
@@ -513,6 +524,15 @@ impl Controls {
                 steps.push(Step::write(s.tree.collider, 0, &[params]));
             }
             pin_writes(&mut c.pins, buffers.x, buffers.v, &mut steps);
+            if let Some(tiles) = &buffers.tiles {
+                if std::mem::take(&mut c.tiles_woken) {
+                    steps.extend(tiles.wake_steps());
+                }
+                if !moving.is_empty() || c.tiles_moving != 0 {
+                    steps.extend(tiles.moving_writes(&moving));
+                    c.tiles_moving = moving.len();
+                }
+            }
         }
         for (c, buffers) in self.colliders.iter_mut().zip(&program.colliders) {
             if std::mem::take(&mut c.params_dirty) {
@@ -547,8 +567,9 @@ impl Controls {
     }
 
     /// Each cloth's contact substeps and sleep for the frame about to run (`motion`), from the
-    /// last frame's speeds and the colliders' motion this frame.
-    fn plan_motion(&mut self) {
+    /// last frame's speeds and the colliders' motion this frame; returns the moving colliders'
+    /// swept boxes, grown by their contact reach (what wakes the tiles near them).
+    fn plan_motion(&mut self) -> Vec<(Vec3, Vec3)> {
         let settings = self.settings;
         // Each moving collider's surface speed and swept box, grown by its contact reach.
         let moving: Vec<(f32, (Vec3, Vec3))> = self
@@ -585,6 +606,7 @@ impl Controls {
             }
             self.replan |= change.sleep;
         }
+        moving.into_iter().map(|(_, bounds)| bounds).collect()
     }
 }
 

@@ -94,13 +94,13 @@ impl CpuSolver {
 
     /// What changes (see `Solver::state`).
     pub fn state(&self) -> Result<State> {
-        State::read(&self.program, &self.controls, |buffer, n| self.executor.read(buffer, n))
+        State::read(&self.program, &self.controls, &self.executor)
     }
 
     /// Restores a state (see `Solver::set_state`).
     pub fn set_state(&mut self, state: &State) -> Result<()> {
         let executor = &mut self.executor;
-        state.restore(&self.program, &mut self.controls, |buffer, data| executor.upload(buffer, data))
+        state.restore(&self.program, &mut self.controls, |buffer, data| executor.upload_bytes(buffer, data))
     }
 
     fn vec4s(&self, cloth: ClothId, pick: fn(&ClothBuffers) -> Handle<Vec4>) -> Result<Vec<Vec4>> {

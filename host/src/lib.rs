@@ -78,7 +78,7 @@ pub use motion::Sleep;
 pub use settings::{Integrator, SimSettings};
 pub use solver::{FrameReport, MemoryReport, Solver, VertexBuffers};
 pub use stability::Stability;
-pub use state::{ClothState, State};
+pub use state::{ClothState, State, TileState};
 
 include!(concat!(env!("OUT_DIR"), "/kernels_spv.rs"));
 

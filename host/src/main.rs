@@ -194,7 +194,8 @@ fn run(args: &Args) -> drape::Result<()> {
         .with_normals(!args.no_normals)
         .with_timestamps(!args.no_timestamps)
         .with_contact_substeps(args.contact_substeps == OnOff::On)
-        .with_sleep((args.sleep > 0.0).then(|| drape::Sleep { speed: args.sleep, ..drape::Sleep::default() }));
+        .with_sleep((args.sleep > 0.0).then(|| drape::Sleep { speed: args.sleep, ..drape::Sleep::default() }))
+        .with_tile_sleep(args.tile_sleep == OnOff::On);
     let search = match (args.brute_force, args.search) {
         (true, _) | (_, SearchArg::BruteForce) => ContactSearch::BruteForce,
         (_, SearchArg::Lists) => ContactSearch::CandidateLists,
@@ -319,6 +320,7 @@ fn run(args: &Args) -> drape::Result<()> {
             schedule.asleep_wall_ms.push(start.elapsed().as_secs_f64() * 1e3);
         } else {
             report.add(&r.timings, start.elapsed());
+            schedule.record_tiles(r.tiles_asleep, r.tiles, frame);
         }
         ran += r.collision_ran;
         skipped += r.collision_skipped;

@@ -11,6 +11,7 @@ use crate::programs::cloth::{ClothBuffers, FramePlan, frame_steps};
 use crate::programs::contact::{ColliderBuffers, ColliderLeaves, ContactBuffers, ContactMode};
 use crate::programs::self_contact::SelfContactBuffers;
 use crate::programs::spheres::SphereBvh;
+use crate::programs::tiles::TileBuffers;
 use crate::programs::triangles::TriangleBvh;
 use drape_kernels::self_contact::PUSH_WORDS;
 use drape_types::{ColliderParams, ColliderPose, RigidPose};
@@ -60,7 +61,12 @@ impl SolverProgram {
         let mut cloths = Vec::new();
         for (i, (cloth, (params, _, _, _, _))) in model.cloths().iter().zip(&resolved).enumerate() {
             let triangles = &cloth.triangles;
-            let b = ClothBuffers::declare(&mut resources, &numbered("cloth", i), cloth);
+            let mut b = ClothBuffers::declare(&mut resources, &numbered("cloth", i), cloth);
+            if let Some(sleep) = settings.tile_policy() {
+                let params = TileBuffers::params(cloth.params.particle_count, sleep, settings.frame_dt);
+                b.tiles =
+                    Some(TileBuffers::declare(&mut resources, &numbered("cloth", i), cloth, params, &mut initial));
+            }
             if let (Some(list), ClothTopology::Springs(topology)) = (&b.springs, &cloth.topology) {
                 initial.push((list.particles.id(), bytemuck::cast_slice::<_, u8>(&topology.particles).to_vec()));
                 initial.push((list.springs.id(), bytemuck::cast_slice::<_, u8>(&topology.springs).to_vec()));

@@ -50,6 +50,9 @@ pub struct SimSettings {
     pub contact_substeps: bool,
     /// When a still cloth stops running (`None`: never).
     pub sleep: Option<Sleep>,
+    /// Parts of a cloth sleep on their own under `sleep`'s policy (tiles of
+    /// `drape_kernels::tiles::TILE_PARTICLES` particles), while the rest of it moves.
+    pub tile_sleep: bool,
 }
 
 impl Default for SimSettings {
@@ -64,6 +67,7 @@ impl Default for SimSettings {
             timestamps: true,
             contact_substeps: true,
             sleep: Some(Sleep::default()),
+            tile_sleep: true,
         }
     }
 }
@@ -114,6 +118,15 @@ impl SimSettings {
     pub fn with_sleep(mut self, sleep: Option<Sleep>) -> Self {
         self.sleep = sleep;
         self
+    }
+    /// Whether parts of a cloth (tiles) sleep on their own, under the `sleep` policy.
+    pub fn with_tile_sleep(mut self, on: bool) -> Self {
+        self.tile_sleep = on;
+        self
+    }
+    /// The sleep policy of a cloth's tiles (`None`: they do not sleep).
+    pub(crate) fn tile_policy(&self) -> Option<Sleep> {
+        self.sleep.filter(|_| self.tile_sleep)
     }
 
     /// The stability bound of `cloth` and the substeps these settings choose for it (what a

@@ -41,6 +41,10 @@ pub struct FrameReport {
     pub self_walks: u32,
     /// Cloths that slept through the frame (ran nothing).
     pub cloths_asleep: u32,
+    /// Tiles of the awake cloths that slept through the frame (`SimSettings::tile_sleep`),
+    /// and the tiles of those cloths.
+    pub tiles_asleep: u32,
+    pub tiles: u32,
 }
 
 /// Frames recorded into callers' command buffers whose status can be pending at once.
@@ -140,6 +144,8 @@ impl Solver {
                 continue; // nothing ran: its status buffers hold its last awake frame's
             }
             let health: Health = self.engine.read_mapped(cloth.health)?;
+            report.tiles_asleep += health.tiles_asleep;
+            report.tiles += cloth.tiles.as_ref().map_or(0, |t| t.tiles);
             if let (Some(s), Some(plan)) = (&cloth.self_contact, plans.get(i)) {
                 let passes = plan.self_passes.clamp(1, plan.substeps.max(1));
                 report.self_triangle_passes += s.tree.leaves * passes;
@@ -272,7 +278,8 @@ impl Solver {
     pub fn positions(&self, cloth: ClothId) -> Result<Vec<Vec4>> {
         self.read_vec4s(cloth, |b| b.x)
     }
-    /// `cloth`'s velocities, read back from the GPU.
+    /// `cloth`'s velocities, read back from the GPU (w = 1 for a particle whose tile sleeps,
+    /// `SimSettings::tile_sleep`; else 0).
     pub fn velocities(&self, cloth: ClothId) -> Result<Vec<Vec4>> {
         self.read_vec4s(cloth, |b| b.v)
     }
@@ -283,7 +290,7 @@ impl Solver {
     }
     /// What changes, read back: every cloth's positions and velocities, every collider's pose.
     pub fn state(&self) -> Result<State> {
-        State::read(&self.program, &self.controls, |buffer, n| self.engine.download(buffer, n))
+        State::read(&self.program, &self.controls, &self.engine)
     }
     /// Restores a state (e.g. one `state` returned): every cloth's positions (with their pin
     /// weights) and velocities are uploaded at once, and its motion history (substeps, sleep)
@@ -291,7 +298,7 @@ impl Solver {
     /// without sweeping there.
     pub fn set_state(&mut self, state: &State) -> Result<()> {
         let engine = &mut self.engine;
-        state.restore(&self.program, &mut self.controls, |buffer, data| engine.upload(buffer, data))
+        state.restore(&self.program, &mut self.controls, |buffer, data| engine.upload_bytes(buffer, data))
     }
     /// `collider`'s LBVH as built (and refit) on the GPU, in the collider's own frame.
     pub fn collider_bvh(&self, collider: ColliderId) -> Result<lbvh::Lbvh> {

@@ -137,6 +137,10 @@ pub(crate) struct Args {
     /// particle has moved slower than this (m/s) for 30 frames, in [0, 10]; 0 = never.
     #[arg(long, default_value_t = drape::Sleep::default().speed, value_parser = parse_sleep, allow_hyphen_values = true)]
     pub(crate) sleep: f32,
+    /// Let parts of the cloth sleep on their own (tiles of 64 particles, under `--sleep`'s
+    /// speed and 30 frames) while the rest of it moves.
+    #[arg(long, value_enum, default_value = "on")]
+    pub(crate) tile_sleep: OnOff,
     /// Raise automatic substeps so no particle moves more than the contact thickness per
     /// substep (from the last frame's fastest particle and the colliders' motion), and run
     /// self-collision only as many passes per frame as that needs (off: one per substep).
@@ -279,6 +283,9 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
     }
     if ["png_every", "png_size"].contains(&id) && args.png_dir.is_none() {
         return Some(format!("{flag} needs --png-dir (the directory to write the pictures into)"));
+    }
+    if id == "tile_sleep" && args.sleep == 0.0 {
+        return Some("--tile-sleep follows --sleep's speed, and --sleep 0 turns all sleeping off".into());
     }
     if id == "voxels" && args.contact == ContactArg::Triangles {
         return Some("--voxels only applies with --contact spheres (triangle contact has no voxels)".into());

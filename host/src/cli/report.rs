@@ -114,6 +114,10 @@ pub(crate) struct Schedule {
     pub(crate) asleep: u32,
     pub(crate) first_asleep: Option<u32>,
     pub(crate) asleep_wall_ms: Vec<f64>,
+    /// Per awake frame: the share of its tiles that slept (`SimSettings::tile_sleep`), and the
+    /// first frame a tile slept.
+    pub(crate) tiles_asleep: Vec<f64>,
+    pub(crate) first_tile_asleep: Option<u32>,
 }
 
 impl Schedule {
@@ -124,6 +128,23 @@ impl Schedule {
         } else {
             self.substeps.push(substeps);
         }
+    }
+
+    /// An awake frame in which `asleep` of its `tiles` slept.
+    pub(crate) fn record_tiles(&mut self, asleep: u32, tiles: u32, frame: u32) {
+        if tiles > 0 {
+            self.tiles_asleep.push(f64::from(asleep) / f64::from(tiles));
+        }
+        if asleep > 0 {
+            self.first_tile_asleep.get_or_insert(frame);
+        }
+    }
+
+    /// The share of tiles asleep over the awake frames: median and largest.
+    fn tile_shares(&self) -> Option<(f64, f64)> {
+        let mut sorted = self.tiles_asleep.clone();
+        sorted.sort_by(f64::total_cmp);
+        Some((*sorted.get(sorted.len() / 2)?, *sorted.last()?))
     }
 
     pub(crate) fn print(&self, bound: u32, frames: u32, awake_median_ms: f64) {
@@ -148,6 +169,16 @@ impl Schedule {
             }
             None => say!("sleeping: the cloth never slept"),
         }
+        match (self.first_tile_asleep, self.tile_shares()) {
+            (Some(first), Some((median, most))) => say!(
+                "sleeping tiles (of {} particles, in awake frames): median {:.1} %, at most {:.1} % (first at frame {first})",
+                drape_kernels::tiles::TILE_PARTICLES,
+                100.0 * median,
+                100.0 * most
+            ),
+            (None, Some(_)) => say!("sleeping tiles: none slept"),
+            _ => {}
+        }
     }
 }
 
@@ -165,6 +196,9 @@ impl Schedule {
             "frames_asleep": self.asleep,
             "first_frame_asleep": self.first_asleep,
             "asleep_wall_ms_median": (!self.asleep_wall_ms.is_empty()).then(|| drape::timing::median(&self.asleep_wall_ms)),
+            "tiles_asleep_median": self.tile_shares().map(|s| s.0),
+            "tiles_asleep_max": self.tile_shares().map(|s| s.1),
+            "first_frame_tile_asleep": self.first_tile_asleep,
         })
     }
 }

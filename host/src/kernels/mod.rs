@@ -11,12 +11,13 @@ pub mod self_contact;
 pub mod self_pairs;
 pub mod sort;
 pub mod spheres;
+pub mod tiles;
 pub mod triangles;
 
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 43] = [
+pub const ALL: [&Kernel; 45] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::NORMALS_AND_HEALTH,
@@ -60,4 +61,6 @@ pub const ALL: [&Kernel; 43] = [
     &triangles::UPDATE_CONTACT_TRIANGLES_SPRINGS,
     &contact::CULL_CONTACT,
     &contact::RESPOND_CONTACTS,
+    &tiles::MEASURE_TILES,
+    &tiles::DECIDE_TILES,
 ];

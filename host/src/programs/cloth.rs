@@ -3,6 +3,7 @@
 
 use super::contact::{CONTACT_LABEL, ColliderBuffers, ContactBuffers, EULER_UPDATE_CONTACT_LABEL, RK4_UPDATE_CONTACT_LABEL};
 use super::self_contact::{SelfContactBuffers, SelfContactCloth, pass_due};
+use super::tiles::TileBuffers;
 use crate::cloth::{Cloth, ClothTopology};
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
 use crate::kernels::integrate::{INTEGRATE_STAGE, INTEGRATE_STAGE_SPRINGS};
@@ -44,6 +45,8 @@ pub struct ClothBuffers {
     pub springs: Option<SpringBuffers>,
     /// Self-collision (`None`: off, nothing declared or run).
     pub self_contact: Option<SelfContactBuffers>,
+    /// Tile sleeping (`None`: off, nothing declared or run).
+    pub tiles: Option<TileBuffers>,
 }
 
 impl ClothBuffers {
@@ -82,6 +85,7 @@ impl ClothBuffers {
             self_contact: cloth
                 .self_collision
                 .map(|_| SelfContactBuffers::declare(resources, name, particles, triangles)),
+            tiles: None,
         }
     }
 
@@ -195,6 +199,10 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
     let a = (cloth.xa, cloth.va);
     let b = (cloth.xb, cloth.vb);
     let mut steps = vec![Step::fill(cloth.health, 0)];
+    // Which tiles sleep, before anything reads the velocities' flags.
+    if let Some(tiles) = &cloth.tiles {
+        steps.push(tiles.decide_step(cloth.v, cloth.health));
+    }
     for (collider, contact) in colliders {
         steps.push(Step::fill(contact.status, 0));
         contact.frame_start_steps(cloth, collider, plan.substeps, &mut steps);
@@ -247,5 +255,8 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
         steps.push(Step::Skip { label: "normals" });
     }
     steps.push(cloth.frame_end(plan.normals));
+    if let Some(tiles) = &cloth.tiles {
+        steps.push(tiles.measure_step(cloth.x));
+    }
     steps
 }

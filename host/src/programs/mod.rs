@@ -9,4 +9,5 @@ pub mod scan;
 pub mod self_contact;
 pub mod sort;
 pub mod spheres;
+pub mod tiles;
 pub mod triangles;

@@ -18,6 +18,7 @@ use crate::contact::{
 };
 use crate::lbvh::{TreeQuery, walk};
 use crate::pose::{SubstepMotion, to_local};
+use crate::tiles::sleeping;
 use drape_types::glam::{Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BroadPhasePush, BvhNode, CANDIDATES_OVERFLOWED, ColliderParams, ColliderPose, CollisionStatus, Contact,
@@ -99,7 +100,8 @@ impl<K: LeafKind> TreeQuery for GatherQuery<'_, K> {
 
 /// Broad phase for particle `index` over the `frame` (`frame_motion`): its query box and
 /// candidate list (`candidates[index * MAX_CANDIDATES..]`); returns whether the list holds
-/// anything (or overflowed). Pinned particles get an empty list (detect skips them anyway).
+/// anything (or overflowed). Pinned and sleeping particles get an empty list (detect skips
+/// them anyway).
 #[allow(clippy::too_many_arguments)]
 pub fn broad_phase_at<K: LeafKind>(
     index: u32,
@@ -113,7 +115,7 @@ pub fn broad_phase_at<K: LeafKind>(
 ) -> bool {
     let i = index as usize;
     let region = query_box(frame, x[i].xyz(), v[i].xyz(), params.gravity.xyz(), collider.thickness);
-    let count = if x[i].w == 0.0 {
+    let count = if x[i].w == 0.0 || sleeping(v[i]) {
         0
     } else {
         let base = i * MAX_CANDIDATES as usize;
@@ -268,6 +270,11 @@ pub fn detect_candidates_particle<K: LeafKind>(
     status: &mut CollisionStatus,
 ) {
     if index >= params.particle_count {
+        return;
+    }
+    if sleeping(v[index as usize]) {
+        // Its tile has come to rest and no collider moves near it: nothing to find.
+        contacts[index as usize] = Contact::NONE;
         return;
     }
     let motion = substep_motion(params, pose, push);

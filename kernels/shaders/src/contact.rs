@@ -18,6 +18,7 @@
 
 use crate::lbvh::{TreeQuery, walk};
 use crate::pose::{SubstepMotion, rotate, rotate_inverse, to_local, to_world};
+use crate::tiles::sleeping;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, DispatchArgs, NO_LEAF,
@@ -473,7 +474,8 @@ pub fn respond(position: Vec3, outward: Vec3, v: Vec3, friction: f32) -> (Vec3, 
 }
 
 /// Applies particle `index`'s detected contact, if any: the response acts in the collider's
-/// frame on the velocity relative to the collider's surface at the particle.
+/// frame on the velocity relative to the collider's surface at the particle. A sleeping
+/// particle (`tiles`) stays as it is: no collider moves near it.
 #[inline]
 pub fn respond_at(
     index: u32,
@@ -484,7 +486,7 @@ pub fn respond_at(
     v: &mut [Vec4],
 ) {
     let i = index as usize;
-    if !contact.is_some() {
+    if !contact.is_some() || sleeping(v[i]) {
         return;
     }
     let p1 = to_local(&motion.end, x[i].xyz());

@@ -14,6 +14,7 @@
 //! Euler (the paper's eq. 3) is stage 0 (a = acc) then stage 3 (v += h a; x += h v).
 
 use crate::cloth::{acceleration, acceleration_springs};
+use crate::tiles::{SLEEPING, sleeping};
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{ParticleSprings, SimParams, Spring, StagePush, integrator};
 use spirv_std::spirv;
@@ -70,7 +71,8 @@ fn with_w(v: Vec3, w: f32) -> Vec4 {
     v.extend(w)
 }
 
-/// One particle's work in one stage. Pinned particles (w = 0) keep x bit-identical and v = 0.
+/// One particle's work in one stage. Pinned particles (w = 0) keep x bit-identical and v = 0;
+/// so do sleeping ones (`tiles`: their tile has come to rest), which keep their flag.
 pub fn integrate_stage_at<F: ClothForces>(p: &SimParams, stage: u32, index: u32, b: &mut StageBuffers, forces: &F) {
     let i = index as usize;
     let h = p.substep;
@@ -79,9 +81,10 @@ pub fn integrate_stage_at<F: ClothForces>(p: &SimParams, stage: u32, index: u32,
     if stage == 0 {
         b.x_prev[i] = x0;
     }
-    if w == 0.0 {
+    let asleep = sleeping(b.v[i]);
+    if w == 0.0 || asleep {
         if stage == 0 {
-            b.v[i] = Vec4::ZERO;
+            b.v[i] = Vec4::new(0.0, 0.0, 0.0, if asleep { SLEEPING } else { 0.0 });
         }
         b.x_out[i] = x0;
         b.v_out[i] = Vec4::ZERO;

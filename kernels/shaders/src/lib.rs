@@ -22,6 +22,7 @@ pub mod self_contact;
 pub mod self_pairs;
 pub mod sort;
 pub mod spheres;
+pub mod tiles;
 pub mod triangles;
 pub mod update_contact;
 

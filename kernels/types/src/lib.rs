@@ -85,7 +85,9 @@ pub struct Health {
     /// Cloth triangles whose self-collision pair list was full this frame (or that are too
     /// small for one): they walk at every pass (`self_pairs`).
     pub self_full_lists: u32,
-    pub _pad: u32,
+    /// The cloth's tiles that slept this frame (`drape_kernels::tiles`): their particles
+    /// neither integrated nor collided.
+    pub tiles_asleep: u32,
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
@@ -122,6 +124,7 @@ const _: () = assert!(core::mem::size_of::<Spring>() == 16);
 const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
 const _: () = assert!(core::mem::size_of::<Health>() == 32);
+const _: () = assert!(core::mem::size_of::<TileParams>() == 32);
 
 /// Marks a child index in `BvhNode` as a leaf (sorted sphere index) rather than an internal node.
 pub const LEAF_BIT: u32 = 0x8000_0000;
@@ -226,6 +229,25 @@ pub struct SelfPassPush {
     pub to: f32,
     pub find_walkers: u32,
     pub _pad: u32,
+}
+
+/// A cloth's tile sleeping (`drape_kernels::tiles`): its particles in tiles of
+/// `TILE_PARTICLES` consecutive indices, each tile asleep once it and the tiles its springs
+/// reach stayed still for `still_frames` frames, with no collider moving near it.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct TileParams {
+    pub particle_count: u32,
+    pub tile_count: u32,
+    /// Consecutive still frames before a tile sleeps (>= 1).
+    pub still_frames: u32,
+    /// Colliders moving this frame: their swept boxes, grown by their thickness, lead the
+    /// moving-box buffer (written by the host at the frame's start).
+    pub moving_colliders: u32,
+    /// The largest motion over a frame (m) that counts as still.
+    pub still_motion: f32,
+    pub _pad: [u32; 3],
 }
 
 /// Push constants of the broad phase (once per frame, before the substeps).
