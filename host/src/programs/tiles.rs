@@ -7,6 +7,7 @@ use crate::graph::{BufferId, Dispatch, Handle, Resources, Step};
 use crate::kernels::tiles::{DECIDE_TILES, MEASURE_TILES};
 use crate::motion::Sleep;
 use drape_kernels::cloth::{SPRINGS, spring_offset};
+use drape_kernels::lbvh::morton_code;
 use drape_kernels::tiles::{TILE_PARTICLES, tile_count};
 use drape_types::{Aabb, Health, TileParams};
 use glam::{Vec3, Vec4};
@@ -26,6 +27,8 @@ pub struct TileBuffers {
     /// The parameters as declared (no collider moving).
     pub start: TileParams,
     pub params: Handle<TileParams>,
+    /// Tile `t`'s particles are `members[TILE_PARTICLES t..]` (`tile_members`).
+    pub members: Handle<u32>,
     /// Positions at the last frame's end.
     pub rest: Handle<Vec4>,
     /// Each tile's motion over the last frame (squared, m^2) and its box at its end.
@@ -40,13 +43,37 @@ pub struct TileBuffers {
     pub frames: Handle<u32>,
 }
 
-/// The tiles each tile's springs reach: CSR offsets (one per tile, plus one) and the list,
-/// each tile's neighbours ascending.
-pub fn tile_graph(cloth: &Cloth) -> (Vec<u32>, Vec<u32>) {
+/// The particles of `cloth` in tile order (tile `t` holds `TILE_PARTICLES` of them from
+/// `TILE_PARTICLES t` on): a grid's in index order (its tiles are runs of rows, and a SIMD
+/// group of the integrator holds particles of one tile); a mesh's in Morton order of where
+/// they start, so each tile is a compact patch whatever order the file lists its vertices in
+/// (ties by index).
+pub fn tile_members(cloth: &Cloth) -> Vec<u32> {
     let n = cloth.particle_count() as u32;
+    match cloth.topology {
+        ClothTopology::Grid => (0..n).collect(),
+        ClothTopology::Springs(_) => {
+            let points: Vec<Vec3> = cloth.positions.iter().map(|p| p.truncate()).collect();
+            let lo = points.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
+            let hi = points.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
+            let mut order: Vec<u32> = (0..n).collect();
+            order.sort_by_key(|&i| (morton_code(points[i as usize], lo, hi), i));
+            order
+        }
+    }
+}
+
+/// The tiles each tile's springs reach (`members` gives the tiles, `tile_members`): CSR
+/// offsets (one per tile, plus one) and the list, each tile's neighbours ascending.
+pub fn tile_graph(cloth: &Cloth, members: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let n = cloth.particle_count() as u32;
+    let mut tile_of = vec![0u32; n as usize];
+    for (slot, &i) in members.iter().enumerate() {
+        tile_of[i as usize] = slot as u32 / TILE_PARTICLES;
+    }
     let mut joined: Vec<BTreeSet<u32>> = vec![BTreeSet::new(); tile_count(n) as usize];
     let mut join = |a: u32, b: u32| {
-        let (ta, tb) = (a / TILE_PARTICLES, b / TILE_PARTICLES);
+        let (ta, tb) = (tile_of[a as usize], tile_of[b as usize]);
         if ta != tb {
             joined[ta as usize].insert(tb);
             joined[tb as usize].insert(ta);
@@ -95,11 +122,13 @@ impl TileBuffers {
     ) -> Self {
         let name = format!("{name} tiles");
         let tiles = params.tile_count;
-        let (offsets, neighbours) = tile_graph(cloth);
+        let members = tile_members(cloth);
+        let (offsets, neighbours) = tile_graph(cloth, &members);
         let b = TileBuffers {
             tiles,
             start: params,
             params: resources.device(format!("{name}: params"), 1),
+            members: resources.device(format!("{name}: members"), params.particle_count),
             rest: resources.device(format!("{name}: rest"), params.particle_count),
             motion: resources.device(format!("{name}: motion"), tiles),
             bounds: resources.device(format!("{name}: bounds"), tiles),
@@ -109,6 +138,7 @@ impl TileBuffers {
             frames: resources.device(format!("{name}: calm frames"), tiles),
         };
         initial.push((b.params.id(), bytemuck::bytes_of(&params).to_vec()));
+        initial.push((b.members.id(), bytemuck::cast_slice::<_, u8>(&members).to_vec()));
         initial.push((b.rest.id(), bytemuck::cast_slice::<_, u8>(&cloth.positions).to_vec()));
         initial.push((b.motion.id(), bytemuck::cast_slice::<_, u8>(&vec![f32::MAX; tiles as usize]).to_vec()));
         initial.push((b.offsets.id(), bytemuck::cast_slice::<_, u8>(&offsets).to_vec()));
@@ -137,6 +167,7 @@ impl TileBuffers {
             &DECIDE_TILES,
             vec![
                 self.params.id(),
+                self.members.id(),
                 self.motion.id(),
                 self.bounds.id(),
                 self.offsets.id(),
@@ -155,7 +186,7 @@ impl TileBuffers {
         Step::run(
             MEASURE_LABEL,
             &MEASURE_TILES,
-            vec![self.params.id(), x.id(), self.rest.id(), self.motion.id(), self.bounds.id()],
+            vec![self.params.id(), self.members.id(), x.id(), self.rest.id(), self.motion.id(), self.bounds.id()],
             Dispatch::Threads(self.tiles),
         )
     }
@@ -195,7 +226,9 @@ mod tests {
     #[test]
     fn a_grid_s_tiles_join_the_tiles_its_springs_reach() {
         let cloth = crate::ClothBuilder::new(16, 16).build().unwrap();
-        let (offsets, list) = tile_graph(&cloth);
+        let members = tile_members(&cloth);
+        assert_eq!(members, (0..256).collect::<Vec<u32>>(), "a grid's tiles are runs of its indices");
+        let (offsets, list) = tile_graph(&cloth, &members);
         assert_eq!(offsets, vec![0, 1, 3, 5, 6]);
         assert_eq!(list, vec![1, 0, 2, 1, 3, 2]);
     }
@@ -213,7 +246,9 @@ mod tests {
             let mut health = Health::default();
             let boxes: Vec<Aabb> = moving.to_vec();
             let p = TileParams { moving_colliders: boxes.len() as u32, ..p };
-            decide_tile_at(0, &p, (&motion, &bounds), (&offsets, &neighbours), &boxes, frames, v, &mut health);
+            let members: Vec<u32> = (0..128).collect();
+            let graph = (&offsets[..], &neighbours[..]);
+            decide_tile_at(0, &p, &members, (&motion, &bounds), graph, &boxes, frames, v, &mut health);
             health.tiles_asleep
         };
         let still = [0.0, 0.0];
@@ -234,5 +269,38 @@ mod tests {
         let near = Aabb { min: Vec4::splat(0.5), max: Vec4::splat(2.0) };
         assert_eq!(decide(still, &[far, near], &mut frames, &mut v), 0, "a collider moving through its box");
         assert_eq!(frames[0], 0);
+    }
+
+    /// A mesh whose file lists its vertices in a scrambled order still gets compact tiles: a
+    /// 32 x 32 grid of 1 m as a mesh, its vertices shuffled, makes 16 tiles of 64, each within
+    /// a quarter of the cloth across (in file order each would span all of it).
+    #[test]
+    fn a_mesh_s_tiles_are_compact_patches_whatever_its_vertex_order() {
+        let grid = crate::ClothMesh::grid(32, 32, 1.0);
+        let n = grid.vertices.len();
+        let shuffle: Vec<usize> = (0..n).map(|i| (i * 389) % n).collect(); // 389 is prime to 1024
+        let mut new_index = vec![0u32; n];
+        for (new, &old) in shuffle.iter().enumerate() {
+            new_index[old] = new as u32;
+        }
+        let vertices = shuffle.iter().map(|&old| grid.vertices[old]).collect();
+        let triangles = grid.triangles.iter().map(|t| t.map(|i| new_index[i as usize])).collect();
+        let mesh = crate::ClothMesh::from_parts(vertices, triangles).unwrap();
+        let cloth = crate::ClothBuilder::from_mesh(mesh).build().unwrap();
+        let members = tile_members(&cloth);
+        let extent = |tile: &[u32]| {
+            let (lo, hi) = tile.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &i| {
+                let p = cloth.positions[i as usize].truncate();
+                (lo.min(p), hi.max(p))
+            });
+            (hi - lo).max_element()
+        };
+        let widest = members.chunks(64).map(extent).fold(0.0f32, f32::max);
+        assert!(widest <= 0.26, "a tile spans {widest} m of the 1 m cloth");
+        let in_file_order: Vec<u32> = (0..n as u32).collect();
+        assert!(in_file_order.chunks(64).map(extent).fold(0.0f32, f32::max) > 0.9, "the file's order is scrambled");
+        let (offsets, _) = tile_graph(&cloth, &members);
+        let most = offsets.windows(2).map(|w| w[1] - w[0]).max().unwrap();
+        assert!(most <= 8, "a compact tile touches its few neighbours, not {most}");
     }
 }

@@ -1,8 +1,9 @@
 //! Tile sleeping: the parts of a cloth that have come to rest stop integrating and colliding
 //! while the rest of it moves.
 //!
-//! A cloth's particles form tiles of `TILE_PARTICLES` consecutive indices (a grid's rows, a
-//! mesh's vertex order). At each frame's end `measure_tile_at` records how far each tile's
+//! A cloth's particles form tiles of `TILE_PARTICLES` (`members[TILE_PARTICLES t..]`: a grid's
+//! consecutive indices, its rows; a mesh's vertices in Morton order of where they start, so a
+//! tile is a compact patch whatever the file's vertex order). At each frame's end `measure_tile_at` records how far each tile's
 //! particles moved over the frame (against where the last frame left them) and the tile's box.
 //! At the next frame's start `decide_tile_at` counts the frames each tile has been *calm*: it
 //! moved less than `TileParams::still_motion`, so did every tile its springs reach (a tile
@@ -40,7 +41,7 @@ pub fn tile_count(particles: u32) -> u32 {
     particles.div_ceil(TILE_PARTICLES)
 }
 
-/// Tile `t`'s particles: `first..end`.
+/// Tile `t`'s slots in `members`: `first..end`.
 #[inline]
 fn tile_range(t: u32, particles: u32) -> (u32, u32) {
     let first = t * TILE_PARTICLES;
@@ -49,19 +50,27 @@ fn tile_range(t: u32, particles: u32) -> (u32, u32) {
 
 /// At a frame's end: the square of the farthest any particle of tile `t` moved since the last
 /// frame's end (`rest`, which then takes the positions) into `motion[t]`, and the tile's box.
-pub fn measure_tile_at(t: u32, p: &TileParams, x: &[Vec4], rest: &mut [Vec4], motion: &mut [f32], bounds: &mut [Aabb]) {
+pub fn measure_tile_at(
+    t: u32,
+    p: &TileParams,
+    (members, x): (&[u32], &[Vec4]),
+    rest: &mut [Vec4],
+    motion: &mut [f32],
+    bounds: &mut [Aabb],
+) {
     let (first, end) = tile_range(t, p.particle_count);
     let mut farthest = 0.0f32;
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
-    let mut i = first as usize;
-    while i < end as usize {
+    let mut k = first as usize;
+    while k < end as usize {
+        let i = members[k] as usize;
         let now = x[i];
         farthest = farthest.max((now.xyz() - rest[i].xyz()).length_squared());
         lo = lo.min(now.xyz());
         hi = hi.max(now.xyz());
         rest[i] = now;
-        i += 1;
+        k += 1;
     }
     motion[t as usize] = farthest;
     bounds[t as usize] = Aabb { min: lo.extend(0.0), max: hi.extend(0.0) };
@@ -89,6 +98,7 @@ fn near_moving(b: &Aabb, moving: &[Aabb], count: u32) -> bool {
 pub fn decide_tile_at(
     t: u32,
     p: &TileParams,
+    members: &[u32],
     (motion, bounds): (&[f32], &[Aabb]),
     (offsets, neighbours): (&[u32], &[u32]),
     moving: &[Aabb],
@@ -108,10 +118,11 @@ pub fn decide_tile_at(
     frames[ti] = count;
     let asleep = count >= p.still_frames;
     let (first, end) = tile_range(t, p.particle_count);
-    let mut i = first as usize;
-    while i < end as usize {
+    let mut k = first as usize;
+    while k < end as usize {
+        let i = members[k] as usize;
         v[i] = if asleep { Vec4::new(0.0, 0.0, 0.0, SLEEPING) } else { v[i].xyz().extend(0.0) };
-        i += 1;
+        k += 1;
     }
     if asleep {
         atomics::add(&mut health.tiles_asleep, 1);
@@ -125,15 +136,16 @@ pub const TILE_THREADS: u32 = 64;
 pub fn measure_tiles(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] tile_params: &TileParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] rest: &mut [Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] motion: &mut [f32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] bounds: &mut [Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] members: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] rest: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] motion: &mut [f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] bounds: &mut [Aabb],
 ) {
     if id.x >= tile_params.tile_count {
         return;
     }
-    measure_tile_at(id.x, tile_params, x, rest, motion, bounds);
+    measure_tile_at(id.x, tile_params, (members, x), rest, motion, bounds);
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -141,18 +153,19 @@ pub fn measure_tiles(
 pub fn decide_tiles(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] tile_params: &TileParams,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] motion: &[f32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] bounds: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] neighbour_offsets: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] neighbours: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] moving_boxes: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] calm_frames: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] v: &mut [Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] members: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] motion: &[f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] neighbour_offsets: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] neighbours: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] moving_boxes: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] calm_frames: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] health: &mut Health,
 ) {
     if id.x >= tile_params.tile_count {
         return;
     }
     let graph = (neighbour_offsets, neighbours);
-    decide_tile_at(id.x, tile_params, (motion, bounds), graph, moving_boxes, calm_frames, v, health);
+    decide_tile_at(id.x, tile_params, members, (motion, bounds), graph, moving_boxes, calm_frames, v, health);
 }
