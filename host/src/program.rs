@@ -63,9 +63,9 @@ impl SolverProgram {
             let triangles = &cloth.triangles;
             let mut b = ClothBuffers::declare(&mut resources, &numbered("cloth", i), cloth);
             if let Some(sleep) = settings.tile_policy() {
-                let params = TileBuffers::params(cloth.params.particle_count, sleep, settings.frame_dt);
+                let policy = (sleep, settings.frame_dt);
                 b.tiles =
-                    Some(TileBuffers::declare(&mut resources, &numbered("cloth", i), cloth, params, &mut initial));
+                    Some(TileBuffers::declare(&mut resources, &numbered("cloth", i), cloth, policy, &mut initial));
             }
             if let (Some(list), ClothTopology::Springs(topology)) = (&b.springs, &cloth.topology) {
                 initial.push((list.particles.id(), bytemuck::cast_slice::<_, u8>(&topology.particles).to_vec()));

@@ -283,6 +283,19 @@ impl Solver {
     pub fn velocities(&self, cloth: ClothId) -> Result<Vec<Vec4>> {
         self.read_vec4s(cloth, |b| b.v)
     }
+    /// `cloth`'s integrator stage buffers: the substep's start positions and the two
+    /// ping-pong pairs (x a, x b, v a, v b). For drape's tests (`internals`).
+    #[cfg(feature = "internals")]
+    #[doc(hidden)]
+    pub fn stage_buffers(&self, cloth: ClothId) -> Result<[Vec<Vec4>; 5]> {
+        Ok([
+            self.read_vec4s(cloth, |b| b.x_prev)?,
+            self.read_vec4s(cloth, |b| b.xa)?,
+            self.read_vec4s(cloth, |b| b.xb)?,
+            self.read_vec4s(cloth, |b| b.va)?,
+            self.read_vec4s(cloth, |b| b.vb)?,
+        ])
+    }
     /// `cloth`'s vertex normals of the last frame (zero before the first frame or with normals
     /// off).
     pub fn normals(&self, cloth: ClothId) -> Result<Vec<Vec4>> {

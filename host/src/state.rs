@@ -99,6 +99,15 @@ impl State {
                 upload(t.motion.id(), bytemuck::cast_slice(&state.motion))?;
                 upload(t.bounds.id(), bytemuck::cast_slice(&state.bounds))?;
                 upload(t.frames.id(), bytemuck::cast_slice(&state.calm_frames))?;
+                // A settled particle's stage buffers must hold it (`drape_kernels::tiles::SETTLED`);
+                // an awake particle's are written before they are read.
+                for copy in [b.x_prev, b.xa, b.xb] {
+                    upload(copy.id(), bytemuck::cast_slice(&cloth.positions))?;
+                }
+                let still = vec![Vec4::ZERO; cloth.velocities.len()];
+                for copy in [b.va, b.vb] {
+                    upload(copy.id(), bytemuck::cast_slice(&still))?;
+                }
                 tiles_restored = true;
             }
             controls.restore_motion(i, cloth.motion.clone(), tiles_restored);

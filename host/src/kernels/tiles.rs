@@ -11,6 +11,7 @@ pub static MEASURE_TILES: Kernel = Kernel {
         "tiles::measure_tiles",
         &[
             BindingSpec::read("tile_params"),
+            BindingSpec::read("member_offsets"),
             BindingSpec::read("members"),
             BindingSpec::read("x"),
             BindingSpec::write("rest"),
@@ -27,6 +28,7 @@ pub static DECIDE_TILES: Kernel = Kernel {
         "tiles::decide_tiles",
         &[
             BindingSpec::read("tile_params"),
+            BindingSpec::read("member_offsets"),
             BindingSpec::read("members"),
             BindingSpec::read("motion"),
             BindingSpec::read("bounds"),
@@ -44,21 +46,23 @@ pub static DECIDE_TILES: Kernel = Kernel {
 
 fn measure_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [params, members, x, rest, motion, bounds] = d.bindings()?;
+    let [params, offsets, members, x, rest, motion, bounds] = d.bindings()?;
     let p: TileParams = params.first()?;
-    let (members, x, rest) = (members.slice::<u32>(), x.slice::<Vec4>(), rest.slice_mut::<Vec4>());
+    let tiles = (offsets.slice::<u32>(), members.slice::<u32>());
+    let (x, rest) = (x.slice::<Vec4>(), rest.slice_mut::<Vec4>());
     let (motion, bounds) = (motion.slice_mut::<f32>(), bounds.slice_mut::<Aabb>());
     for t in 0..threads.min(p.tile_count) {
-        measure_tile_at(t, &p, (members, x), rest, motion, bounds);
+        measure_tile_at(t, tiles, x, rest, motion, bounds);
     }
     Ok(())
 }
 
 fn decide_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [params, members, motion, bounds, offsets, neighbours, moving, frames, v, health] = d.bindings()?;
+    let [params, member_offsets, members, motion, bounds, offsets, neighbours, moving, frames, v, health] =
+        d.bindings()?;
     let p: TileParams = params.first()?;
-    let members = members.slice::<u32>();
+    let members = (member_offsets.slice::<u32>(), members.slice::<u32>());
     let tiles = (motion.slice::<f32>(), bounds.slice::<Aabb>());
     let graph = (offsets.slice::<u32>(), neighbours.slice::<u32>());
     let (moving, frames, v) = (moving.slice::<Aabb>(), frames.slice_mut::<u32>(), v.slice_mut::<Vec4>());

@@ -8,7 +8,7 @@ use crate::kernels::tiles::{DECIDE_TILES, MEASURE_TILES};
 use crate::motion::Sleep;
 use drape_kernels::cloth::{SPRINGS, spring_offset};
 use drape_kernels::lbvh::morton_code;
-use drape_kernels::tiles::{TILE_PARTICLES, tile_count};
+use drape_kernels::tiles::TILE_PARTICLES;
 use drape_types::{Aabb, Health, TileParams};
 use glam::{Vec3, Vec4};
 use std::collections::BTreeSet;
@@ -27,7 +27,9 @@ pub struct TileBuffers {
     /// The parameters as declared (no collider moving).
     pub start: TileParams,
     pub params: Handle<TileParams>,
-    /// Tile `t`'s particles are `members[TILE_PARTICLES t..]` (`tile_members`).
+    /// Tile `t`'s particles are `members[member_offsets[t]..member_offsets[t + 1]]`
+    /// (`TilePartition`).
+    pub member_offsets: Handle<u32>,
     pub members: Handle<u32>,
     /// Positions at the last frame's end.
     pub rest: Handle<Vec4>,
@@ -43,64 +45,107 @@ pub struct TileBuffers {
     pub frames: Handle<u32>,
 }
 
-/// The particles of `cloth` in tile order (tile `t` holds `TILE_PARTICLES` of them from
-/// `TILE_PARTICLES t` on): a grid's in index order (its tiles are runs of rows, and a SIMD
-/// group of the integrator holds particles of one tile); a mesh's in Morton order of where
-/// they start, so each tile is a compact patch whatever order the file lists its vertices in
-/// (ties by index).
-pub fn tile_members(cloth: &Cloth) -> Vec<u32> {
-    let n = cloth.particle_count() as u32;
-    match cloth.topology {
-        ClothTopology::Grid => (0..n).collect(),
-        ClothTopology::Springs(_) => {
-            let points: Vec<Vec3> = cloth.positions.iter().map(|p| p.truncate()).collect();
-            let lo = points.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
-            let hi = points.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
-            let mut order: Vec<u32> = (0..n).collect();
-            order.sort_by_key(|&i| (morton_code(points[i as usize], lo, hi), i));
-            order
+/// A cloth's particles in tiles of at most `TILE_PARTICLES`: tile `t` holds
+/// `members[offsets[t]..offsets[t + 1]]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TilePartition {
+    pub offsets: Vec<u32>,
+    pub members: Vec<u32>,
+}
+
+impl TilePartition {
+    /// A grid's tiles are runs of its indices (its rows: a SIMD group of the integrator holds
+    /// particles of one tile). A mesh's are runs of Morton order (of where its vertices start)
+    /// within each piece of it (the particles its springs join), so a tile is a compact patch of
+    /// one piece whatever order the file lists the vertices in: a run of the file's order can
+    /// span the whole cloth, and a run of Morton order across pieces joins two layers that lie
+    /// apart (a piece's last tile may hold fewer than `TILE_PARTICLES`).
+    pub fn of(cloth: &Cloth) -> Self {
+        let n = cloth.particle_count() as u32;
+        if matches!(cloth.topology, ClothTopology::Grid) {
+            let offsets = (0..n.div_ceil(TILE_PARTICLES)).map(|t| t * TILE_PARTICLES).chain([n]).collect();
+            return TilePartition { offsets, members: (0..n).collect() };
         }
+        // Pieces: union-find over the springs, each named by its smallest particle.
+        let mut parent: Vec<u32> = (0..n).collect();
+        fn root(parent: &mut [u32], mut i: u32) -> u32 {
+            while parent[i as usize] != i {
+                parent[i as usize] = parent[parent[i as usize] as usize];
+                i = parent[i as usize];
+            }
+            i
+        }
+        for_each_spring(cloth, |a, b| {
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            parent[ra.max(rb) as usize] = ra.min(rb);
+        });
+        let piece: Vec<u32> = (0..n).map(|i| root(&mut parent, i)).collect();
+        let points: Vec<Vec3> = cloth.positions.iter().map(|p| p.truncate()).collect();
+        let lo = points.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
+        let hi = points.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
+        let mut members: Vec<u32> = (0..n).collect();
+        members.sort_by_key(|&i| (piece[i as usize], morton_code(points[i as usize], lo, hi), i));
+        let mut offsets = vec![0];
+        let mut run = 0;
+        for (slot, &i) in members.iter().enumerate().skip(1) {
+            run += 1;
+            if run == TILE_PARTICLES || piece[i as usize] != piece[members[slot - 1] as usize] {
+                offsets.push(slot as u32);
+                run = 0;
+            }
+        }
+        offsets.push(n);
+        TilePartition { offsets, members }
+    }
+
+    pub fn tile_count(&self) -> u32 {
+        self.offsets.len() as u32 - 1
     }
 }
 
-/// The tiles each tile's springs reach (`members` gives the tiles, `tile_members`): CSR
-/// offsets (one per tile, plus one) and the list, each tile's neighbours ascending.
-pub fn tile_graph(cloth: &Cloth, members: &[u32]) -> (Vec<u32>, Vec<u32>) {
-    let n = cloth.particle_count() as u32;
-    let mut tile_of = vec![0u32; n as usize];
-    for (slot, &i) in members.iter().enumerate() {
-        tile_of[i as usize] = slot as u32 / TILE_PARTICLES;
-    }
-    let mut joined: Vec<BTreeSet<u32>> = vec![BTreeSet::new(); tile_count(n) as usize];
-    let mut join = |a: u32, b: u32| {
-        let (ta, tb) = (tile_of[a as usize], tile_of[b as usize]);
-        if ta != tb {
-            joined[ta as usize].insert(tb);
-            joined[tb as usize].insert(ta);
-        }
-    };
+/// Calls `visit(a, b)` for each spring of `cloth` from each of its ends `a`.
+fn for_each_spring(cloth: &Cloth, mut visit: impl FnMut(u32, u32)) {
     match &cloth.topology {
         ClothTopology::Springs(s) => {
             for (a, range) in s.particles.iter().enumerate() {
                 for spring in &s.springs[range.first as usize..(range.first + range.count) as usize] {
-                    join(a as u32, spring.other);
+                    visit(a as u32, spring.other);
                 }
             }
         }
         ClothTopology::Grid => {
             let (rows, cols) = (cloth.params.rows as i32, cloth.params.cols as i32);
-            for index in 0..n as i32 {
+            for index in 0..rows * cols {
                 let (r, c) = (index / cols, index % cols);
                 for s in 0..SPRINGS.len() as u32 {
                     let o = spring_offset(s);
                     let (r2, c2) = (r + o.d_row, c + o.d_col);
                     if (0..rows).contains(&r2) && (0..cols).contains(&c2) {
-                        join(index as u32, (r2 * cols + c2) as u32);
+                        visit(index as u32, (r2 * cols + c2) as u32);
                     }
                 }
             }
         }
     }
+}
+
+/// The tiles each tile of `tiles` reaches through `cloth`'s springs: CSR offsets (one per
+/// tile, plus one) and the list, each tile's neighbours ascending.
+pub fn tile_graph(cloth: &Cloth, tiles: &TilePartition) -> (Vec<u32>, Vec<u32>) {
+    let mut tile_of = vec![0u32; cloth.particle_count()];
+    for t in 0..tiles.tile_count() as usize {
+        for &i in &tiles.members[tiles.offsets[t] as usize..tiles.offsets[t + 1] as usize] {
+            tile_of[i as usize] = t as u32;
+        }
+    }
+    let mut joined: Vec<BTreeSet<u32>> = vec![BTreeSet::new(); tiles.tile_count() as usize];
+    for_each_spring(cloth, |a, b| {
+        let (ta, tb) = (tile_of[a as usize], tile_of[b as usize]);
+        if ta != tb {
+            joined[ta as usize].insert(tb);
+            joined[tb as usize].insert(ta);
+        }
+    });
     let mut offsets = vec![0];
     let mut list = Vec::new();
     for set in joined {
@@ -111,23 +156,32 @@ pub fn tile_graph(cloth: &Cloth, members: &[u32]) -> (Vec<u32>, Vec<u32>) {
 }
 
 impl TileBuffers {
-    /// The buffers of `cloth`'s tiles, and what they start with: every tile awake, its motion
-    /// unknown, resting where the cloth starts.
+    /// The buffers of `cloth`'s tiles under `sleep` (frames of `frame_dt` seconds), and what
+    /// they start with: every tile awake, its motion unknown, resting where the cloth starts.
     pub fn declare(
         resources: &mut Resources,
         name: &str,
         cloth: &Cloth,
-        params: TileParams,
+        (sleep, frame_dt): (Sleep, f32),
         initial: &mut Vec<(BufferId, Vec<u8>)>,
     ) -> Self {
         let name = format!("{name} tiles");
-        let tiles = params.tile_count;
-        let members = tile_members(cloth);
-        let (offsets, neighbours) = tile_graph(cloth, &members);
+        let partition = TilePartition::of(cloth);
+        let tiles = partition.tile_count();
+        let params = TileParams {
+            particle_count: cloth.params.particle_count,
+            tile_count: tiles,
+            still_frames: sleep.frames.max(1),
+            moving_colliders: 0,
+            still_motion: sleep.speed * frame_dt,
+            _pad: [0; 3],
+        };
+        let (offsets, neighbours) = tile_graph(cloth, &partition);
         let b = TileBuffers {
             tiles,
             start: params,
             params: resources.device(format!("{name}: params"), 1),
+            member_offsets: resources.device(format!("{name}: member offsets"), tiles + 1),
             members: resources.device(format!("{name}: members"), params.particle_count),
             rest: resources.device(format!("{name}: rest"), params.particle_count),
             motion: resources.device(format!("{name}: motion"), tiles),
@@ -138,7 +192,8 @@ impl TileBuffers {
             frames: resources.device(format!("{name}: calm frames"), tiles),
         };
         initial.push((b.params.id(), bytemuck::bytes_of(&params).to_vec()));
-        initial.push((b.members.id(), bytemuck::cast_slice::<_, u8>(&members).to_vec()));
+        initial.push((b.member_offsets.id(), bytemuck::cast_slice::<_, u8>(&partition.offsets).to_vec()));
+        initial.push((b.members.id(), bytemuck::cast_slice::<_, u8>(&partition.members).to_vec()));
         initial.push((b.rest.id(), bytemuck::cast_slice::<_, u8>(&cloth.positions).to_vec()));
         initial.push((b.motion.id(), bytemuck::cast_slice::<_, u8>(&vec![f32::MAX; tiles as usize]).to_vec()));
         initial.push((b.offsets.id(), bytemuck::cast_slice::<_, u8>(&offsets).to_vec()));
@@ -148,18 +203,6 @@ impl TileBuffers {
         b
     }
 
-    /// The parameters of a cloth of `particles` under `sleep`, in frames of `frame_dt` seconds.
-    pub fn params(particles: u32, sleep: Sleep, frame_dt: f32) -> TileParams {
-        TileParams {
-            particle_count: particles,
-            tile_count: tile_count(particles),
-            still_frames: sleep.frames.max(1),
-            moving_colliders: 0,
-            still_motion: sleep.speed * frame_dt,
-            _pad: [0; 3],
-        }
-    }
-
     /// The frame's start: which tiles sleep (their particles' flags in `v`, counted in `health`).
     pub fn decide_step(&self, v: Handle<Vec4>, health: Handle<Health>) -> Step {
         Step::run(
@@ -167,6 +210,7 @@ impl TileBuffers {
             &DECIDE_TILES,
             vec![
                 self.params.id(),
+                self.member_offsets.id(),
                 self.members.id(),
                 self.motion.id(),
                 self.bounds.id(),
@@ -186,7 +230,15 @@ impl TileBuffers {
         Step::run(
             MEASURE_LABEL,
             &MEASURE_TILES,
-            vec![self.params.id(), self.members.id(), x.id(), self.rest.id(), self.motion.id(), self.bounds.id()],
+            vec![
+                self.params.id(),
+                self.member_offsets.id(),
+                self.members.id(),
+                x.id(),
+                self.rest.id(),
+                self.motion.id(),
+                self.bounds.id(),
+            ],
             Dispatch::Threads(self.tiles),
         )
     }
@@ -226,9 +278,10 @@ mod tests {
     #[test]
     fn a_grid_s_tiles_join_the_tiles_its_springs_reach() {
         let cloth = crate::ClothBuilder::new(16, 16).build().unwrap();
-        let members = tile_members(&cloth);
-        assert_eq!(members, (0..256).collect::<Vec<u32>>(), "a grid's tiles are runs of its indices");
-        let (offsets, list) = tile_graph(&cloth, &members);
+        let tiles = TilePartition::of(&cloth);
+        assert_eq!(tiles.members, (0..256).collect::<Vec<u32>>(), "a grid's tiles are runs of its indices");
+        assert_eq!(tiles.offsets, vec![0, 64, 128, 192, 256]);
+        let (offsets, list) = tile_graph(&cloth, &tiles);
         assert_eq!(offsets, vec![0, 1, 3, 5, 6]);
         assert_eq!(list, vec![1, 0, 2, 1, 3, 2]);
     }
@@ -247,8 +300,8 @@ mod tests {
             let boxes: Vec<Aabb> = moving.to_vec();
             let p = TileParams { moving_colliders: boxes.len() as u32, ..p };
             let members: Vec<u32> = (0..128).collect();
-            let graph = (&offsets[..], &neighbours[..]);
-            decide_tile_at(0, &p, &members, (&motion, &bounds), graph, &boxes, frames, v, &mut health);
+            let (tiles, graph) = ((&[0u32, 64, 128][..], &members[..]), (&offsets[..], &neighbours[..]));
+            decide_tile_at(0, &p, tiles, (&motion, &bounds), graph, &boxes, frames, v, &mut health);
             health.tiles_asleep
         };
         let still = [0.0, 0.0];
@@ -274,8 +327,10 @@ mod tests {
     /// A mesh whose file lists its vertices in a scrambled order still gets compact tiles: a
     /// 32 x 32 grid of 1 m as a mesh, its vertices shuffled, makes 16 tiles of 64, each within
     /// a quarter of the cloth across (in file order each would span all of it).
+    /// Two patches of one mesh, one 2 m above the other, share no tile (runs of Morton order
+    /// joined them).
     #[test]
-    fn a_mesh_s_tiles_are_compact_patches_whatever_its_vertex_order() {
+    fn a_mesh_s_tiles_are_compact_patches_of_one_piece_whatever_its_vertex_order() {
         let grid = crate::ClothMesh::grid(32, 32, 1.0);
         let n = grid.vertices.len();
         let shuffle: Vec<usize> = (0..n).map(|i| (i * 389) % n).collect(); // 389 is prime to 1024
@@ -287,20 +342,63 @@ mod tests {
         let triangles = grid.triangles.iter().map(|t| t.map(|i| new_index[i as usize])).collect();
         let mesh = crate::ClothMesh::from_parts(vertices, triangles).unwrap();
         let cloth = crate::ClothBuilder::from_mesh(mesh).build().unwrap();
-        let members = tile_members(&cloth);
-        let extent = |tile: &[u32]| {
-            let (lo, hi) = tile.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &i| {
+        let tiles = TilePartition::of(&cloth);
+        let mut sorted = tiles.members.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (0..n as u32).collect::<Vec<_>>(), "each particle in one tile");
+        let tile = |t: usize| &tiles.members[tiles.offsets[t] as usize..tiles.offsets[t + 1] as usize];
+        let extent = |members: &[u32]| {
+            let (lo, hi) = members.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &i| {
                 let p = cloth.positions[i as usize].truncate();
                 (lo.min(p), hi.max(p))
             });
             (hi - lo).max_element()
         };
-        let widest = members.chunks(64).map(extent).fold(0.0f32, f32::max);
+        let count = tiles.tile_count() as usize;
+        let widest = (0..count).map(|t| extent(tile(t))).fold(0.0f32, f32::max);
+        let full = (0..count).filter(|&t| tile(t).len() == 64).count();
+        println!("{count} tiles, {full} full, the widest {widest} m across");
+        assert!(tile_sizes_fit(&tiles) && full == 16, "{count} tiles, {full} of them full");
         assert!(widest <= 0.26, "a tile spans {widest} m of the 1 m cloth");
         let in_file_order: Vec<u32> = (0..n as u32).collect();
         assert!(in_file_order.chunks(64).map(extent).fold(0.0f32, f32::max) > 0.9, "the file's order is scrambled");
-        let (offsets, _) = tile_graph(&cloth, &members);
-        let most = offsets.windows(2).map(|w| w[1] - w[0]).max().unwrap();
-        assert!(most <= 8, "a compact tile touches its few neighbours, not {most}");
+
+        let patch = crate::ClothMesh::grid(8, 8, 0.3);
+        let vertices = patch.vertices.iter().copied().chain(patch.vertices.iter().map(|v| *v + Vec3::Y * 2.0)).collect();
+        let triangles =
+            patch.triangles.iter().copied().chain(patch.triangles.iter().map(|t| t.map(|i| i + 64))).collect();
+        let two = crate::ClothBuilder::from_mesh(crate::ClothMesh::from_parts(vertices, triangles).unwrap()).build().unwrap();
+        let tiles = TilePartition::of(&two);
+        for t in 0..tiles.tile_count() as usize {
+            let members = &tiles.members[tiles.offsets[t] as usize..tiles.offsets[t + 1] as usize];
+            assert!(members.iter().all(|&i| i < 64) || members.iter().all(|&i| i >= 64), "tile {t}: {members:?}");
+        }
+    }
+
+    /// Every tile holds 1..=`TILE_PARTICLES` particles.
+    fn tile_sizes_fit(tiles: &TilePartition) -> bool {
+        tiles.offsets.windows(2).all(|w| (1..=TILE_PARTICLES).contains(&(w[1] - w[0])))
+    }
+
+    /// A settled particle that self-collision pushes, or whose velocity its friction changes,
+    /// is copied into its stage buffers again (`SLEEPING`); one it leaves alone stays settled.
+    #[test]
+    fn a_push_or_friction_unsettles_a_settled_particle() {
+        use drape_kernels::self_contact::apply_self_contact_at;
+        use drape_kernels::tiles::{SETTLED, SLEEPING};
+        let settled = Vec4::new(0.0, 0.0, 0.0, SETTLED);
+        let mut x = vec![Vec4::new(0.0, 0.0, 0.0, 1.0); 3];
+        let mut v = vec![settled; 3];
+        // Fixed-point sums (x, y, z, count): particle 0 pushed 1/2^24 m along +y, particle 1's
+        // velocity changed, particle 2 left alone.
+        let mut delta = vec![0u32; 12];
+        (delta[1], delta[3]) = (1, 1);
+        let mut velocity_changes = vec![0u32; 12];
+        (velocity_changes[4], velocity_changes[7]) = (1, 1);
+        for i in 0..3 {
+            apply_self_contact_at(i, &mut x, &mut v, (&delta, &velocity_changes));
+        }
+        assert_eq!([v[0].w, v[1].w, v[2].w], [SLEEPING, SLEEPING, SETTLED]);
+        assert!(x[0].y > 0.0 && x[1] == x[2]);
     }
 }

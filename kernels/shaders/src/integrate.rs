@@ -14,7 +14,7 @@
 //! Euler (the paper's eq. 3) is stage 0 (a = acc) then stage 3 (v += h a; x += h v).
 
 use crate::cloth::{acceleration, acceleration_springs};
-use crate::tiles::{SLEEPING, sleeping};
+use crate::tiles::SETTLED;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{ParticleSprings, SimParams, Spring, StagePush, integrator};
 use spirv_std::spirv;
@@ -72,22 +72,33 @@ fn with_w(v: Vec3, w: f32) -> Vec4 {
 }
 
 /// One particle's work in one stage. Pinned particles (w = 0) keep x bit-identical and v = 0;
-/// so do sleeping ones (`tiles`: their tile has come to rest), which keep their flag.
+/// so do sleeping ones (`tiles`: their tile has come to rest), which keep their flag. A
+/// sleeping particle is copied into the stage buffers for one substep, then `SETTLED`: its
+/// buffers hold it, and its stages do nothing.
 pub fn integrate_stage_at<F: ClothForces>(p: &SimParams, stage: u32, index: u32, b: &mut StageBuffers, forces: &F) {
     let i = index as usize;
+    let flag = b.v[i].w;
+    if flag == SETTLED {
+        return;
+    }
     let h = p.substep;
     let x0 = b.x[i];
     let w = x0.w;
     if stage == 0 {
         b.x_prev[i] = x0;
     }
-    let asleep = sleeping(b.v[i]);
+    let asleep = flag != 0.0;
     if w == 0.0 || asleep {
         if stage == 0 {
-            b.v[i] = Vec4::new(0.0, 0.0, 0.0, if asleep { SLEEPING } else { 0.0 });
+            b.v[i] = Vec4::new(0.0, 0.0, 0.0, flag);
         }
         b.x_out[i] = x0;
         b.v_out[i] = Vec4::ZERO;
+        // Its last stage has written both ping-pong buffers (RK4's stages write A, B, A, B;
+        // Euler reads neither).
+        if asleep && stage == 3 {
+            b.v[i] = Vec4::new(0.0, 0.0, 0.0, SETTLED);
+        }
         return;
     }
     let v0 = b.v[i].xyz();
