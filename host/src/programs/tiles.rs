@@ -380,12 +380,13 @@ mod tests {
         tiles.offsets.windows(2).all(|w| (1..=TILE_PARTICLES).contains(&(w[1] - w[0])))
     }
 
-    /// A settled particle that self-collision pushes, or whose velocity its friction changes,
-    /// is copied into its stage buffers again (`SLEEPING`); one it leaves alone stays settled.
+    /// A sleeping particle that self-collision pushes, or whose velocity its friction changes,
+    /// wakes for the rest of the frame (it integrates and collides again); one it leaves alone
+    /// stays asleep.
     #[test]
-    fn a_push_or_friction_unsettles_a_settled_particle() {
+    fn a_push_or_friction_wakes_a_sleeping_particle() {
         use drape_kernels::self_contact::apply_self_contact_at;
-        use drape_kernels::tiles::{SETTLED, SLEEPING};
+        use drape_kernels::tiles::SETTLED;
         let settled = Vec4::new(0.0, 0.0, 0.0, SETTLED);
         let mut x = vec![Vec4::new(0.0, 0.0, 0.0, 1.0); 3];
         let mut v = vec![settled; 3];
@@ -398,7 +399,7 @@ mod tests {
         for i in 0..3 {
             apply_self_contact_at(i, &mut x, &mut v, (&delta, &velocity_changes));
         }
-        assert_eq!([v[0].w, v[1].w, v[2].w], [SLEEPING, SLEEPING, SETTLED]);
+        assert_eq!([v[0].w, v[1].w, v[2].w], [0.0, 0.0, SETTLED]);
         assert!(x[0].y > 0.0 && x[1] == x[2]);
     }
 }

@@ -100,8 +100,7 @@ impl<K: LeafKind> TreeQuery for GatherQuery<'_, K> {
 
 /// Broad phase for particle `index` over the `frame` (`frame_motion`): its query box and
 /// candidate list (`candidates[index * MAX_CANDIDATES..]`); returns whether the list holds
-/// anything (or overflowed). Pinned and sleeping particles get an empty list (detect skips
-/// them anyway).
+/// anything (or overflowed). Pinned particles get an empty list (detect skips them anyway).
 #[allow(clippy::too_many_arguments)]
 pub fn broad_phase_at<K: LeafKind>(
     index: u32,
@@ -115,7 +114,8 @@ pub fn broad_phase_at<K: LeafKind>(
 ) -> bool {
     let i = index as usize;
     let region = query_box(frame, x[i].xyz(), v[i].xyz(), params.gravity.xyz(), collider.thickness);
-    let count = if x[i].w == 0.0 || sleeping(v[i]) {
+    // A sleeping particle gets its list too: a push may wake it before the frame ends.
+    let count = if x[i].w == 0.0 {
         0
     } else {
         let base = i * MAX_CANDIDATES as usize;

@@ -46,7 +46,7 @@ use crate::contact::{reduce_bounds, substep_motion};
 use crate::lbvh::{PairWalk, WALK_BATCH, box_meets};
 use crate::pose::{SubstepMotion, to_world};
 use crate::self_pairs::{anchor_particles, triangle_motion_at};
-use crate::tiles::unsettle;
+use crate::tiles::wake_particle;
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
 #[cfg(target_arch = "spirv")]
@@ -1294,7 +1294,7 @@ fn displace(i: usize, x: &mut [Vec4], v: &mut [Vec4], d: Vec3) {
         return;
     }
     x[i] = (x[i].xyz() + d).extend(x[i].w);
-    unsettle(&mut v[i]);
+    wake_particle(&mut v[i]);
     // v minus its component against d, without normalising d (no square root: a reciprocal
     // of one rounds differently on the GPU).
     let vi = v[i].xyz();
@@ -1327,8 +1327,7 @@ pub fn apply_self_contact_at(index: u32, x: &mut [Vec4], v: &mut [Vec4], (delta,
     }
     if let Some(dv) = mean_of(velocity_changes, i, VELOCITY_SCALE) {
         v[i] = (v[i].xyz() + dv).extend(v[i].w);
-        // A sleeping particle's next stage sets its velocity back to zero.
-        unsettle(&mut v[i]);
+        wake_particle(&mut v[i]);
     }
     if let Some(d) = mean_of(delta, i, FIXED_SCALE) {
         displace(i, x, v, d);

@@ -14,7 +14,8 @@
 //! bit for bit, velocity zero) and the contact response skips. Once a substep has copied a
 //! sleeping particle into all its stage buffers, its flag becomes `SETTLED` (`v.w = 2`) and the
 //! integrator skips it altogether (on lavapipe a sleeping particle's copies cost two thirds of an
-//! awake particle's stage); whatever moves it (a self-collision push) makes it `SLEEPING` again. A neighbour that moves, a
+//! awake particle's stage); a self-collision push or friction on it wakes it for the rest of the
+//! frame (`wake_particle`). A neighbour that moves, a
 //! collider moving near, or self-collision pushing one of its particles (a push is motion)
 //! wakes the tile at the next frame's start; the host wakes every tile on any change that could
 //! move the cloth (a force, a parameter, a pin, a new state).
@@ -36,13 +37,12 @@ pub const SLEEPING: f32 = 1.0;
 /// integrator) hold its state: position, and zero velocity. The integrator leaves it alone.
 pub const SETTLED: f32 = 2.0;
 
-/// A sleeping particle something moved or pushed (`v`): its stage buffers no longer hold its
-/// state, so its next substep copies it again.
+/// A sleeping particle that something pushed (`v`) wakes for the rest of the frame: it
+/// integrates and collides again (a push must not leave it inside a collider, nor its stage
+/// buffers stale); the next frame's start decides its tile's sleep anew.
 #[inline]
-pub fn unsettle(v: &mut Vec4) {
-    if v.w == SETTLED {
-        v.w = SLEEPING;
-    }
+pub fn wake_particle(v: &mut Vec4) {
+    v.w = 0.0;
 }
 
 /// Whether a particle with velocity `v` sleeps (its tile does).
