@@ -6,7 +6,7 @@ use crate::cloth::{Cloth, ClothTopology};
 use crate::graph::{BufferId, Dispatch, Handle, Resources, Step};
 use crate::kernels::tiles::{DECIDE_TILES, MEASURE_TILES};
 use crate::motion::Sleep;
-use drape_kernels::cloth::{SPRINGS, spring_offset};
+use drape_kernels::cloth::{SPRINGS, neighbour};
 use drape_kernels::lbvh::morton_code;
 use drape_kernels::tiles::TILE_PARTICLES;
 use drape_types::{Aabb, Health, TileParams};
@@ -114,15 +114,10 @@ fn for_each_spring(cloth: &Cloth, mut visit: impl FnMut(u32, u32)) {
             }
         }
         ClothTopology::Grid => {
-            let (rows, cols) = (cloth.params.rows as i32, cloth.params.cols as i32);
-            for index in 0..rows * cols {
-                let (r, c) = (index / cols, index % cols);
-                for s in 0..SPRINGS.len() as u32 {
-                    let o = spring_offset(s);
-                    let (r2, c2) = (r + o.d_row, c + o.d_col);
-                    if (0..rows).contains(&r2) && (0..cols).contains(&c2) {
-                        visit(index as u32, (r2 * cols + c2) as u32);
-                    }
+            let p = &cloth.params;
+            for (row, col) in (0..p.rows).flat_map(|row| (0..p.cols).map(move |col| (row, col))) {
+                for other in SPRINGS.into_iter().filter_map(|s| neighbour(p, row, col, s)) {
+                    visit(row * p.cols + col, other);
                 }
             }
         }

@@ -24,6 +24,7 @@
 //! velocity sees it without another binding; kernels that write a velocity keep its w.
 
 use crate::atomics;
+use crate::lbvh::box_meets;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, Health, TileParams};
 use spirv_std::spirv;
@@ -87,8 +88,7 @@ pub fn measure_tile_at(
 fn near_moving(b: &Aabb, moving: &[Aabb], count: u32) -> bool {
     let mut k = 0;
     while k < count as usize {
-        let m = moving[k];
-        if b.min.xyz().cmple(m.max.xyz()).all() && b.max.xyz().cmpge(m.min.xyz()).all() {
+        if box_meets(&moving[k], b.min.xyz(), b.max.xyz()) {
             return true;
         }
         k += 1;
