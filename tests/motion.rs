@@ -163,14 +163,20 @@ fn fast_motion_near_self_collision_raises_the_substeps() {
 /// patch A (particles 0..64) lies 2 cm over the ground, patch B (64..128) starts 20 m up and
 /// falls beside the ground through the whole test.
 fn resting_and_falling_patches() -> (drape::Cloth, Collider) {
-    let patch = drape::ClothMesh::grid(8, 8, 0.3);
-    let at = |offset: Vec3| patch.vertices.iter().map(move |&v| v + offset);
-    let vertices: Vec<Vec3> = at(Vec3::new(-0.5, 0.02, 0.0)).chain(at(Vec3::new(1.6, 20.0, 0.0))).collect();
-    let triangles: Vec<[u32; 3]> =
-        patch.triangles.iter().copied().chain(patch.triangles.iter().map(|t| t.map(|i| i + 64))).collect();
-    let cloth = ClothBuilder::from_mesh(drape::ClothMesh::from_parts(vertices, triangles).unwrap()).build().unwrap();
+    let mesh = two_patches(Vec3::new(-0.5, 0.02, 0.0), Vec3::new(1.6, 20.0, 0.0));
+    let cloth = ClothBuilder::from_mesh(mesh).build().unwrap();
     let (_, ground) = cloth_over_ground();
     (cloth, ground)
+}
+
+/// One mesh of two 8 x 8 patches of 0.3 m (particles 0..64 centred at `a`, 64..128 at `b`).
+fn two_patches(a: Vec3, b: Vec3) -> drape::ClothMesh {
+    let patch = drape::ClothMesh::grid(8, 8, 0.3);
+    let at = |offset: Vec3| patch.vertices.iter().map(move |&v| v + offset);
+    let vertices: Vec<Vec3> = at(a).chain(at(b)).collect();
+    let triangles: Vec<[u32; 3]> =
+        patch.triangles.iter().copied().chain(patch.triangles.iter().map(|t| t.map(|i| i + 64))).collect();
+    drape::ClothMesh::from_parts(vertices, triangles).unwrap()
 }
 
 /// Whether every particle of `range` carries the sleep flag (`v.w`), or none does.
@@ -290,12 +296,8 @@ fn a_restored_state_replays_its_sleeping_tiles() {
 #[test]
 fn a_settled_particle_s_stage_buffers_hold_it_while_the_cloth_lands_on_it() {
     let ctx = context();
-    let patch = drape::ClothMesh::grid(8, 8, 0.3);
-    let at = |offset: Vec3| patch.vertices.iter().map(move |&v| v + offset);
-    let vertices: Vec<Vec3> = at(Vec3::new(-0.5, 0.02, 0.0)).chain(at(Vec3::new(-0.45, 2.5, 0.05))).collect();
-    let triangles: Vec<[u32; 3]> =
-        patch.triangles.iter().copied().chain(patch.triangles.iter().map(|t| t.map(|i| i + 64))).collect();
-    let mesh = drape::ClothMesh::from_parts(vertices, triangles.clone()).unwrap();
+    let mesh = two_patches(Vec3::new(-0.5, 0.02, 0.0), Vec3::new(-0.45, 2.5, 0.05));
+    let triangles = mesh.triangles.clone();
     let cloth = ClothBuilder::from_mesh(mesh).self_collision(Some(0.005)).build().unwrap();
     let (_, ground) = cloth_over_ground();
     let model = Model::single(&cloth, std::slice::from_ref(&ground), settings()).unwrap();
