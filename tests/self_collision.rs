@@ -744,3 +744,63 @@ fn the_layers_friction_changes_at_run_time() {
     assert!(error.contains("built without it"), "{error}");
     assert_validation_clean(&ctx);
 }
+
+/// Self-collision's fail-safe check (`drape_kernels::self_failsafe`) through the tree over the
+/// triangles' boxes over the frame finds exactly the crossing pairs that every pair of
+/// triangles whose boxes meet finds: over the small pile's frames, each frame's end shaken by up
+/// to 6 mm per particle (so layers 5 mm apart cross), the particles marked and the pairs counted
+/// are equal.
+#[test]
+fn the_failsafe_check_through_the_tree_finds_what_brute_force_finds() {
+    use drape_kernels::self_failsafe::{Found, Walkers, check_frame_at, check_frame_brute_force_at};
+    use drape_kernels::self_pairs::ANCHOR_WORDS;
+
+    let (cloth, ground) = small_pile(Some(0.005));
+    let owned = owned_primitives(&cloth.triangles);
+    let model = Model::single(&cloth, std::slice::from_ref(&ground), SimSettings::default()).unwrap();
+    let mut sim = CpuSolver::new(&model).unwrap();
+    let n = cloth.particle_count();
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut shake = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        ((seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.012
+    };
+    let mut found_in = 0;
+    for frame in 1..=60 {
+        let before = sim.positions(CLOTH).unwrap();
+        sim.step().unwrap();
+        let mut x = sim.positions(CLOTH).unwrap();
+        for p in &mut x {
+            *p += Vec4::new(shake(), shake(), shake(), 0.0);
+        }
+        let mut anchors = vec![Vec4::ZERO; ANCHOR_WORDS as usize * n];
+        for (i, p) in before.iter().enumerate() {
+            anchors[ANCHOR_WORDS as usize * i] = p.truncate().extend(0.0);
+        }
+        let (now, then): (Vec<Vec3>, Vec<Vec3>) =
+            (x.iter().map(|p| p.truncate()).collect(), before.iter().map(|p| p.truncate()).collect());
+        let mut params = mesh_collider_params(&now, &cloth.triangles, 0.005, 0.0).unwrap();
+        params.thickness = 0.005;
+        let tree = build_swept_mesh_cpu(&then, &now, &cloth.triangles, &params).unwrap();
+        let flat: Vec<u32> = cloth.triangles.iter().flatten().copied().collect();
+        let sorted: Vec<glam::UVec4> =
+            (0..cloth.triangles.len() as u32).map(|s| gather_cloth_triangle_at(s, &flat, &tree.order)).collect();
+        let (mut walked, mut brute) = (vec![0u32; n], vec![0u32; n]);
+        let (mut walked_pairs, mut brute_pairs) = (0u32, 0u32);
+        let none = [0u32; 0];
+        for leaf in 0..cloth.triangles.len() as u32 {
+            let t = (tree.nodes.as_slice(), tree.aabbs.as_slice(), tree.leaf_bounds.as_slice(), sorted.as_slice());
+            let no_lists = (false, Walkers { escaped: &none, counts: &none }, &none[..], &[][..]);
+            let found = Found { flags: &mut walked, pairs: &mut walked_pairs };
+            check_frame_at(leaf, &params, t, &owned, (&x, &anchors), no_lists, found);
+            let found = Found { flags: &mut brute, pairs: &mut brute_pairs };
+            check_frame_brute_force_at(leaf, &params, &sorted, &owned, (&x, &anchors), found);
+        }
+        assert_eq!(walked, brute, "frame {frame}");
+        assert_eq!(walked_pairs, brute_pairs, "frame {frame}");
+        found_in += usize::from(walked_pairs > 0);
+    }
+    assert!(found_in > 10, "the shaken frames must cross ({found_in} of 60 frames had pairs)");
+}

@@ -11,8 +11,8 @@ use cli::colliders::{Motion, SceneCollider, load_mesh, union_at};
 use cli::pictures::Pictures;
 use cli::progress::Progress;
 use cli::report::{
-    Schedule, WorstIntersections, accuracy_json, cloth_description, intersections_json, print_accuracy, print_setup,
-    stability_json, timings_json, write_json,
+    Rollbacks, Schedule, WorstIntersections, accuracy_json, cloth_description, intersections_json, print_accuracy,
+    print_setup, stability_json, timings_json, write_json,
 };
 use drape::metrics::intersections::count_intersections;
 use drape::metrics::{TriangleBvh, accuracy_of_cloth};
@@ -195,7 +195,8 @@ fn run(args: &Args) -> drape::Result<()> {
         .with_timestamps(!args.no_timestamps)
         .with_contact_substeps(args.contact_substeps == OnOff::On)
         .with_sleep((args.sleep > 0.0).then(|| drape::Sleep { speed: args.sleep, ..drape::Sleep::default() }))
-        .with_tile_sleep(args.tile_sleep == OnOff::On);
+        .with_tile_sleep(args.tile_sleep == OnOff::On)
+        .with_self_failsafe(args.self_failsafe == OnOff::On);
     let search = match (args.brute_force, args.search) {
         (true, _) | (_, SearchArg::BruteForce) => ContactSearch::BruteForce,
         (_, SearchArg::Lists) => ContactSearch::CandidateLists,
@@ -297,6 +298,7 @@ fn run(args: &Args) -> drape::Result<()> {
     let mut report = TimingReport::default();
     let (mut ran, mut skipped, mut fallbacks) = (0, 0, 0u64);
     let (mut self_walks, mut self_triangle_passes) = (0u64, 0u64);
+    let mut rollbacks = Rollbacks::default();
     let collider_ids: Vec<_> = model.collider_ids().collect();
     let frame_dt = sim.settings().frame_dt;
     let mut schedule = Schedule::default();
@@ -327,6 +329,7 @@ fn run(args: &Args) -> drape::Result<()> {
         fallbacks += u64::from(r.collision_fallbacks);
         self_walks += u64::from(r.self_walks);
         self_triangle_passes += u64::from(r.self_triangle_passes);
+        rollbacks.record(&r, frame);
         progress.set(frame);
         let write_this = match args.obj_every {
             Some(n) => frame % n == 0,
@@ -392,6 +395,8 @@ fn run(args: &Args) -> drape::Result<()> {
              ({:.2} %: left their predicted region, or their list was full)",
             100.0 * self_walks as f64 / self_triangle_passes as f64
         );
+        json.insert("self_collision_failsafe".into(), rollbacks.json());
+        say!("{}", rollbacks.line(args.frames, args.self_failsafe == OnOff::On));
     }
     if let Some(c) = colliders.first() {
         json.insert(

@@ -53,6 +53,10 @@ pub struct SimSettings {
     /// Parts of a cloth sleep on their own under `sleep`'s policy (tiles of
     /// `drape_kernels::tiles::TILE_PARTICLES` particles), while the rest of it moves.
     pub tile_sleep: bool,
+    /// Self-collision ends each frame by checking its motion for pairs of the cloth that
+    /// crossed, and puts their particles back where the frame started
+    /// (`drape_kernels::self_failsafe`); no effect on a cloth without self-collision.
+    pub self_failsafe: bool,
 }
 
 impl Default for SimSettings {
@@ -68,6 +72,7 @@ impl Default for SimSettings {
             contact_substeps: true,
             sleep: Some(Sleep::default()),
             tile_sleep: true,
+            self_failsafe: true,
         }
     }
 }
@@ -122,6 +127,12 @@ impl SimSettings {
     /// Whether parts of a cloth (tiles) sleep on their own, under the `sleep` policy.
     pub fn with_tile_sleep(mut self, on: bool) -> Self {
         self.tile_sleep = on;
+        self
+    }
+    /// Whether self-collision's frames end with the check for crossed pairs (and put their
+    /// particles back).
+    pub fn with_self_failsafe(mut self, on: bool) -> Self {
+        self.self_failsafe = on;
         self
     }
     /// The sleep policy of a cloth's tiles (`None`: they do not sleep).
@@ -220,6 +231,7 @@ impl SimSettings {
             self_passes,
             self_lists: false,
             self_rebuild: true,
+            self_failsafe: self.self_failsafe,
         }
     }
 

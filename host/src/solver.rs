@@ -39,6 +39,11 @@ pub struct FrameReport {
     /// full; `drape_kernels::self_pairs`).
     pub self_triangle_passes: u32,
     pub self_walks: u32,
+    /// Self-collision's fail-safe (`drape_kernels::self_failsafe`): particles put back where
+    /// the frame started because a pair of them crossed over it, and cloths put back whole
+    /// (its last round still found a crossing).
+    pub self_rollbacks: u32,
+    pub self_rollbacks_whole: u32,
     /// Cloths that slept through the frame (ran nothing).
     pub cloths_asleep: u32,
     /// Tiles of the awake cloths that slept through the frame (`SimSettings::tile_sleep`),
@@ -147,6 +152,8 @@ impl Solver {
             report.tiles_asleep += health.tiles_asleep;
             report.tiles += cloth.tiles.as_ref().map_or(0, |t| t.tiles);
             if let (Some(s), Some(plan)) = (&cloth.self_contact, plans.get(i)) {
+                report.self_rollbacks += health.self_rollbacks;
+                report.self_rollbacks_whole += health.self_rollback_all;
                 let passes = plan.self_passes.clamp(1, plan.substeps.max(1));
                 report.self_triangle_passes += s.tree.leaves * passes;
                 // Without lists every triangle walks; with them, those that escaped and those

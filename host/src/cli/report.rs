@@ -33,6 +33,48 @@ impl WorstIntersections {
     }
 }
 
+/// Self-collision's fail-safe over the run: the particles put back where their frame started,
+/// the frames that put any back, and the cloths put back whole (`drape_kernels::self_failsafe`).
+#[derive(Default)]
+pub(crate) struct Rollbacks {
+    particles: u64,
+    frames: u32,
+    whole: u32,
+    first_frame: Option<u32>,
+}
+
+impl Rollbacks {
+    pub(crate) fn record(&mut self, r: &drape::FrameReport, frame: u32) {
+        self.particles += u64::from(r.self_rollbacks);
+        self.whole += r.self_rollbacks_whole;
+        if r.self_rollbacks > 0 {
+            self.frames += 1;
+            self.first_frame.get_or_insert(frame);
+        }
+    }
+
+    pub(crate) fn line(&self, frames: u32, on: bool) -> String {
+        if !on {
+            return "self-collision fail-safe: off".into();
+        }
+        let first = self.first_frame.map_or(String::new(), |f| format!(", the first at frame {f}"));
+        format!(
+            "self-collision fail-safe: {} particles put back where their frame started, in {} of {frames} frames{first}; \
+             whole cloth put back {} times",
+            self.particles, self.frames, self.whole
+        )
+    }
+
+    pub(crate) fn json(&self) -> Value {
+        json!({
+            "particles_rolled_back": self.particles,
+            "frames_with_rollbacks": self.frames,
+            "first_frame": self.first_frame,
+            "whole_cloth_rollbacks": self.whole,
+        })
+    }
+}
+
 /// What the setup line says the cloth is.
 pub(crate) fn cloth_description(args: &Args, builder: &ClothBuilder) -> String {
     let shape = match (&args.cloth_mesh, &builder.mesh) {

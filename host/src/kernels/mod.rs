@@ -8,6 +8,7 @@ pub mod integrate;
 pub mod lbvh;
 pub mod normals;
 pub mod self_contact;
+pub mod self_failsafe;
 pub mod self_pairs;
 pub mod sort;
 pub mod spheres;
@@ -17,7 +18,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 45] = [
+pub const ALL: [&Kernel; 48] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::NORMALS_AND_HEALTH,
@@ -35,6 +36,9 @@ pub const ALL: [&Kernel; 45] = [
     &self_contact::COLLIDER_FEATURE_CONTACT,
     &self_contact::APPLY_SELF_CONTACT,
     &self_contact::APPLY_COLLIDER_PUSHES,
+    &self_failsafe::FAILSAFE_BOXES,
+    &self_failsafe::FAILSAFE_CHECK,
+    &self_failsafe::FAILSAFE_ROLL_BACK,
     &sort::RADIX_COUNT,
     &sort::RADIX_SCATTER,
     &sort::SCAN_BLOCKS,

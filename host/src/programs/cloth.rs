@@ -182,6 +182,8 @@ pub struct FramePlan {
     /// The frame builds the self-collision tree anew (else it refits the last one:
     /// `self_contact::SELF_TREE_REBUILD_FRAMES`).
     pub self_rebuild: bool,
+    /// Self-collision ends the frame with its fail-safe (`self_failsafe`).
+    pub self_failsafe: bool,
 }
 
 /// The timing table's line of the frame's last pass with vertex normals on.
@@ -250,6 +252,9 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
         if colliders.is_empty() && substep == 0 {
             steps.push(Step::Skip { label: CONTACT_LABEL });
         }
+    }
+    if let Some(s) = cloth.self_contact.as_ref().filter(|_| plan.self_failsafe) {
+        s.failsafe.frame_end_steps(s, &cloth.self_contact_cloth(), plan.self_lists, &mut steps);
     }
     if !plan.normals {
         steps.push(Step::Skip { label: "normals" });

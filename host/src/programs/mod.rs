@@ -7,6 +7,7 @@ pub mod contact;
 pub mod lbvh;
 pub mod scan;
 pub mod self_contact;
+pub mod self_failsafe;
 pub mod sort;
 pub mod spheres;
 pub mod tiles;

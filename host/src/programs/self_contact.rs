@@ -11,6 +11,7 @@
 
 use super::contact::{ColliderBuffers, ColliderLeaves, substep_span};
 use super::lbvh::LbvhBuffers;
+use super::self_failsafe::FailsafeBuffers;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_contact::{
     APPLY_COLLIDER_PUSHES, APPLY_SELF_CONTACT, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
@@ -66,6 +67,8 @@ pub struct SelfContactBuffers {
     /// indirect dispatch (count in `_pad`).
     pub walkers: Handle<u32>,
     pub walk_args: Handle<DispatchArgs>,
+    /// The frame's closing check for crossings (`super::self_failsafe`).
+    pub failsafe: FailsafeBuffers,
     particles: u32,
 }
 
@@ -210,8 +213,14 @@ impl SelfContactBuffers {
             leaf_of: resources.device(format!("{name}: leaf of each triangle"), triangles),
             walkers: resources.device(format!("{name}: walkers"), triangles),
             walk_args: resources.device(format!("{name}: walk dispatch"), 1),
+            failsafe: FailsafeBuffers::declare(resources, &name, particles),
             particles,
         }
+    }
+
+    /// The cloth's particles.
+    pub fn particles(&self) -> u32 {
+        self.particles
     }
 
     /// The tree's parameters (the Morton box and longest edge are the GPU's to write at each

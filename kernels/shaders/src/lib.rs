@@ -19,6 +19,7 @@ pub mod normals;
 pub mod pose;
 pub mod render;
 pub mod self_contact;
+pub mod self_failsafe;
 pub mod self_pairs;
 pub mod sort;
 pub mod spheres;

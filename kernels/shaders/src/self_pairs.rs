@@ -294,7 +294,7 @@ impl PairBoxes for RelativeMotion<'_> {
 /// `thickness` in the frame: with the slops at the frame's start, with the strays measured at
 /// a pass (`listed_self_pairs_at`).
 #[inline]
-fn may_touch(gap: f32, strays: f32, thickness: f32) -> bool {
+pub(crate) fn may_touch(gap: f32, strays: f32, thickness: f32) -> bool {
     gap - strays < thickness * REACH_MARGIN + REACH_ABSOLUTE
 }
 

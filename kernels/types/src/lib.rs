@@ -88,6 +88,13 @@ pub struct Health {
     /// The cloth's tiles that slept this frame (`drape_kernels::tiles`): their particles
     /// neither integrated nor collided.
     pub tiles_asleep: u32,
+    /// Particles self-collision's fail-safe put back where the frame started (a pair of the
+    /// cloth crossed over the frame: `drape_kernels::self_failsafe`).
+    pub self_rollbacks: u32,
+    /// 1 when the fail-safe's last round still found a crossing pair and the whole cloth went
+    /// back to the frame's start.
+    pub self_rollback_all: u32,
+    pub _pad: [u32; 2],
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
@@ -123,7 +130,8 @@ const _: () = assert!(core::mem::size_of::<SimParams>() == 96);
 const _: () = assert!(core::mem::size_of::<Spring>() == 16);
 const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
-const _: () = assert!(core::mem::size_of::<Health>() == 32);
+const _: () = assert!(core::mem::size_of::<Health>() == 48);
+const _: () = assert!(core::mem::size_of::<FailsafePush>() == 16);
 const _: () = assert!(core::mem::size_of::<TileParams>() == 32);
 
 /// Marks a child index in `BvhNode` as a leaf (sorted sphere index) rather than an internal node.
@@ -229,6 +237,20 @@ pub struct SelfPassPush {
     pub to: f32,
     pub find_walkers: u32,
     pub _pad: u32,
+}
+
+/// Push constants of a round of self-collision's fail-safe (`drape_kernels::self_failsafe`):
+/// which round, its flags (`drape_kernels::self_failsafe::LAST_ROUND`, `WITH_LISTS`), and the
+/// workgroups of the next round's boxes and check, and of its roll-back (dispatched only when
+/// this round put a particle back).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct FailsafePush {
+    pub round: u32,
+    pub flags: u32,
+    pub check_groups: u32,
+    pub rollback_groups: u32,
 }
 
 /// A cloth's tile sleeping (`drape_kernels::tiles`): its particles in tiles of

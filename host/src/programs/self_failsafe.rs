@@ -1,0 +1,137 @@
+//! Self-collision's fail-safe as a sub-graph over handles (`drape_kernels::self_failsafe`): at
+//! the frame's end, the self-collision tree refit to each triangle's box over the frame, every
+//! pair swept from the frame's start to its end, and the particles of the pairs that crossed put
+//! back where the frame found them; the rounds after the first run only when the one before put
+//! a particle back (indirect dispatches the roll-back writes).
+
+use super::self_contact::{SelfContactBuffers, SelfContactCloth};
+use crate::graph::{Dispatch, Handle, Resources, Step};
+use crate::kernels::self_failsafe::{FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_ROLL_BACK};
+use drape_kernels::WORKGROUP_SIZE;
+use drape_kernels::self_failsafe::{CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, WITH_LISTS};
+use drape_types::{DispatchArgs, FailsafePush};
+
+/// The timing table's line of the fail-safe's check (every round's).
+pub const FAILSAFE_CHECK_LABEL: &str = "self: fail-safe check";
+/// The timing table's line of the fail-safe's roll-back (every round's).
+pub const FAILSAFE_ROLL_BACK_LABEL: &str = "self: fail-safe roll-back";
+
+/// The buffers of one cloth's fail-safe.
+pub struct FailsafeBuffers {
+    /// Per particle: 1 when a pair found in the round puts it back.
+    pub flags: Handle<u32>,
+    /// Per round: the pairs found and the particles put back (`FAILSAFE_COUNTER_WORDS`).
+    pub counters: Handle<u32>,
+    /// The check's and the roll-back's dispatches of rounds 1, 2, ... (the roll-back of the round
+    /// before writes them); the last pair is the last round's spare (it dispatches nothing).
+    pub rounds: Vec<(Handle<DispatchArgs>, Handle<DispatchArgs>)>,
+}
+
+impl FailsafeBuffers {
+    pub fn declare(resources: &mut Resources, name: &str, particles: u32) -> Self {
+        let rounds = (1..=ROLLBACK_ROUNDS)
+            .map(|r| {
+                (
+                    resources.device(format!("{name}: fail-safe round {r} check dispatch"), 1),
+                    resources.device(format!("{name}: fail-safe round {r} roll-back dispatch"), 1),
+                )
+            })
+            .collect();
+        FailsafeBuffers {
+            flags: resources.device(format!("{name}: fail-safe flags"), particles),
+            counters: resources.device(format!("{name}: fail-safe counters"), FAILSAFE_COUNTER_WORDS),
+            rounds,
+        }
+    }
+
+    /// The frame's fail-safe, after its last self-collision pass and before anything reads the
+    /// frame's end; `lists`: the frame built pair lists (the check takes them).
+    pub fn frame_end_steps(&self, own: &SelfContactBuffers, cloth: &SelfContactCloth, lists: bool, steps: &mut Vec<Step>) {
+        let t = &own.tree;
+        let nothing = DispatchArgs { x: 0, y: 1, z: 1, _pad: 0 };
+        steps.push(Step::fill(self.flags, 0));
+        steps.push(Step::fill(self.counters, 0));
+        for &(check, roll_back) in &self.rounds {
+            steps.push(Step::write(check, 0, &[nothing]));
+            steps.push(Step::write(roll_back, 0, &[nothing]));
+        }
+        let boxes = |dispatch| {
+            Step::run(
+                "self: fail-safe boxes",
+                &FAILSAFE_BOXES,
+                vec![
+                    t.collider.id(),
+                    own.sorted.id(),
+                    cloth.x.id(),
+                    own.anchors.id(),
+                    cloth.indices.id(),
+                    t.sorted_bounds.id(),
+                    own.escaped.id(),
+                    own.strays.id(),
+                ],
+                dispatch,
+            )
+        };
+        steps.push(boxes(Dispatch::Threads(t.leaves)));
+        steps.extend(t.refit_other_steps("self: fail-safe refit", t.sorted_bounds, t.aabbs));
+        let particles = own.particles();
+        for round in 0..ROLLBACK_ROUNDS {
+            let last = if round + 1 == ROLLBACK_ROUNDS { LAST_ROUND } else { 0 };
+            let push = FailsafePush {
+                round,
+                flags: last | if lists { WITH_LISTS } else { 0 },
+                check_groups: t.leaves.div_ceil(CHECK_THREADS),
+                rollback_groups: particles.div_ceil(WORKGROUP_SIZE),
+            };
+            let (check, roll_back) = if round == 0 {
+                (Dispatch::Threads(t.leaves), Dispatch::Threads(particles))
+            } else {
+                // The particles put back moved: where their triangles ended against their
+                // predicted regions, and their boxes (inside the refit tree's), again.
+                let (check, roll_back) = self.rounds[round as usize - 1];
+                steps.push(boxes(Dispatch::Indirect(check)));
+                (Dispatch::Indirect(check), Dispatch::Indirect(roll_back))
+            };
+            steps.push(Step::run_with(
+                FAILSAFE_CHECK_LABEL,
+                &FAILSAFE_CHECK,
+                vec![
+                    t.collider.id(),
+                    t.nodes.id(),
+                    t.aabbs.id(),
+                    t.sorted_bounds.id(),
+                    own.sorted.id(),
+                    own.owned.id(),
+                    cloth.x.id(),
+                    own.anchors.id(),
+                    own.escaped.id(),
+                    own.strays.id(),
+                    own.lists.id(),
+                    own.counts.id(),
+                    self.flags.id(),
+                    self.counters.id(),
+                ],
+                bytemuck::cast(push),
+                check,
+            ));
+            let (next_check, next_roll_back) = self.rounds[round as usize];
+            steps.push(Step::run_with(
+                FAILSAFE_ROLL_BACK_LABEL,
+                &FAILSAFE_ROLL_BACK,
+                vec![
+                    cloth.params.id(),
+                    cloth.x.id(),
+                    cloth.v.id(),
+                    own.anchors.id(),
+                    self.flags.id(),
+                    self.counters.id(),
+                    next_check.id(),
+                    next_roll_back.id(),
+                    cloth.health.id(),
+                ],
+                bytemuck::cast(push),
+                roll_back,
+            ));
+        }
+    }
+}
