@@ -804,3 +804,110 @@ fn the_failsafe_check_through_the_tree_finds_what_brute_force_finds() {
     }
     assert!(found_in > 10, "the shaken frames must cross ({found_in} of 60 frames had pairs)");
 }
+
+/// The fail-safe's sub-graph (`programs::self_failsafe`) on the GPU equals its CPU twin bit for
+/// bit when it puts particles back: the small pile's frames, each frame's start from the solver
+/// (anchors, tree and pair lists as a frame builds them) and its end shaken by up to 6 mm per
+/// particle, so some triangles leave their predicted regions and walk, others test their lists,
+/// and layers 5 mm apart cross. Positions, velocities and the health's counts are equal, particles
+/// go back to where the frame started, and afterwards no pair is found crossing.
+#[test]
+fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
+    use drape::cpu::CpuExecutor;
+    use drape::gpu::Engine;
+    use drape::graph::Resources;
+    use drape::programs::self_contact::{SelfContactBuffers, SelfContactCloth};
+    use drape_types::{Health, SimParams};
+
+    let ctx = context();
+    let thickness = 0.005;
+    let (cloth, ground) = small_pile(Some(thickness));
+    let owned = owned_primitives(&cloth.triangles);
+    let settings = SimSettings::default();
+    let model = Model::single(&cloth, std::slice::from_ref(&ground), settings).unwrap();
+    let mut sim = CpuSolver::new(&model).unwrap();
+    let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
+    let mut resources = Resources::new();
+    let own = SelfContactCloth {
+        params: resources.device("params", 1),
+        x: resources.device("x", n),
+        v: resources.device("v", n),
+        indices: resources.device("indices", 3 * t),
+        health: resources.device("health", 1),
+    };
+    let s = SelfContactBuffers::declare(&mut resources, "pile", n, t);
+    let substeps = 8;
+    let params = SimParams {
+        particle_count: n,
+        substep: settings.frame_dt / substeps as f32,
+        gravity: Vec4::new(0.0, -9.81, 0.0, 0.0),
+        ..SimParams::default()
+    };
+    let mut steps = vec![];
+    s.frame_start_steps(&own, substeps, (true, true), &mut steps);
+    let start_steps = steps;
+    let mut steps = vec![];
+    s.failsafe.frame_end_steps(&s, &own, true, &mut steps);
+    let failsafe_steps = steps;
+    let mut engine = Engine::new(&ctx).unwrap();
+    engine.allocate(&resources).unwrap();
+    let mut gpu_start = engine.record(&start_steps, false).unwrap();
+    let mut gpu_failsafe = engine.record(&failsafe_steps, false).unwrap();
+    let mut cpu = CpuExecutor::new(&resources);
+    let mut seed = 0x5851_f42d_4c95_7f2du64;
+    let mut shake = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        ((seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.012
+    };
+    let (mut put_back, mut compared) = (0, 0);
+    for frame in 1..=60 {
+        let (before, v_before) = (sim.positions(CLOTH).unwrap(), sim.velocities(CLOTH).unwrap());
+        sim.step().unwrap();
+        if frame % 6 != 0 {
+            continue;
+        }
+        let (mut x, v) = (sim.positions(CLOTH).unwrap(), sim.velocities(CLOTH).unwrap());
+        for p in &mut x {
+            *p += Vec4::new(shake(), shake(), shake(), 0.0);
+        }
+        let inputs = |upload: &mut dyn FnMut(&[u8], drape::graph::BufferId)| {
+            upload(bytemuck::cast_slice(&[params]), own.params.id());
+            upload(bytemuck::cast_slice(cloth.triangles.as_flattened()), own.indices.id());
+            upload(bytemuck::cast_slice(&[Health::default()]), own.health.id());
+            upload(bytemuck::cast_slice(&owned), s.owned.id());
+            upload(bytemuck::cast_slice(&[SelfContactBuffers::params(t, thickness, 0.5)]), s.tree.collider.id());
+            upload(bytemuck::cast_slice(&before), own.x.id());
+            upload(bytemuck::cast_slice(&v_before), own.v.id());
+        };
+        inputs(&mut |bytes, id| cpu.upload_bytes(id, bytes).unwrap());
+        inputs(&mut |bytes, id| engine.upload_bytes(id, bytes).unwrap());
+        cpu.run(&start_steps).unwrap();
+        gpu_start.submit().unwrap();
+        for (data, id) in [(&x, own.x.id()), (&v, own.v.id())] {
+            cpu.upload_bytes(id, bytemuck::cast_slice(data)).unwrap();
+            engine.upload_bytes(id, bytemuck::cast_slice(data)).unwrap();
+        }
+        cpu.run(&failsafe_steps).unwrap();
+        gpu_failsafe.submit().unwrap();
+        let at = format!("frame {frame}");
+        let (gx, gv) = (engine.download(own.x, n as usize).unwrap(), engine.download(own.v, n as usize).unwrap());
+        assert_eq!(gx, cpu.read(own.x, n as usize).unwrap(), "{at}: positions");
+        assert_eq!(gv, cpu.read(own.v, n as usize).unwrap(), "{at}: velocities");
+        let health: Health = engine.download(own.health, 1).unwrap()[0];
+        assert_eq!(health, cpu.read(own.health, 1).unwrap()[0], "{at}: health");
+        assert_eq!(health.self_rollback_all, 0, "{at}: the whole cloth went back");
+        let back = (0..n as usize).filter(|&i| gx[i] == before[i] && x[i] != before[i]).count();
+        assert_eq!(back as u32, health.self_rollbacks, "{at}: the particles put back are at the frame's start");
+        put_back += back;
+        compared += 1;
+        // Checked again from the frame's start to where the fail-safe left it: nothing crosses.
+        cpu.upload(own.health, &[Health::default()]).unwrap();
+        cpu.run(&failsafe_steps).unwrap();
+        let again: Health = cpu.read(own.health, 1).unwrap()[0];
+        assert_eq!((again.self_rollbacks, again.self_rollback_all), (0, 0), "{at}: checked again");
+    }
+    assert!(compared == 10 && put_back > 20, "the shaken frames must put particles back ({put_back})");
+    assert_validation_clean(&ctx);
+}
