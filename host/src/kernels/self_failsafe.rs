@@ -5,7 +5,7 @@
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::self_failsafe::{
-    CHECK_THREADS, Found, WITH_LISTS, Walkers, check_frame_at, frame_box_at, note_everything, roll_back_at,
+    CHECK_THREADS, Found, WITH_LISTS, Walkers, check_frame_at, whole_triangles_in, frame_box_at, note_everything, roll_back_at,
 };
 use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, FailsafePush, Health};
 use glam::{UVec4, Vec4};
@@ -120,7 +120,7 @@ fn check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let walkers = Walkers { escaped: escaped.slice::<u32>(), counts: counts.slice::<u32>() };
     let with_lists = (push.flags & WITH_LISTS != 0, walkers, lists.slice::<u32>(), strays.slice::<f32>());
     for leaf in 0..threads.min(c.leaf_count) {
-        let found = Found { flags: &mut *flags, pairs: &mut *pairs };
+        let found = Found { flags: &mut *flags, pairs: &mut *pairs, whole_triangles: whole_triangles_in(push.round) };
         check_frame_at(leaf, &c, tree, owned, (x, anchors), with_lists, found);
     }
     Ok(())

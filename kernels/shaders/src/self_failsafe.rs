@@ -16,10 +16,11 @@
 //! - the particles of the pairs found go back to their positions at the frame's start, at rest.
 //!
 //! Every particle back at the start leaves its pairs as they were at the start; a pair with one
-//! particle back and the others moved is a new motion, so the check runs again, over the pairs
-//! with a particle that went back (`ROLLBACK_ROUNDS` rounds, each after the first dispatched only
-//! when the round before put a particle back). If the last round still finds a pair, the whole
-//! cloth goes back: the frame's start has no crossing, so the frame's end has none either.
+//! particle back and the others moved is a new motion, so the check runs again
+//! (`ROLLBACK_ROUNDS` rounds, each after the first dispatched only when the round before put a
+//! particle back; from the second on, a pair found puts its two triangles back whole,
+//! `whole_triangles_in`). If the last round still finds a pair, the whole cloth goes back: the
+//! frame's start has no crossing, so the frame's end has none either.
 //!
 //! The frame's start: each particle's anchor (`self_pairs::anchor_at`) holds it.
 
@@ -47,8 +48,10 @@ pub const SEPARATION: f32 = 1e-3;
 pub const ACCD_STEPS: u32 = 64;
 
 /// Rounds of check and roll-back in a frame (the last puts the whole cloth back if it still
-/// finds a pair).
-pub const ROLLBACK_ROUNDS: u32 = 3;
+/// finds a pair). The dragon's impact (64^2 cloth, 30 frames) needed up to 6 rounds particle by
+/// particle; with triangles put back whole from the second round, 4 (3 put the whole cloth back
+/// once). A round that does not run costs its three empty indirect dispatches.
+pub const ROLLBACK_ROUNDS: u32 = 4;
 
 /// Words of the fail-safe's counters: per round, the pairs found and the particles that went
 /// back.
@@ -200,23 +203,42 @@ pub fn pair_meets(then: [Vec3; 4], now: [Vec3; 4], edges: bool, separation: f32)
     true
 }
 
-/// What a pair that crossed marks: its particles (`flags`, 1 = go back) and the round's count of
-/// pairs found.
+/// What a pair that crossed marks: its particles (`flags`, 1 = go back), or with
+/// `whole_triangles` every corner of its two triangles; and the round's count of pairs found.
 pub struct Found<'a> {
     pub flags: &'a mut [u32],
     pub pairs: &'a mut u32,
+    pub whole_triangles: bool,
 }
 
 impl Found<'_> {
     #[inline]
-    fn mark(&mut self, ids: [u32; 4]) {
+    fn mark(&mut self, ids: [u32; 4], (a, b): (UVec4, UVec4)) {
         let mut k = 0;
         while k < 4 {
             atomics::max(&mut self.flags[ids[k] as usize], 1);
             k += 1;
         }
+        if self.whole_triangles {
+            let corners = [a.x, a.y, a.z, b.x, b.y, b.z];
+            k = 0;
+            while k < 6 {
+                atomics::max(&mut self.flags[corners[k] as usize], 1);
+                k += 1;
+            }
+        }
         atomics::add(self.pairs, 1);
     }
+}
+
+/// Whether round `round`'s pairs put back every corner of their two triangles: the first round
+/// puts back only the particles of the pairs found; a pair found after that is one the particles
+/// put back made (one of them back, the others moved on), and putting their triangles back
+/// whole ends those chains in fewer rounds (the dragon's impact: particle by particle, up to 6
+/// rounds; a chain longer than the rounds puts the whole cloth back).
+#[inline]
+pub fn whole_triangles_in(round: u32) -> bool {
+    round > 0
 }
 
 /// Whether two boxes meet once one is grown by `reach`.
@@ -271,7 +293,7 @@ pub fn sweep_triangle_pair(a: &SweptTriangle, b: &SweptTriangle, mask: u32, sepa
                 let then = [a.then[k], a.then[k1], b.then[m], b.then[m1]];
                 let now = [a.now[k], a.now[k1], b.now[m], b.now[m1]];
                 if pair_meets(then, now, true, separation) {
-                    found.mark(ids);
+                    found.mark(ids, (a.ids, b.ids));
                 }
             }
             m += 1;
@@ -291,7 +313,7 @@ fn corners_against(vertices: &SweptTriangle, corners: u32, face: &SweptTriangle,
             let then = [vertices.then[k], face.then[0], face.then[1], face.then[2]];
             let now = [vertices.now[k], face.now[0], face.now[1], face.now[2]];
             if pair_meets(then, now, false, separation) {
-                found.mark([id, face.ids.x, face.ids.y, face.ids.z]);
+                found.mark([id, face.ids.x, face.ids.y, face.ids.z], (vertices.ids, face.ids));
             }
         }
         k += 1;
@@ -435,7 +457,7 @@ pub fn check_frame_at(
         }
     }
     if walk_in_batches(walk, tree, query, &mut pairs) {
-        pairs.found.mark([ids.x, ids.y, ids.z, ids.x]);
+        pairs.found.mark([ids.x, ids.y, ids.z, ids.x], (ids, ids));
     }
 }
 
@@ -571,7 +593,8 @@ pub fn failsafe_check(
     if id.x >= self_params.leaf_count {
         return;
     }
-    let found = Found { flags, pairs: &mut counters[(2 * push.round) as usize] };
+    let whole_triangles = whole_triangles_in(push.round);
+    let found = Found { flags, pairs: &mut counters[(2 * push.round) as usize], whole_triangles };
     let with_lists = (push.flags & WITH_LISTS != 0, Walkers { escaped, counts }, lists, strays);
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     check_frame_at(id.x, self_params, tree, owned, (x, anchors), with_lists, found);
