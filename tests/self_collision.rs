@@ -746,17 +746,16 @@ fn the_layers_friction_changes_at_run_time() {
 }
 
 /// Self-collision's fail-safe check (`drape_kernels::self_failsafe`) through the tree over the
-/// triangles' boxes over the frame finds exactly the crossing pairs that every pair of
-/// triangles whose boxes meet finds: over the small pile's frames, each frame's end shaken by up
-/// to 6 mm per particle (so layers 5 mm apart cross), the particles marked and the pairs counted
-/// are equal.
+/// triangles' boxes over the frame finds exactly the pairs that testing every pair of triangles
+/// finds (crossing at the frame's end, not at its start): over the small pile's frames, each
+/// frame's end shaken by up to 6 mm per particle (so layers 5 mm apart cross), the particles
+/// marked and the pairs counted are equal.
 #[test]
 fn the_failsafe_check_through_the_tree_finds_what_brute_force_finds() {
     use drape_kernels::self_failsafe::{Found, Walkers, check_frame_at, check_frame_brute_force_at};
     use drape_kernels::self_pairs::ANCHOR_WORDS;
 
     let (cloth, ground) = small_pile(Some(0.005));
-    let owned = owned_primitives(&cloth.triangles);
     let model = Model::single(&cloth, std::slice::from_ref(&ground), SimSettings::default()).unwrap();
     let mut sim = CpuSolver::new(&model).unwrap();
     let n = cloth.particle_count();
@@ -793,10 +792,10 @@ fn the_failsafe_check_through_the_tree_finds_what_brute_force_finds() {
         for leaf in 0..cloth.triangles.len() as u32 {
             let t = (tree.nodes.as_slice(), tree.aabbs.as_slice(), tree.leaf_bounds.as_slice(), sorted.as_slice());
             let no_lists = (false, Walkers { escaped: &none, counts: &none }, &none[..], &[][..]);
-            let found = Found { flags: &mut walked, pairs: &mut walked_pairs, whole_triangles: false };
-            check_frame_at(leaf, &params, t, &owned, (&x, &anchors), no_lists, found);
-            let found = Found { flags: &mut brute, pairs: &mut brute_pairs, whole_triangles: false };
-            check_frame_brute_force_at(leaf, &params, &sorted, &owned, (&x, &anchors), found);
+            let found = Found { flags: &mut walked, pairs: &mut walked_pairs };
+            check_frame_at(leaf, &params, t, (&x, &anchors), no_lists, found);
+            let found = Found { flags: &mut brute, pairs: &mut brute_pairs };
+            check_frame_brute_force_at(leaf, &params, &sorted, (&x, &anchors), found);
         }
         assert_eq!(walked, brute, "frame {frame}");
         assert_eq!(walked_pairs, brute_pairs, "frame {frame}");
@@ -810,8 +809,8 @@ fn the_failsafe_check_through_the_tree_finds_what_brute_force_finds() {
 /// (anchors, tree and pair lists as a frame builds them) and its end shaken by up to 12 mm per
 /// particle, so some triangles leave their predicted regions and walk, others test their lists,
 /// and layers 5 mm apart cross. Positions, velocities and the health's counts are equal, particles
-/// go back to where the frame started (in the first round and in later ones, which put
-/// triangles back whole), and afterwards no pair is found crossing.
+/// go back to where the frame started (in the first round and in later ones), and afterwards no
+/// pair is found crossing.
 #[test]
 fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
     use drape::cpu::CpuExecutor;

@@ -53,8 +53,8 @@ pub struct SimSettings {
     /// Parts of a cloth sleep on their own under `sleep`'s policy (tiles of
     /// `drape_kernels::tiles::TILE_PARTICLES` particles), while the rest of it moves.
     pub tile_sleep: bool,
-    /// Self-collision ends each frame by checking its motion for pairs of the cloth that
-    /// crossed, and puts their particles back where the frame started
+    /// Self-collision ends each frame by checking the cloth for triangles that intersect (and did
+    /// not at the frame's start), and puts their particles back where the frame started
     /// (`drape_kernels::self_failsafe`); no effect on a cloth without self-collision.
     pub self_failsafe: bool,
 }

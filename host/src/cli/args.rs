@@ -141,10 +141,10 @@ pub(crate) struct Args {
     /// speed and 30 frames) while the rest of it moves.
     #[arg(long, value_enum, default_value = "on")]
     pub(crate) tile_sleep: OnOff,
-    /// With `--self-collision on`, end each frame by checking the cloth's motion over it for
-    /// pairs that crossed (continuous collision detection from the frame's start to its end) and
-    /// put their particles back where the frame started, so no frame ends with the cloth through
-    /// itself (off: the passes alone, for comparison).
+    /// With `--self-collision on`, end each frame by checking the cloth for triangles that
+    /// intersect (and did not at the frame's start) and put their particles back where the frame
+    /// started, so no frame ends with the cloth through itself (off: the passes alone, for
+    /// comparison).
     #[arg(long, value_enum, default_value = "on")]
     pub(crate) self_failsafe: OnOff,
     /// Raise automatic substeps so no particle moves more than the contact thickness per

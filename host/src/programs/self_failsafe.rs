@@ -1,7 +1,7 @@
 //! Self-collision's fail-safe as a sub-graph over handles (`drape_kernels::self_failsafe`): at
 //! the frame's end, the self-collision tree refit to each triangle's box over the frame, every
-//! pair swept from the frame's start to its end, and the particles of the pairs that crossed put
-//! back where the frame found them; the rounds after the first run only when the one before put
+//! pair of triangles tested for intersection at the end, and the particles of the pairs that
+//! cross there (and did not at the start) put back where the frame found them; the rounds after the first run only when the one before put
 //! a particle back (indirect dispatches the roll-back writes).
 
 use super::self_contact::{SelfContactBuffers, SelfContactCloth};
@@ -101,7 +101,6 @@ impl FailsafeBuffers {
                     t.aabbs.id(),
                     t.sorted_bounds.id(),
                     own.sorted.id(),
-                    own.owned.id(),
                     cloth.x.id(),
                     own.anchors.id(),
                     own.escaped.id(),

@@ -1,5 +1,6 @@
-//! Self-collision's fail-safe: the frame's end is checked against its start, and the particles
-//! of any pair that crossed are put back where the frame found them.
+//! Self-collision's fail-safe: the frame's end is checked for cloth triangles that intersect,
+//! and the particles of any pair that did not at the frame's start are put back where the frame
+//! found them.
 //!
 //! The passes (`self_contact`) push pairs within the thickness apart, each particle by the mean
 //! of its corrections. Where the cloth is squeezed (a layer pressed between the ground and the
@@ -7,50 +8,42 @@
 //! layers can pass through each other (the pile scene: 2 of 600 frames). So, as Bridson et al.
 //! (2002) follow their repulsions with a collision check, every frame ends with one:
 //! - each triangle's box over the frame (start to end) refits the self-collision tree;
-//! - every vertex-face and edge-edge pair (sharing no particle) whose boxes meet is swept
-//!   linearly from the frame's start to its end by additive continuous collision detection (Li,
-//!   Kaufman and Jiang 2021, "Codimensional Incremental Potential Contact", algorithm 1):
-//!   conservative advancement that never steps past a contact, so a pair that comes within
-//!   `SEPARATION` of touching is always found (and one it cannot clear in `ACCD_STEPS` steps is
-//!   counted as found);
-//! - the particles of the pairs found go back to their positions at the frame's start, at rest.
+//! - every pair of triangles that share no particle and whose boxes at the frame's end meet is
+//!   tested for intersection there (an edge of one through the other: `triangles_cross`), and a
+//!   pair that crosses at the end but did not at the start is found;
+//! - the particles of both triangles of each pair found go back to their positions at the
+//!   frame's start, at rest.
 //!
-//! Every particle back at the start leaves its pairs as they were at the start; a pair with one
-//! particle back and the others moved is a new motion, so the check runs again
+//! The state's end, not the straight path from its start: on a cloth folding over itself at
+//! 5-7 cm a frame (the 64^2 swing from frame 30), that path ran two layers a thickness apart
+//! through each other where the substeps' path went round, and continuous collision detection
+//! over it put the whole cloth back in 10 of 40 frames (no frame of it ended crossed). So a
+//! layer that passed wholly through another within a frame, leaving no triangle through
+//! another, is not undone here; a cloth is connected, so one that passes through where it is
+//! joined to the rest leaves triangles crossed, and those are.
+//!
+//! Every particle back at the start leaves its triangles as they were at the start; a pair with
+//! some particles back and others moved is a new state, so the check runs again
 //! (`ROLLBACK_ROUNDS` rounds, each after the first dispatched only when the round before put a
-//! particle back; from the second on, a pair found puts its two triangles back whole,
-//! `whole_triangles_in`). If the last round still finds a pair, the whole cloth goes back: the
-//! frame's start has no crossing, so the frame's end has none either.
+//! particle back). If the last round still finds a pair, the whole cloth goes back: the frame's
+//! start has no new crossing, so the frame's end has none either.
 //!
 //! The frame's start: each particle's anchor (`self_pairs::anchor_at`) holds it.
 
 use crate::atomics;
-use crate::lbvh::{PairWalk, box_meets};
-use crate::self_contact::{
-    LeafVisitor, PAIR_EDGES_SHIFT, closest_between_segments, closest_with_weights, longest_side2, pair_mask,
-    walk_in_batches,
-};
+use crate::lbvh::PairWalk;
+use crate::self_contact::{LeafVisitor, walk_in_batches};
 use crate::self_pairs::{ANCHOR_WORDS, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, escaped_at, may_touch};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, FailsafePush, Health, SelfPassPush, SimParams};
-#[cfg(target_arch = "spirv")]
-use spirv_std::num_traits::Float;
 use spirv_std::spirv;
 
-/// How close (a share of the thickness) a swept pair may come before it counts as crossing: far
-/// above the rounding of the distances (f32 positions of a cloth a metre across round at 6e-8
-/// m), far below the thickness the passes keep.
+/// How near (a share of the thickness) two triangles' boxes at the frame's end must come to be
+/// tested (and the reach of the walks).
 pub const SEPARATION: f32 = 1e-3;
 
-/// Steps of conservative advancement a pair gets: one that has not cleared the frame by then
-/// (it grazes within a hair over a long slide) counts as crossing. A pair apart by more than
-/// its relative motion clears in one.
-pub const ACCD_STEPS: u32 = 64;
-
 /// Rounds of check and roll-back in a frame (the last puts the whole cloth back if it still
-/// finds a pair). The dragon's impact (64^2 cloth, 30 frames) needed up to 6 rounds particle by
-/// particle; with triangles put back whole from the second round, 4 (3 put the whole cloth back
-/// once). A round that does not run costs its three empty indirect dispatches.
+/// finds a pair). A round that does not run costs its three empty indirect dispatches.
 pub const ROLLBACK_ROUNDS: u32 = 4;
 
 /// Words of the fail-safe's counters: per round, the pairs found and the particles that went
@@ -83,27 +76,17 @@ impl SweptTriangle {
     }
 
     #[inline]
-    fn id(&self, k: usize) -> u32 {
-        if k == 0 {
-            self.ids.x
-        } else if k == 1 {
-            self.ids.y
-        } else {
-            self.ids.z
-        }
-    }
-
-    #[inline]
-    fn has(&self, id: u32) -> bool {
-        self.ids.x == id || self.ids.y == id || self.ids.z == id
-    }
-
-    /// The box of corners `k` and `m` over the frame (one corner's when `k == m`).
-    #[inline]
-    fn swept_box(&self, k: usize, m: usize) -> (Vec3, Vec3) {
-        let lo = self.now[k].min(self.then[k]).min(self.now[m]).min(self.then[m]);
-        let hi = self.now[k].max(self.then[k]).max(self.now[m]).max(self.then[m]);
-        (lo, hi)
+    fn shares_a_particle(&self, other: &SweptTriangle) -> bool {
+        let (a, b) = (self.ids, other.ids);
+        a.x == b.x
+            || a.x == b.y
+            || a.x == b.z
+            || a.y == b.x
+            || a.y == b.y
+            || a.y == b.z
+            || a.z == b.x
+            || a.z == b.y
+            || a.z == b.z
     }
 
     /// The box of the whole triangle over the frame.
@@ -113,132 +96,72 @@ impl SweptTriangle {
         (n[0].min(n[1]).min(n[2]).min(t[0]).min(t[1]).min(t[2]), n[0].max(n[1]).max(n[2]).max(t[0]).max(t[1]).max(t[2]))
     }
 
-    /// The box of the triangle at the frame's start.
+    /// The box of the triangle at the frame's end.
     #[inline]
-    fn start_box(&self) -> (Vec3, Vec3) {
-        let t = self.then;
-        (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))
+    pub fn end_box(&self) -> (Vec3, Vec3) {
+        let n = self.now;
+        (n[0].min(n[1]).min(n[2]), n[0].max(n[1]).max(n[2]))
     }
 }
 
-/// The squared distance from `p` to triangle (`a`, `b`, `c`); a collapsed triangle's is the
-/// distance to its sides.
+/// The sign of the orientation of `d` against the plane of `a`, `b`, `c` (1, -1, or 0 on it), as
+/// f32 rounds it. No tolerance: one that counts near-zero as zero takes two triangles of a sheet
+/// lying flat, 1e-7 off its plane, for touching (the pile's first frames put its whole cloth
+/// back).
 #[inline]
-pub fn point_triangle_distance2(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
-    let area2 = (b - a).cross(c - a).length_squared();
-    let longest = longest_side2(a, b, c);
-    if area2 > 1e-8 * longest * longest {
-        let (q, _) = closest_with_weights(p, a, b, c);
-        return (p - q).length_squared();
-    }
-    segment_distance2(p, p, a, b).min(segment_distance2(p, p, b, c)).min(segment_distance2(p, p, c, a))
-}
-
-/// The squared distance between segments `a`-`b` and `c`-`d`.
-#[inline]
-pub fn segment_distance2(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> f32 {
-    let (s, t) = closest_between_segments(a, b, c, d);
-    ((a + (b - a) * s) - (c + (d - c) * t)).length_squared()
-}
-
-/// The squared distance of a pair of four points: vertex 0 against triangle 1-2-3 (`edges`
-/// false) or edge 0-1 against edge 2-3.
-#[inline]
-fn pair_distance2(p: [Vec3; 4], edges: bool) -> f32 {
-    if edges { segment_distance2(p[0], p[1], p[2], p[3]) } else { point_triangle_distance2(p[0], p[1], p[2], p[3]) }
-}
-
-/// Whether a pair of four points (`then` at the frame's start, `now` at its end; vertex 0
-/// against triangle 1-2-3, or edge 0-1 against edge 2-3 with `edges`) comes within
-/// `separation` of touching on the straight path between (additive CCD). A pair that starts
-/// closer than twice `separation` only must not come within half its start's distance (a pair
-/// already touching at the start cannot be helped, and is left alone).
-pub fn pair_meets(then: [Vec3; 4], now: [Vec3; 4], edges: bool, separation: f32) -> bool {
-    let mut motion = [now[0] - then[0], now[1] - then[1], now[2] - then[2], now[3] - then[3]];
-    // Distances do not change when every point moves alike: only the motion relative to the
-    // mean counts.
-    let mean = (motion[0] + motion[1] + motion[2] + motion[3]) * 0.25;
-    let mut k = 0;
-    while k < 4 {
-        motion[k] -= mean;
-        k += 1;
-    }
-    let lengths = [motion[0].length(), motion[1].length(), motion[2].length(), motion[3].length()];
-    // The fastest that the pair's distance can shrink (per unit of the frame).
-    let bound = if edges {
-        lengths[0].max(lengths[1]) + lengths[2].max(lengths[3])
+fn orient(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> i32 {
+    let o = (b - a).cross(c - a).dot(d - a);
+    if o > 0.0 {
+        1
+    } else if o < 0.0 {
+        -1
     } else {
-        lengths[0] + lengths[1].max(lengths[2]).max(lengths[3])
-    };
-    if bound <= 0.0 {
-        return false;
+        0
     }
-    let d2 = pair_distance2(then, edges);
-    if d2 <= 0.0 {
-        return false;
-    }
-    let xi = separation.min(0.5 * d2.sqrt());
-    let gap = |d2: f32| (d2 - xi * xi) * (1.0 / (d2.sqrt() + xi)); // the distance less xi
-    let mut t = 0.0;
-    let mut step = 0.9 * gap(d2) * (1.0 / bound);
-    let mut i = 0;
-    while i < ACCD_STEPS {
-        if t + step >= 1.0 {
-            return false; // clears the frame
-        }
-        t += step;
-        let at = [
-            then[0] + (now[0] - then[0]) * t,
-            then[1] + (now[1] - then[1]) * t,
-            then[2] + (now[2] - then[2]) * t,
-            then[3] + (now[3] - then[3]) * t,
-        ];
-        let d2 = pair_distance2(at, edges);
-        if d2 <= xi * xi {
-            return true;
-        }
-        step = 0.9 * gap(d2) * (1.0 / bound);
-        i += 1;
-    }
-    true
 }
 
-/// What a pair that crossed marks: its particles (`flags`, 1 = go back), or with
-/// `whole_triangles` every corner of its two triangles; and the round's count of pairs found.
+/// Whether segment `p`-`q` crosses triangle (`a`, `b`, `c`), touching included: the f32 twin of
+/// `metrics::intersections::segment_crosses_triangle`, which is exact (where f32 rounds an
+/// orientation of nearly coplanar points to the wrong sign, the two may differ).
+#[inline]
+pub fn segment_crosses(p: Vec3, q: Vec3, a: Vec3, b: Vec3, c: Vec3) -> bool {
+    let (sp, sq) = (orient(a, b, c, p), orient(a, b, c, q));
+    if (sp == 0 && sq == 0) || sp * sq > 0 {
+        return false;
+    }
+    let (e0, e1, e2) = (orient(p, q, a, b), orient(p, q, b, c), orient(p, q, c, a));
+    (e0 >= 0 && e1 >= 0 && e2 >= 0) || (e0 <= 0 && e1 <= 0 && e2 <= 0)
+}
+
+/// Whether triangles `t` and `u` intersect: an edge of one through the other.
+#[inline]
+pub fn triangles_cross(t: [Vec3; 3], u: [Vec3; 3]) -> bool {
+    segment_crosses(t[0], t[1], u[0], u[1], u[2])
+        || segment_crosses(t[1], t[2], u[0], u[1], u[2])
+        || segment_crosses(t[2], t[0], u[0], u[1], u[2])
+        || segment_crosses(u[0], u[1], t[0], t[1], t[2])
+        || segment_crosses(u[1], u[2], t[0], t[1], t[2])
+        || segment_crosses(u[2], u[0], t[0], t[1], t[2])
+}
+
+/// What a pair that crossed marks: the particles of both its triangles (`flags`, 1 = go back),
+/// and the round's count of pairs found.
 pub struct Found<'a> {
     pub flags: &'a mut [u32],
     pub pairs: &'a mut u32,
-    pub whole_triangles: bool,
 }
 
 impl Found<'_> {
     #[inline]
-    fn mark(&mut self, ids: [u32; 4], (a, b): (UVec4, UVec4)) {
+    fn mark(&mut self, a: UVec4, b: UVec4) {
+        let corners = [a.x, a.y, a.z, b.x, b.y, b.z];
         let mut k = 0;
-        while k < 4 {
-            atomics::max(&mut self.flags[ids[k] as usize], 1);
+        while k < 6 {
+            atomics::max(&mut self.flags[corners[k] as usize], 1);
             k += 1;
-        }
-        if self.whole_triangles {
-            let corners = [a.x, a.y, a.z, b.x, b.y, b.z];
-            k = 0;
-            while k < 6 {
-                atomics::max(&mut self.flags[corners[k] as usize], 1);
-                k += 1;
-            }
         }
         atomics::add(self.pairs, 1);
     }
-}
-
-/// Whether round `round`'s pairs put back every corner of their two triangles: the first round
-/// puts back only the particles of the pairs found; a pair found after that is one the particles
-/// put back made (one of them back, the others moved on), and putting their triangles back
-/// whole ends those chains in fewer rounds (the dragon's impact: particle by particle, up to 6
-/// rounds; a chain longer than the rounds puts the whole cloth back).
-#[inline]
-pub fn whole_triangles_in(round: u32) -> bool {
-    round > 0
 }
 
 /// Whether two boxes meet once one is grown by `reach`.
@@ -248,75 +171,16 @@ fn near(a: (Vec3, Vec3), b: (Vec3, Vec3), reach: f32) -> bool {
     a.0.cmple(b.1 + r).all() && a.1.cmpge(b.0 - r).all()
 }
 
-/// Whether triangles `a` and `b` can come within `reach` over the frame at all: the gap between
-/// their boxes at the start, against the most their corners move relative to the six's mean
-/// (the pairs of a cloth moving as a whole, however fast, are cleared here).
+/// Triangles `a` and `b` at the frame's end: found when they share no particle, cross there and
+/// did not at the start (a pair that started crossed, e.g. a garment mesh that intersects
+/// itself, cannot be helped by going back, and is left alone).
 #[inline]
-fn may_meet(a: &SweptTriangle, b: &SweptTriangle, reach: f32) -> bool {
-    let mut mean = Vec3::ZERO;
-    let mut k = 0;
-    while k < 3 {
-        mean += (a.now[k] - a.then[k]) + (b.now[k] - b.then[k]);
-        k += 1;
-    }
-    mean *= 1.0 / 6.0;
-    let mut ra: f32 = 0.0;
-    let mut rb: f32 = 0.0;
-    k = 0;
-    while k < 3 {
-        ra = ra.max((a.now[k] - a.then[k] - mean).length());
-        rb = rb.max((b.now[k] - b.then[k] - mean).length());
-        k += 1;
-    }
-    near(a.start_box(), b.start_box(), reach + ra + rb)
-}
-
-/// Triangles `a` and `b` (sharing no pair the other triangle handles: `mask`, `pair_mask`)
-/// swept over the frame: each owned corner against the other's face, each owned edge against
-/// the other's owned edges; the pairs that meet are marked.
-pub fn sweep_triangle_pair(a: &SweptTriangle, b: &SweptTriangle, mask: u32, separation: f32, found: &mut Found) {
-    if !may_meet(a, b, separation) {
+pub fn check_triangle_pair(a: &SweptTriangle, b: &SweptTriangle, separation: f32, found: &mut Found) {
+    if a.shares_a_particle(b) || !near(a.end_box(), b.end_box(), separation) {
         return;
     }
-    corners_against(a, mask & 7, b, separation, found);
-    corners_against(b, (mask >> 3) & 7, a, separation, found);
-    let mut k = 0;
-    while k < 3 {
-        let edges = (mask >> (PAIR_EDGES_SHIFT + 3 * k as u32)) & 7;
-        let k1 = (k + 1) % 3;
-        let mut m = 0;
-        while m < 3 {
-            let m1 = (m + 1) % 3;
-            let ids = [a.id(k), a.id(k1), b.id(m), b.id(m1)];
-            let shares = ids[0] == ids[2] || ids[0] == ids[3] || ids[1] == ids[2] || ids[1] == ids[3];
-            if edges & (1 << m) != 0 && !shares && near(a.swept_box(k, k1), b.swept_box(m, m1), separation) {
-                let then = [a.then[k], a.then[k1], b.then[m], b.then[m1]];
-                let now = [a.now[k], a.now[k1], b.now[m], b.now[m1]];
-                if pair_meets(then, now, true, separation) {
-                    found.mark(ids, (a.ids, b.ids));
-                }
-            }
-            m += 1;
-        }
-        k += 1;
-    }
-}
-
-/// The corners of `vertices` in `corners` (bit k: corner k) against the face of `face`.
-#[inline]
-fn corners_against(vertices: &SweptTriangle, corners: u32, face: &SweptTriangle, separation: f32, found: &mut Found) {
-    let face_box = face.box3();
-    let mut k = 0;
-    while k < 3 {
-        let id = vertices.id(k);
-        if corners & (1 << k) != 0 && !face.has(id) && near(vertices.swept_box(k, k), face_box, separation) {
-            let then = [vertices.then[k], face.then[0], face.then[1], face.then[2]];
-            let now = [vertices.now[k], face.now[0], face.now[1], face.now[2]];
-            if pair_meets(then, now, false, separation) {
-                found.mark([id, face.ids.x, face.ids.y, face.ids.z], (vertices.ids, face.ids));
-            }
-        }
-        k += 1;
+    if triangles_cross(a.now, b.now) && !triangles_cross(a.then, b.then) {
+        found.mark(a.ids, b.ids);
     }
 }
 
@@ -345,9 +209,7 @@ pub fn frame_box_at(
 struct FramePairs<'a> {
     leaf: u32,
     mine: SweptTriangle,
-    mine_owned: u32,
     sorted: &'a [UVec4],
-    owned: &'a [u32],
     x: &'a [Vec4],
     anchors: &'a [Vec4],
     /// Which leaves walk; the earlier ones that do not are taken when `take_earlier`.
@@ -374,20 +236,9 @@ impl Walkers<'_> {
 
 impl FramePairs<'_> {
     #[inline]
-    fn pair(&mut self, leaf: u32, mask_of: Option<u32>) {
-        let ids = self.sorted[leaf as usize];
-        let theirs = SweptTriangle::load(ids, self.x, self.anchors);
-        // The earlier leaf first, as the passes do.
-        if leaf < self.leaf {
-            let mask = pair_mask(self.owned[ids.w as usize], self.mine_owned);
-            sweep_triangle_pair(&theirs, &self.mine, mask, self.separation, &mut self.found);
-        } else {
-            let mask = match mask_of {
-                Some(mask) => mask,
-                None => pair_mask(self.mine_owned, self.owned[ids.w as usize]),
-            };
-            sweep_triangle_pair(&self.mine, &theirs, mask, self.separation, &mut self.found);
-        }
+    fn pair(&mut self, leaf: u32) {
+        let theirs = SweptTriangle::load(self.sorted[leaf as usize], self.x, self.anchors);
+        check_triangle_pair(&self.mine, &theirs, self.separation, &mut self.found);
     }
 }
 
@@ -397,28 +248,26 @@ impl LeafVisitor for FramePairs<'_> {
         if leaf == self.leaf || (leaf < self.leaf && !earlier_taken) {
             return;
         }
-        self.pair(leaf, None);
+        self.pair(leaf);
     }
 }
 
-/// Sorted leaf `leaf`'s pairs swept over the frame. Without the frame's lists (`with_lists`
-/// false),
-/// with every later leaf through the tree (refit to the frame's boxes). With them, as a pass
-/// takes them (`self_pairs::listed_self_pairs_at`, `walk_self_pairs_at`): a leaf that ended the
-/// frame inside its predicted region tests its list, but for partners that did not, and the
-/// entries whose gap less both triangles' strays keeps them a thickness apart (a pair a list
-/// leaves out stays a thickness apart while its corners stay within their slops of their
-/// predicted paths, which they do on the straight way from the start to an end within them:
-/// the straight way differs from the predicted one by gravity's share, the same for every
-/// particle); one whose list was full walks for the later leaves; one that ended outside walks
-/// for the later leaves and the earlier ones that do not walk. A walk whose stack overflowed
-/// may have missed pairs: its triangle's particles are marked, to be safe.
+/// Sorted leaf `leaf`'s pairs at the frame's end (`check_triangle_pair`). Without the frame's
+/// lists (`with_lists` false), with every later leaf whose box meets its box at the end, through
+/// the tree (refit to the boxes over the frame, which hold the boxes at the end in every round).
+/// With them, as a pass takes them (`self_pairs::listed_self_pairs_at`, `walk_self_pairs_at`): a
+/// leaf that ended the frame inside its predicted region tests its list, but for partners that
+/// did not, and the entries whose gap less both triangles' strays keeps them a thickness apart
+/// (a pair a list leaves out stays a thickness apart while its corners stay within their slops
+/// of their predicted paths, so at the frame's end too); one whose list was full walks for the
+/// later leaves; one that ended outside walks for the later leaves and the earlier ones that do
+/// not walk. A walk whose stack overflowed may have missed pairs: its triangle's particles are
+/// marked, to be safe.
 #[allow(clippy::too_many_arguments)]
 pub fn check_frame_at(
     leaf: u32,
     self_params: &ColliderParams,
     (nodes, aabbs, leaf_bounds, sorted): (&[BvhNode], &[Aabb], &[Aabb], &[UVec4]),
-    owned: &[u32],
     (x, anchors): (&[Vec4], &[Vec4]),
     (with_lists, walkers, entries, strays): (bool, Walkers, &[u32], &[f32]),
     found: Found,
@@ -426,68 +275,61 @@ pub fn check_frame_at(
     let ids = sorted[leaf as usize];
     let mine = SweptTriangle::load(ids, x, anchors);
     let separation = SEPARATION * self_params.thickness;
-    let (lo, hi) = mine.box3();
-    let query = (lo - Vec3::splat(separation), hi + Vec3::splat(separation));
-    let mine_owned = owned[ids.w as usize];
-    let take_earlier = false;
-    let mut pairs =
-        FramePairs { leaf, mine, mine_owned, sorted, owned, x, anchors, walkers, take_earlier, separation, found };
-    let tree = (nodes, aabbs, leaf_bounds);
-    let mut walk = PairWalk::new(leaf, self_params.leaf_count);
-    if with_lists {
-        let count = walkers.counts[leaf as usize];
-        if walkers.escaped[ids.w as usize] != 0 {
-            pairs.take_earlier = true;
-            walk = PairWalk::all(self_params.leaf_count);
-        } else if count != LIST_OVERFLOWED {
-            let base = (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf) as usize;
-            let my_stray = strays[ids.w as usize];
-            let mut j = 0;
-            while j < count as usize {
-                let entry = base + LIST_ENTRY_WORDS as usize * j;
-                let other = entries[entry];
-                let theirs = sorted[other as usize].w as usize;
-                let gap = f32::from_bits(entries[entry + 2]);
-                if walkers.escaped[theirs] == 0 && may_touch(gap, my_stray + strays[theirs], self_params.thickness) {
-                    pairs.pair(other, Some(entries[entry + 1]));
-                }
-                j += 1;
+    // Which way the leaf goes, decided before any struct of slices is built: one built before a
+    // branch and used after it is a pointer-holding phi, which NVIDIA's compiler crashes on
+    // (`tests/engine.rs`).
+    let escaped = with_lists && walkers.escaped[ids.w as usize] != 0;
+    let count = walkers_count(with_lists, walkers, leaf);
+    if with_lists && !escaped && count != LIST_OVERFLOWED {
+        let take_earlier = false;
+        let mut pairs = FramePairs { leaf, mine, sorted, x, anchors, walkers, take_earlier, separation, found };
+        let base = (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf) as usize;
+        let my_stray = strays[ids.w as usize];
+        let mut j = 0;
+        while j < count as usize {
+            let entry = base + LIST_ENTRY_WORDS as usize * j;
+            let other = entries[entry];
+            let theirs = sorted[other as usize].w as usize;
+            let gap = f32::from_bits(entries[entry + 2]);
+            if walkers.escaped[theirs] == 0 && may_touch(gap, my_stray + strays[theirs], self_params.thickness) {
+                pairs.pair(other);
             }
-            return;
+            j += 1;
         }
+        return;
     }
-    if walk_in_batches(walk, tree, query, &mut pairs) {
-        pairs.found.mark([ids.x, ids.y, ids.z, ids.x], (ids, ids));
+    let (lo, hi) = mine.end_box();
+    let query = (lo - Vec3::splat(separation), hi + Vec3::splat(separation));
+    let walk =
+        if escaped { PairWalk::all(self_params.leaf_count) } else { PairWalk::new(leaf, self_params.leaf_count) };
+    let take_earlier = escaped;
+    let mut pairs = FramePairs { leaf, mine, sorted, x, anchors, walkers, take_earlier, separation, found };
+    if walk_in_batches(walk, (nodes, aabbs, leaf_bounds), query, &mut pairs) {
+        pairs.found.mark(ids, ids);
     }
 }
 
+/// Leaf `leaf`'s list count with the frame's lists (0 without: the counts are stale then).
+#[inline]
+fn walkers_count(with_lists: bool, walkers: Walkers, leaf: u32) -> u32 {
+    if with_lists { walkers.counts[leaf as usize] } else { 0 }
+}
+
 /// The brute-force baseline of `check_frame_at` without lists: sorted leaf `leaf` against every
-/// later leaf whose frame box meets its own.
+/// later leaf.
 pub fn check_frame_brute_force_at(
     leaf: u32,
     self_params: &ColliderParams,
     sorted: &[UVec4],
-    owned: &[u32],
     (x, anchors): (&[Vec4], &[Vec4]),
-    found: Found,
+    mut found: Found,
 ) {
-    let ids = sorted[leaf as usize];
-    let mine = SweptTriangle::load(ids, x, anchors);
+    let mine = SweptTriangle::load(sorted[leaf as usize], x, anchors);
     let separation = SEPARATION * self_params.thickness;
-    let mine_owned = owned[ids.w as usize];
-    // No leaf walks (the walkers are only read with `take_earlier`).
-    let walkers = Walkers { escaped: owned, counts: owned };
-    let take_earlier = false;
-    let mut pairs =
-        FramePairs { leaf, mine, mine_owned, sorted, owned, x, anchors, walkers, take_earlier, separation, found };
-    let (my_lo, my_hi) = mine.box3();
     let mut other = leaf + 1;
     while other < self_params.leaf_count {
-        let (lo, hi) = SweptTriangle::load(sorted[other as usize], x, anchors).box3();
-        let theirs = Aabb { min: lo.extend(0.0), max: hi.extend(0.0) };
-        if box_meets(&theirs, my_lo - Vec3::splat(separation), my_hi + Vec3::splat(separation)) {
-            pairs.visit(other);
-        }
+        let theirs = SweptTriangle::load(sorted[other as usize], x, anchors);
+        check_triangle_pair(&mine, &theirs, separation, &mut found);
         other += 1;
     }
 }
@@ -568,7 +410,7 @@ pub fn failsafe_boxes(
     }
 }
 
-/// One thread per sorted leaf: its pairs swept over the frame (`check_frame_at`); push
+/// One thread per sorted leaf: its pairs at the frame's end (`check_frame_at`); push
 /// constants: `FailsafePush` (the round).
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
@@ -580,24 +422,22 @@ pub fn failsafe_check(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] leaf_bounds: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &[UVec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] owned: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] anchors: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] escaped: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] strays: &[f32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] lists: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] counts: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] flags: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] counters: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] anchors: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] escaped: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] strays: &[f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] lists: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] counts: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] flags: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] counters: &mut [u32],
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
-    let whole_triangles = whole_triangles_in(push.round);
-    let found = Found { flags, pairs: &mut counters[(2 * push.round) as usize], whole_triangles };
+    let found = Found { flags, pairs: &mut counters[(2 * push.round) as usize] };
     let with_lists = (push.flags & WITH_LISTS != 0, Walkers { escaped, counts }, lists, strays);
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    check_frame_at(id.x, self_params, tree, owned, (x, anchors), with_lists, found);
+    check_frame_at(id.x, self_params, tree, (x, anchors), with_lists, found);
 }
 
 /// One thread per particle: `roll_back_at`; push constants: `FailsafePush`.
