@@ -115,13 +115,47 @@ fn pair_lists_and_walks_find_the_pairs_the_tree_walk_finds() {
     assert!(start.0 > 0 && start.1 > start.0 / 10, "both paths must run ({start:?})");
 }
 
+/// A cloth's self-collision sub-graph apart from a solver: its resources, the cloth's own buffers
+/// (what the passes read and write), the self-collision buffers, and the parameters of a frame
+/// of `substeps` substeps under `gravity`.
+struct PileGraph {
+    resources: drape::graph::Resources,
+    own: drape::programs::self_contact::SelfContactCloth,
+    s: drape::programs::self_contact::SelfContactBuffers,
+    params: drape_types::SimParams,
+    substeps: u32,
+}
+
+impl PileGraph {
+    fn new(cloth: &drape::Cloth, frame_dt: f32, gravity: Vec4) -> Self {
+        use drape::programs::self_contact::{SelfContactBuffers, SelfContactCloth};
+        let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
+        let mut resources = drape::graph::Resources::new();
+        let own = SelfContactCloth {
+            params: resources.device("params", 1),
+            x: resources.device("x", n),
+            v: resources.device("v", n),
+            indices: resources.device("indices", 3 * t),
+            health: resources.device("health", 1),
+        };
+        let s = SelfContactBuffers::declare(&mut resources, "pile", n, t);
+        let substeps = 8;
+        let params = drape_types::SimParams {
+            particle_count: n,
+            substep: frame_dt / substeps as f32,
+            gravity,
+            ..drape_types::SimParams::default()
+        };
+        PileGraph { resources, own, s, params, substeps }
+    }
+}
+
 /// Over 60 frames of the small pile: (triangle-passes from lists, walked); panics where the
 /// two searches differ.
 fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
     use drape::cpu::CpuExecutor;
-    use drape::graph::Resources;
-    use drape::programs::self_contact::{SELF_TREE_REBUILD_FRAMES, SelfContactBuffers, SelfContactCloth};
-    use drape_types::{Aabb, BvhNode, Health, SimParams};
+    use drape::programs::self_contact::{SELF_TREE_REBUILD_FRAMES, SelfContactBuffers};
+    use drape_types::{Aabb, BvhNode, Health};
 
     let (thickness, friction) = (0.005, 0.5);
     let (cloth, ground) = small_pile(Some(thickness));
@@ -130,22 +164,8 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
     let model = Model::single(&cloth, std::slice::from_ref(&ground), settings).unwrap();
     let mut sim = CpuSolver::new(&model).unwrap();
     let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
-    let mut resources = Resources::new();
-    let own = SelfContactCloth {
-        params: resources.device("params", 1),
-        x: resources.device("x", n),
-        v: resources.device("v", n),
-        indices: resources.device("indices", 3 * t),
-        health: resources.device("health", 1),
-    };
-    let s = SelfContactBuffers::declare(&mut resources, "pile", n, t);
-    let substeps = 8;
-    let params = SimParams {
-        particle_count: n,
-        substep: settings.frame_dt / substeps as f32,
-        gravity: if exact_prediction { Vec4::ZERO } else { Vec4::new(0.0, -9.81, 0.0, 0.0) },
-        ..SimParams::default()
-    };
+    let gravity = if exact_prediction { Vec4::ZERO } else { Vec4::new(0.0, -9.81, 0.0, 0.0) };
+    let PileGraph { resources, own, s, params, substeps } = PileGraph::new(&cloth, settings.frame_dt, gravity);
     let (mut listed, mut walked) = (0u64, 0u64);
     // One executor for all frames: the tree is built every SELF_TREE_REBUILD_FRAMES frames and
     // refit over the frame's start boxes in between, as a solver does.
@@ -815,9 +835,8 @@ fn the_failsafe_check_through_the_tree_finds_what_brute_force_finds() {
 fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
     use drape::cpu::CpuExecutor;
     use drape::gpu::Engine;
-    use drape::graph::Resources;
-    use drape::programs::self_contact::{SelfContactBuffers, SelfContactCloth};
-    use drape_types::{Health, SimParams};
+    use drape::programs::self_contact::SelfContactBuffers;
+    use drape_types::Health;
 
     let ctx = context();
     let thickness = 0.005;
@@ -827,22 +846,8 @@ fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
     let model = Model::single(&cloth, std::slice::from_ref(&ground), settings).unwrap();
     let mut sim = CpuSolver::new(&model).unwrap();
     let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
-    let mut resources = Resources::new();
-    let own = SelfContactCloth {
-        params: resources.device("params", 1),
-        x: resources.device("x", n),
-        v: resources.device("v", n),
-        indices: resources.device("indices", 3 * t),
-        health: resources.device("health", 1),
-    };
-    let s = SelfContactBuffers::declare(&mut resources, "pile", n, t);
-    let substeps = 8;
-    let params = SimParams {
-        particle_count: n,
-        substep: settings.frame_dt / substeps as f32,
-        gravity: Vec4::new(0.0, -9.81, 0.0, 0.0),
-        ..SimParams::default()
-    };
+    let gravity = Vec4::new(0.0, -9.81, 0.0, 0.0);
+    let PileGraph { resources, own, s, params, substeps } = PileGraph::new(&cloth, settings.frame_dt, gravity);
     let mut steps = vec![];
     s.frame_start_steps(&own, substeps, (true, true), &mut steps);
     let start_steps = steps;
