@@ -204,7 +204,7 @@ pub fn frame_box_at(
     Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
 }
 
-/// A leaf's pairs with the leaves its walk reaches: the later ones, and with `earlier` (it
+/// A leaf's pairs with the leaves its walk reaches: the later ones, and with `take_earlier` (it
 /// ended the frame outside its predicted region) the earlier ones that do not walk.
 struct FramePairs<'a> {
     leaf: u32,
