@@ -1,8 +1,9 @@
 //! Self-collision's fail-safe as a sub-graph over handles (`drape_kernels::self_failsafe`): at
 //! the frame's end, the self-collision tree refit to each triangle's box over the frame, every
 //! pair of triangles tested for intersection at the end, and the particles of the pairs that
-//! cross there (and did not at the start) put back where the frame found them; the rounds after the first run only when the one before put
-//! a particle back (indirect dispatches the roll-back writes).
+//! cross there (and did not at the start) put back where the frame found them; the rounds after
+//! the first run only when the one before put a particle back (indirect dispatches the
+//! roll-back writes).
 
 use super::self_contact::{SelfContactBuffers, SelfContactCloth};
 use crate::graph::{Dispatch, Handle, Resources, Step};
