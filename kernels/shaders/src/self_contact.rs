@@ -701,7 +701,7 @@ fn edge_edge(e: &Corners, k: usize, f: &Corners, m: usize, out: &mut PairRespons
 
 /// Whether a box `(lo, hi)` meets another grown by `reach` on every side.
 #[inline]
-fn within(a: (Vec3, Vec3), b: (Vec3, Vec3), reach: f32) -> bool {
+pub(crate) fn within(a: (Vec3, Vec3), b: (Vec3, Vec3), reach: f32) -> bool {
     let r = Vec3::splat(reach);
     a.0.cmple(b.1 + r).all() && a.1.cmpge(b.0 - r).all()
 }

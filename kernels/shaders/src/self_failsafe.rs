@@ -32,7 +32,7 @@
 
 use crate::atomics;
 use crate::lbvh::PairWalk;
-use crate::self_contact::{LeafVisitor, walk_in_batches};
+use crate::self_contact::{LeafVisitor, walk_in_batches, within};
 use crate::self_pairs::{ANCHOR_WORDS, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, escaped_at, may_touch};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, FailsafePush, Health, SelfPassPush, SimParams};
@@ -56,27 +56,30 @@ pub fn frame_start_of(anchors: &[Vec4], i: u32) -> Vec3 {
     anchors[(ANCHOR_WORDS * i) as usize].xyz()
 }
 
-/// A triangle over the frame: its particles (xyz; the triangle in w), where its corners started
-/// (`then`) and ended (`now`).
+/// A triangle at the frame's end: its particles (xyz; the triangle in w) and where its corners
+/// ended. Where they started is loaded only when needed (a pair that crosses at the end, a box
+/// over the frame): a load of a per-lane address is a loop over the lanes on llvmpipe.
 #[derive(Copy, Clone)]
-pub struct SweptTriangle {
+pub struct EndTriangle {
     pub ids: UVec4,
-    pub then: [Vec3; 3],
     pub now: [Vec3; 3],
 }
 
-impl SweptTriangle {
+impl EndTriangle {
     #[inline]
-    pub fn load(ids: UVec4, x: &[Vec4], anchors: &[Vec4]) -> Self {
-        SweptTriangle {
-            ids,
-            then: [frame_start_of(anchors, ids.x), frame_start_of(anchors, ids.y), frame_start_of(anchors, ids.z)],
-            now: [x[ids.x as usize].xyz(), x[ids.y as usize].xyz(), x[ids.z as usize].xyz()],
-        }
+    pub fn load(ids: UVec4, x: &[Vec4]) -> Self {
+        EndTriangle { ids, now: [x[ids.x as usize].xyz(), x[ids.y as usize].xyz(), x[ids.z as usize].xyz()] }
+    }
+
+    /// Where its corners started the frame.
+    #[inline]
+    pub fn start(&self, anchors: &[Vec4]) -> [Vec3; 3] {
+        let ids = self.ids;
+        [frame_start_of(anchors, ids.x), frame_start_of(anchors, ids.y), frame_start_of(anchors, ids.z)]
     }
 
     #[inline]
-    fn shares_a_particle(&self, other: &SweptTriangle) -> bool {
+    fn shares_a_particle(&self, other: &EndTriangle) -> bool {
         let (a, b) = (self.ids, other.ids);
         a.x == b.x
             || a.x == b.y
@@ -89,18 +92,18 @@ impl SweptTriangle {
             || a.z == b.z
     }
 
-    /// The box of the whole triangle over the frame.
-    #[inline]
-    pub fn box3(&self) -> (Vec3, Vec3) {
-        let (n, t) = (self.now, self.then);
-        (n[0].min(n[1]).min(n[2]).min(t[0]).min(t[1]).min(t[2]), n[0].max(n[1]).max(n[2]).max(t[0]).max(t[1]).max(t[2]))
-    }
-
     /// The box of the triangle at the frame's end.
     #[inline]
     pub fn end_box(&self) -> (Vec3, Vec3) {
         let n = self.now;
         (n[0].min(n[1]).min(n[2]), n[0].max(n[1]).max(n[2]))
+    }
+
+    /// The box of the whole triangle over the frame.
+    #[inline]
+    pub fn frame_box(&self, anchors: &[Vec4]) -> (Vec3, Vec3) {
+        let (n, t) = (self.now, self.start(anchors));
+        (n[0].min(n[1]).min(n[2]).min(t[0]).min(t[1]).min(t[2]), n[0].max(n[1]).max(n[2]).max(t[0]).max(t[1]).max(t[2]))
     }
 }
 
@@ -164,22 +167,15 @@ impl Found<'_> {
     }
 }
 
-/// Whether two boxes meet once one is grown by `reach`.
-#[inline]
-fn near(a: (Vec3, Vec3), b: (Vec3, Vec3), reach: f32) -> bool {
-    let r = Vec3::splat(reach);
-    a.0.cmple(b.1 + r).all() && a.1.cmpge(b.0 - r).all()
-}
-
 /// Triangles `a` and `b` at the frame's end: found when they share no particle, cross there and
 /// did not at the start (a pair that started crossed, e.g. a garment mesh that intersects
 /// itself, cannot be helped by going back, and is left alone).
 #[inline]
-pub fn check_triangle_pair(a: &SweptTriangle, b: &SweptTriangle, separation: f32, found: &mut Found) {
-    if a.shares_a_particle(b) || !near(a.end_box(), b.end_box(), separation) {
+pub fn check_triangle_pair(a: &EndTriangle, b: &EndTriangle, anchors: &[Vec4], separation: f32, found: &mut Found) {
+    if a.shares_a_particle(b) || !within(a.end_box(), b.end_box(), separation) {
         return;
     }
-    if triangles_cross(a.now, b.now) && !triangles_cross(a.then, b.then) {
+    if triangles_cross(a.now, b.now) && !triangles_cross(a.start(anchors), b.start(anchors)) {
         found.mark(a.ids, b.ids);
     }
 }
@@ -200,7 +196,7 @@ pub fn frame_box_at(
     let (out, stray) = escaped_at(ids.w, (x, x), anchors, indices, &end);
     escaped[ids.w as usize] = out as u32;
     strays[ids.w as usize] = stray;
-    let (lo, hi) = SweptTriangle::load(ids, x, anchors).box3();
+    let (lo, hi) = EndTriangle::load(ids, x).frame_box(anchors);
     Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
 }
 
@@ -208,7 +204,7 @@ pub fn frame_box_at(
 /// ended the frame outside its predicted region) the earlier ones that do not walk.
 struct FramePairs<'a> {
     leaf: u32,
-    mine: SweptTriangle,
+    mine: EndTriangle,
     sorted: &'a [UVec4],
     x: &'a [Vec4],
     anchors: &'a [Vec4],
@@ -237,8 +233,8 @@ impl Walkers<'_> {
 impl FramePairs<'_> {
     #[inline]
     fn pair(&mut self, leaf: u32) {
-        let theirs = SweptTriangle::load(self.sorted[leaf as usize], self.x, self.anchors);
-        check_triangle_pair(&self.mine, &theirs, self.separation, &mut self.found);
+        let theirs = EndTriangle::load(self.sorted[leaf as usize], self.x);
+        check_triangle_pair(&self.mine, &theirs, self.anchors, self.separation, &mut self.found);
     }
 }
 
@@ -273,7 +269,7 @@ pub fn check_frame_at(
     found: Found,
 ) {
     let ids = sorted[leaf as usize];
-    let mine = SweptTriangle::load(ids, x, anchors);
+    let mine = EndTriangle::load(ids, x);
     let separation = SEPARATION * self_params.thickness;
     // Which way the leaf goes, decided before any struct of slices is built: one built before a
     // branch and used after it is a pointer-holding phi, which NVIDIA's compiler crashes on
@@ -324,12 +320,12 @@ pub fn check_frame_brute_force_at(
     (x, anchors): (&[Vec4], &[Vec4]),
     mut found: Found,
 ) {
-    let mine = SweptTriangle::load(sorted[leaf as usize], x, anchors);
+    let mine = EndTriangle::load(sorted[leaf as usize], x);
     let separation = SEPARATION * self_params.thickness;
     let mut other = leaf + 1;
     while other < self_params.leaf_count {
-        let theirs = SweptTriangle::load(sorted[other as usize], x, anchors);
-        check_triangle_pair(&mine, &theirs, separation, &mut found);
+        let theirs = EndTriangle::load(sorted[other as usize], x);
+        check_triangle_pair(&mine, &theirs, anchors, separation, &mut found);
         other += 1;
     }
 }
