@@ -28,6 +28,23 @@ fn small_pile_with(self_collision: Option<f32>, friction: f32) -> (drape::Cloth,
     (cloth, scene.triangle_collider())
 }
 
+/// The CPU tree over `cloth`'s triangles swept from `before` to `x`, at 5 mm, its parameters,
+/// and the triangles' corners in its leaf order.
+fn swept_tree(
+    cloth: &drape::Cloth,
+    before: &[Vec4],
+    x: &[Vec4],
+) -> (drape_types::ColliderParams, drape::Lbvh, Vec<glam::UVec4>) {
+    let (now, then): (Vec<Vec3>, Vec<Vec3>) =
+        (x.iter().map(|p| p.truncate()).collect(), before.iter().map(|p| p.truncate()).collect());
+    let mut params = mesh_collider_params(&now, &cloth.triangles, 0.005, 0.0).unwrap();
+    params.thickness = 0.005;
+    let tree = build_swept_mesh_cpu(&then, &now, &cloth.triangles, &params).unwrap();
+    let flat: Vec<u32> = cloth.triangles.iter().flatten().copied().collect();
+    let sorted = (0..cloth.triangles.len() as u32).map(|s| gather_cloth_triangle_at(s, &flat, &tree.order)).collect();
+    (params, tree, sorted)
+}
+
 /// States of the small pile as it folds, searched for vertex-triangle and edge-edge pairs
 /// through the tree (one walk per triangle, each pair of triangles from its earlier leaf) and by
 /// the brute-force loop over every pair of leaves: the summed corrections and friction are
@@ -56,14 +73,7 @@ fn the_tree_finds_the_pairs_the_brute_force_loop_finds() {
         let x = sim.positions(CLOTH).unwrap();
         let v = sim.velocities(CLOTH).unwrap();
         // The tree over the triangles swept from the last frame's positions to these.
-        let (now, then): (Vec<Vec3>, Vec<Vec3>) =
-            (x.iter().map(|p| p.truncate()).collect(), before.iter().map(|p| p.truncate()).collect());
-        let mut params = mesh_collider_params(&now, &cloth.triangles, 0.005, 0.0).unwrap();
-        params.thickness = 0.005;
-        let tree = build_swept_mesh_cpu(&then, &now, &cloth.triangles, &params).unwrap();
-        let flat: Vec<u32> = cloth.triangles.iter().flatten().copied().collect();
-        let sorted: Vec<glam::UVec4> =
-            (0..cloth.triangles.len() as u32).map(|s| gather_cloth_triangle_at(s, &flat, &tree.order)).collect();
+        let (params, tree, sorted) = swept_tree(&cloth, &before, &x);
         let (mut walked, mut brute) = (vec![0u32; 4 * n], vec![0u32; 4 * n]);
         let (mut walked_friction, mut brute_friction) = (vec![0u32; 4 * n], vec![0u32; 4 * n]);
         for leaf in 0..cloth.triangles.len() as u32 {
@@ -798,14 +808,7 @@ fn the_failsafe_check_through_the_tree_finds_what_brute_force_finds() {
         for (i, p) in before.iter().enumerate() {
             anchors[ANCHOR_WORDS as usize * i] = p.truncate().extend(0.0);
         }
-        let (now, then): (Vec<Vec3>, Vec<Vec3>) =
-            (x.iter().map(|p| p.truncate()).collect(), before.iter().map(|p| p.truncate()).collect());
-        let mut params = mesh_collider_params(&now, &cloth.triangles, 0.005, 0.0).unwrap();
-        params.thickness = 0.005;
-        let tree = build_swept_mesh_cpu(&then, &now, &cloth.triangles, &params).unwrap();
-        let flat: Vec<u32> = cloth.triangles.iter().flatten().copied().collect();
-        let sorted: Vec<glam::UVec4> =
-            (0..cloth.triangles.len() as u32).map(|s| gather_cloth_triangle_at(s, &flat, &tree.order)).collect();
+        let (params, tree, sorted) = swept_tree(&cloth, &before, &x);
         let (mut walked, mut brute) = (vec![0u32; n], vec![0u32; n]);
         let (mut walked_pairs, mut brute_pairs) = (0u32, 0u32);
         let none = [0u32; 0];
