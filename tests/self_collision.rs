@@ -789,13 +789,8 @@ fn the_failsafe_check_through_the_tree_finds_what_brute_force_finds() {
     let model = Model::single(&cloth, std::slice::from_ref(&ground), SimSettings::default()).unwrap();
     let mut sim = CpuSolver::new(&model).unwrap();
     let n = cloth.particle_count();
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut shake = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        ((seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.012
-    };
+    let mut rng = common::Rng::new(0x9e37_79b9_7f4a_7c15u64);
+    let mut shake = || rng.range(-0.006, 0.006);
     let mut found_in = 0;
     for frame in 1..=60 {
         let before = sim.positions(CLOTH).unwrap();
@@ -862,13 +857,8 @@ fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
     let mut gpu_start = engine.record(&start_steps, false).unwrap();
     let mut gpu_failsafe = engine.record(&failsafe_steps, false).unwrap();
     let mut cpu = CpuExecutor::new(&resources);
-    let mut seed = 0x5851_f42d_4c95_7f2du64;
-    let mut shake = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        ((seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 0.024
-    };
+    let mut rng = common::Rng::new(0x5851_f42d_4c95_7f2du64);
+    let mut shake = || rng.range(-0.012, 0.012);
     let (mut put_back, mut compared, mut later_rounds) = (0, 0, 0);
     for frame in 1..=60 {
         let (before, v_before) = (sim.positions(CLOTH).unwrap(), sim.velocities(CLOTH).unwrap());
