@@ -126,6 +126,11 @@ impl SolverProgram {
             colliders.push(b);
             starts.push(collider_start(params, c.pose, &c.shape));
         }
+        for (i, cloth) in cloths.iter_mut().enumerate() {
+            if let Some(s) = &mut cloth.self_contact {
+                s.declare_sharp_features(&mut resources, &numbered("cloth", i), &colliders);
+            }
+        }
         let contacts = cloths
             .iter()
             .enumerate()

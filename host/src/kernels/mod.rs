@@ -10,6 +10,7 @@ pub mod normals;
 pub mod self_contact;
 pub mod self_failsafe;
 pub mod self_pairs;
+pub mod sharp_features;
 pub mod sort;
 pub mod spheres;
 pub mod tiles;
@@ -18,7 +19,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 48] = [
+pub const ALL: [&Kernel; 49] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::NORMALS_AND_HEALTH,
@@ -33,6 +34,7 @@ pub const ALL: [&Kernel; 48] = [
     &self_pairs::LISTED_SELF_PAIRS,
     &self_pairs::SELF_TRIANGLE_CONTACT,
     &self_pairs::WALK_SELF_PAIRS,
+    &sharp_features::LIST_SHARP_FEATURES,
     &self_contact::COLLIDER_FEATURE_CONTACT,
     &self_contact::APPLY_SELF_CONTACT,
     &self_contact::APPLY_COLLIDER_PUSHES,

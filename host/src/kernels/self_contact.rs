@@ -12,7 +12,9 @@ use drape_kernels::self_contact::{
     count_self_contact, frame_of, gather_cloth_triangle, longest_edge2, write_scene,
 };
 use drape_kernels::self_pairs::anchor_particles;
-use drape_types::{Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
+use drape_types::{
+    Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, ContactPush, DispatchArgs, Health, SimParams,
+};
 use glam::{UVec4, Vec4};
 
 const fn read(name: &'static str) -> BindingSpec {
@@ -89,6 +91,8 @@ pub static COLLIDER_FEATURE_CONTACT: Kernel = Kernel {
             write("delta"),
             write("velocity_changes"),
             write("pushes"),
+            read("sharp"),
+            read("sharp_args"),
         ],
         push_constant_size: size_of::<ContactPush>() as u32,
         workgroup_size: CONTACT_THREADS,
@@ -211,6 +215,8 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
         delta,
         velocity_changes,
         pushes,
+        sharp,
+        sharp_args,
     ] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = self_params.first()?;
@@ -222,8 +228,10 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
     let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
     let (delta, pushes) = (delta.slice_mut::<u32>(), pushes.slice_mut::<u32>());
     let velocity_changes = velocity_changes.slice_mut::<u32>();
-    for t in 0..threads.min(features.len() as u32) {
-        let mine = features[t as usize];
+    let (sharp, listed) = (sharp.slice::<u32>(), sharp_args.first::<DispatchArgs>()?._pad);
+    for i in 0..threads.min(listed) {
+        let t = *sharp.get(i as usize).ok_or("the sharp features' count runs past their list")?;
+        let mine = *features.get(t as usize).ok_or("a listed sharp feature is past the collider's triangles")?;
         let out = PairResponse {
             thickness: collider.thickness,
             friction: collider.friction,

@@ -212,6 +212,9 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
     if let Some(s) = &cloth.self_contact {
         let tree = (plan.self_lists, plan.self_rebuild);
         s.frame_start_steps(&cloth.self_contact_cloth(), plan.substeps, tree, &mut steps);
+        for (index, (collider, _)) in colliders.iter().enumerate() {
+            s.sharp_feature_steps(collider, index, &mut steps);
+        }
     }
     // The substep after the last self-collision pass: where the next pass's sweep begins.
     let mut pass_from = 0;
@@ -243,8 +246,11 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
         {
             let own = cloth.self_contact_cloth();
             let span = (pass_from, substep, plan.substeps);
-            let features =
-                colliders.iter().filter_map(|(collider, _)| s.collider_feature_step(&own, collider, span)).collect();
+            let features = colliders
+                .iter()
+                .enumerate()
+                .filter_map(|(index, (collider, _))| s.collider_feature_step(&own, (collider, index), span))
+                .collect();
             s.substep_steps(&own, (span, plan.self_lists), features, &mut steps);
             pass_from = substep + 1;
         }

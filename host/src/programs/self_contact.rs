@@ -16,6 +16,7 @@ use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_contact::{
     APPLY_COLLIDER_PUSHES, APPLY_SELF_CONTACT, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
 };
+use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
 use crate::kernels::self_pairs::{
     CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, SELF_TRIANGLE_CONTACT,
     WALK_SELF_PAIRS,
@@ -69,8 +70,22 @@ pub struct SelfContactBuffers {
     pub walk_args: Handle<DispatchArgs>,
     /// The frame's closing check for crossings (`super::self_failsafe`).
     pub failsafe: FailsafeBuffers,
+    /// Per collider (in the model's order), for a triangle collider: its triangles that may
+    /// have a feature sharp for this cloth in the frame (`declare_sharp_features`).
+    pub sharp: Vec<Option<SharpFeatures>>,
     particles: u32,
 }
+
+/// A triangle collider's triangles that may have a vertex or an edge sharp enough to test
+/// against a self-colliding cloth in the frame (`drape_kernels::sharp_features`), listed at the
+/// frame's start, and the passes' indirect dispatch over them.
+pub struct SharpFeatures {
+    pub list: Handle<u32>,
+    pub args: Handle<DispatchArgs>,
+}
+
+/// The timing table's line of the frame's list of a collider's possibly sharp triangles.
+pub const SHARP_FEATURES_LABEL: &str = "self: collider sharp triangles";
 
 /// Per triangle, the edges (bit k: edge k, from corner k to corner k + 1) and corners (bit
 /// `VERTEX_OWNED_BIT << k`) it owns: those no earlier triangle has (so one walk per triangle
@@ -214,8 +229,52 @@ impl SelfContactBuffers {
             walkers: resources.device(format!("{name}: walkers"), triangles),
             walk_args: resources.device(format!("{name}: walk dispatch"), 1),
             failsafe: FailsafeBuffers::declare(resources, &name, particles),
+            sharp: Vec::new(),
             particles,
         }
+    }
+
+    /// Declares, for each of `colliders` that has triangles, the frame's list of those that may
+    /// be sharp for this cloth (`SharpFeatures`); `name` is the cloth's.
+    pub fn declare_sharp_features(&mut self, resources: &mut Resources, name: &str, colliders: &[ColliderBuffers]) {
+        self.sharp = colliders
+            .iter()
+            .enumerate()
+            .map(|(j, c)| {
+                let (_, count) = c.features?;
+                let name = format!("{name} self-collision: collider {j} sharp triangles");
+                Some(SharpFeatures {
+                    list: resources.device(name.clone(), count.max(1)),
+                    args: resources.device(format!("{name} dispatch"), 1),
+                })
+            })
+            .collect();
+    }
+
+    /// At the frame's start, after the cloth's bounds (`frame_start_steps`: the longest edge the
+    /// sharpness is measured for): collider `index`'s possibly sharp triangles.
+    pub fn sharp_feature_steps(&self, collider: &ColliderBuffers, index: usize, steps: &mut Vec<Step>) {
+        let (ColliderLeaves::Triangles(mesh), Some((features, count)), Some(Some(sharp))) =
+            (&collider.leaves, collider.features, self.sharp.get(index))
+        else {
+            return;
+        };
+        steps.push(Step::write(sharp.args, 0, &[DispatchArgs { x: 0, y: 1, z: 1, _pad: 0 }]));
+        steps.push(Step::run(
+            SHARP_FEATURES_LABEL,
+            &LIST_SHARP_FEATURES,
+            vec![
+                self.tree.collider.id(),
+                mesh.tree.collider.id(),
+                mesh.vertices.id(),
+                mesh.previous.id(),
+                mesh.indices.id(),
+                features.id(),
+                sharp.list.id(),
+                sharp.args.id(),
+            ],
+            Dispatch::Threads(count),
+        ));
     }
 
     /// The cloth's particles.
@@ -347,10 +406,12 @@ impl SelfContactBuffers {
     pub fn collider_feature_step(
         &self,
         cloth: &SelfContactCloth,
-        collider: &ColliderBuffers,
+        (collider, index): (&ColliderBuffers, usize),
         (from, to, substeps): (u32, u32, u32),
     ) -> Option<Step> {
-        let (ColliderLeaves::Triangles(mesh), Some((features, count))) = (&collider.leaves, collider.features) else {
+        let (ColliderLeaves::Triangles(mesh), Some((features, _)), Some(Some(sharp))) =
+            (&collider.leaves, collider.features, self.sharp.get(index))
+        else {
             return None;
         };
         let span = substep_span(from, to + 1, substeps);
@@ -378,9 +439,11 @@ impl SelfContactBuffers {
                 self.delta.id(),
                 self.velocity_changes.id(),
                 self.pushes.id(),
+                sharp.list.id(),
+                sharp.args.id(),
             ],
             bytemuck::cast(span),
-            Dispatch::Threads(count),
+            Dispatch::Indirect(sharp.args),
         ))
     }
 

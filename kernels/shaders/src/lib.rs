@@ -21,6 +21,7 @@ pub mod render;
 pub mod self_contact;
 pub mod self_failsafe;
 pub mod self_pairs;
+pub mod sharp_features;
 pub mod sort;
 pub mod spheres;
 pub mod tiles;

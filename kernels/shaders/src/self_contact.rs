@@ -48,7 +48,9 @@ use crate::pose::{SubstepMotion, to_world};
 use crate::self_pairs::{anchor_particles, triangle_motion_at};
 use crate::tiles::wake_particle;
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, ContactPush, Health, SimParams};
+use drape_types::{
+    Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, ContactPush, DispatchArgs, Health, SimParams,
+};
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
 use spirv_std::spirv;
@@ -1069,21 +1071,11 @@ pub fn collider_feature_contact_at(
         edge_fold((1, feature.y), corners, mesh, motion),
         edge_fold((2, feature.z), corners, mesh, motion),
     );
-    let vertex_folds = folds.max(Vec3::new(folds.z, folds.x, folds.y)); // corner k: edges k and k + 2
+    let vertex_folds = vertex_folds(folds);
     // The features sharp enough for the cloth's longest edge (at the frame's start, grown by
     // `EDGE_GROWTH2`); none (most of a smooth body): nothing this triangle could test.
     let longest2 = self_params.scene_max.w * EDGE_GROWTH2;
-    let mut sharp = 0;
-    let mut k = 0;
-    while k < 3 {
-        if owned & (1 << k) != 0 && sharp_for(component_f(folds, k), longest2, thickness) {
-            sharp |= 1 << k;
-        }
-        if owned & (VERTEX_OWNED_BIT << k) != 0 && sharp_for(component_f(vertex_folds, k), longest2, thickness) {
-            sharp |= VERTEX_OWNED_BIT << k;
-        }
-        k += 1;
-    }
+    let sharp = sharp_features(owned, folds, (longest2, thickness), 1.0);
     if sharp == 0 {
         return false;
     }
@@ -1172,16 +1164,20 @@ pub fn collider_feature_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] delta: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 17)] velocity_changes: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 18)] pushes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 19)] sharp: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 20)] sharp_args: &DispatchArgs,
 ) {
-    if id.x as usize >= features.len() {
+    // One thread per triangle the frame listed as possibly sharp (`sharp_features`).
+    if id.x >= sharp_args._pad {
         return;
     }
+    let triangle = sharp[id.x as usize];
     let motion = substep_motion(params, pose, push);
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     let mesh = (vertices, previous, indices);
-    let mine = features[id.x as usize];
+    let mine = features[triangle as usize];
     let out = PairResponse { thickness: collider.thickness, friction: collider.friction, v, delta, velocity_changes };
-    collider_feature_contact_at(id.x, mine, mesh, &motion, self_params, tree, owned, (x, x_prev), (out, pushes));
+    collider_feature_contact_at(triangle, mine, mesh, &motion, self_params, tree, owned, (x, x_prev), (out, pushes));
 }
 
 /// How deep beyond a cloth face a collider vertex may be and still count as having crossed it
@@ -1234,6 +1230,34 @@ pub fn fold(a: Vec3, b: Vec3, apex: Vec3, across: Vec3) -> f32 {
 #[inline]
 pub fn sharp_for(fold: f32, cloth_length2: f32, thickness: f32) -> bool {
     fold >= 2.0 || fold * cloth_length2 >= 2.0 * thickness * thickness
+}
+
+/// A collider triangle's folds at its corners from those at its edges (`folds`, edge k from
+/// corner k to k + 1): corner k takes the sharper of edges k and k + 2.
+#[inline]
+pub fn vertex_folds(folds: Vec3) -> Vec3 {
+    folds.max(Vec3::new(folds.z, folds.x, folds.y))
+}
+
+/// Which of the features in `owned` (a collider triangle's owned edges and corners, bits as
+/// `collider_features`) are sharp (`sharp_for`) for a cloth whose longest squared edge and
+/// thickness are `cloth`, with its edges folded by `folds`, each fold taken `scale` times.
+#[inline]
+pub fn sharp_features(owned: u32, folds: Vec3, (cloth_length2, thickness): (f32, f32), scale: f32) -> u32 {
+    let corners = vertex_folds(folds);
+    let mut sharp = 0;
+    let mut k = 0;
+    while k < 3 {
+        if owned & (1 << k) != 0 && sharp_for(component_f(folds, k) * scale, cloth_length2, thickness) {
+            sharp |= 1 << k;
+        }
+        if owned & (VERTEX_OWNED_BIT << k) != 0 && sharp_for(component_f(corners, k) * scale, cloth_length2, thickness)
+        {
+            sharp |= VERTEX_OWNED_BIT << k;
+        }
+        k += 1;
+    }
+    sharp
 }
 
 /// Words per particle of the collider edges' pushes: the largest push along +x, +y, +z and

@@ -1,0 +1,119 @@
+//! The frame's list of a triangle collider's possibly sharp triangles
+//! (`drape_kernels::sharp_features`), which each self-collision pass's collider features
+//! dispatch over.
+
+use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use drape_kernels::WORKGROUP_SIZE;
+use drape_kernels::sharp_features::{frame_threshold, list_sharp, may_be_sharp};
+use drape_types::{ColliderParams, DispatchArgs};
+use glam::{UVec4, Vec4};
+
+pub static LIST_SHARP_FEATURES: Kernel = Kernel {
+    spec: KernelSpec::new(
+        "sharp_features::list_sharp_features",
+        &[
+            BindingSpec::read("self_params"),
+            BindingSpec::read("collider"),
+            BindingSpec::read("vertices"),
+            BindingSpec::read("previous"),
+            BindingSpec::read("indices"),
+            BindingSpec::read("features"),
+            BindingSpec::write("sharp"),
+            BindingSpec::write("sharp_args"),
+        ],
+        WORKGROUP_SIZE,
+    ),
+    cpu: list_cpu,
+};
+
+fn list_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, collider, vertices, previous, indices, features, sharp, sharp_args] = d.bindings()?;
+    let (longest2, thickness) = frame_threshold(&self_params.first::<ColliderParams>()?, &collider.first()?);
+    let mesh = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
+    let features = features.slice::<UVec4>();
+    let (list, args) = (sharp.slice_mut::<u32>(), sharp_args.first_mut::<DispatchArgs>()?);
+    for t in 0..threads.min(features.len() as u32) {
+        if may_be_sharp(t, features[t as usize], mesh, longest2, thickness) {
+            list_sharp(t, list, args);
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Mesh;
+    use crate::programs::self_contact::collider_features;
+    use drape_kernels::pose::to_world;
+    use drape_kernels::self_contact::{NO_NEIGHBOUR, fold, sharp_features};
+    use drape_types::RigidPose;
+    use glam::{Quat, Vec3};
+
+    /// The features a pass tests of collider triangle `t` at `pose`: its folds measured in the
+    /// world, as `collider_feature_contact_at` does, against the exact threshold.
+    fn pass_sharp(mesh: &Mesh, feature: UVec4, t: usize, pose: &RigidPose, cloth: (f32, f32)) -> u32 {
+        let world = |i: u32| to_world(pose, mesh.vertices[i as usize]);
+        let corners = mesh.triangles[t].map(world);
+        let across = [feature.x, feature.y, feature.z];
+        let folds: Vec<f32> = (0..3)
+            .map(|k| match across[k] {
+                NO_NEIGHBOUR => 2.0,
+                apex => fold(corners[k], corners[(k + 1) % 3], corners[(k + 2) % 3], world(apex)),
+            })
+            .collect();
+        sharp_features(feature.w, Vec3::from_slice(&folds), cloth, 1.0)
+    }
+
+    /// Every triangle a pass finds a sharp feature on, at any pose, is on the frame's list;
+    /// the list leaves out most of a smooth sphere for a short cloth edge and takes a triangle
+    /// whose vertex deforms in the frame whatever its folds.
+    #[test]
+    fn the_frame_s_list_holds_every_triangle_a_pass_finds_sharp() {
+        let thickness = 0.005;
+        let meshes = [Mesh::icosphere(0.3, 3), Mesh::torus(0.4, 0.1, 48, 16), Mesh::icosphere(0.2, 1)];
+        let poses = [
+            RigidPose::IDENTITY,
+            RigidPose {
+                rotation: Vec4::from(Quat::from_euler(glam::EulerRot::XYZ, 0.7, -1.9, 2.4)),
+                translation: Vec3::new(3.1, -0.4, 12.5).extend(0.0),
+            },
+        ];
+        let (mut listed_total, mut sharp_total, mut triangles_total) = (0, 0, 0);
+        for mesh in &meshes {
+            let features = collider_features(&mesh.triangles);
+            let local: Vec<Vec4> = mesh.vertices.iter().map(|v| v.extend(0.0)).collect();
+            let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+            for edge in [0.005f32, 0.02, 0.05, 0.2] {
+                let longest2 = edge * edge;
+                for (t, &feature) in features.iter().enumerate() {
+                    let listed = may_be_sharp(t as u32, feature, (&local, &local, &indices), longest2, thickness);
+                    let mut sharp_somewhere = false;
+                    for pose in &poses {
+                        let sharp = pass_sharp(mesh, feature, t, pose, (longest2, thickness));
+                        sharp_somewhere |= sharp != 0;
+                        assert!(listed || sharp == 0, "triangle {t}: sharp {sharp:#b} at {pose:?} but not listed");
+                    }
+                    listed_total += listed as u32;
+                    sharp_total += sharp_somewhere as u32;
+                    triangles_total += 1;
+                }
+            }
+            // A vertex that deforms lists the triangles around it (and those whose neighbour
+            // apex it is), however flat.
+            let mut moved = local.clone();
+            moved[0].y += 1e-3;
+            let around: Vec<usize> = (0..features.len()).filter(|&t| mesh.triangles[t].contains(&0)).collect();
+            for t in around {
+                let feature = features[t];
+                if feature.w != 0 {
+                    assert!(may_be_sharp(t as u32, feature, (&moved, &local, &indices), 1e-6, thickness));
+                }
+            }
+        }
+        // Neither everything nor nothing: the test tells a list from a full dispatch.
+        assert!(sharp_total > 0 && listed_total < triangles_total / 2, "{listed_total} of {triangles_total} listed");
+        println!("listed {listed_total}, sharp in a pass {sharp_total}, of {triangles_total} triangle-thresholds");
+    }
+}

@@ -1,0 +1,122 @@
+//! Which of a triangle collider's triangles have a feature sharp enough to test against a
+//! self-colliding cloth in this frame (`self_contact::collider_feature_contact_at`), listed once
+//! at the frame's start so each pass dispatches over those alone.
+//!
+//! A pass measures each collider triangle's folds and keeps the vertices and edges sharp for
+//! the cloth's longest edge (`self_contact::sharp_for`); on a smooth scan (the bunny's 69674
+//! triangles) few are, yet every pass ran a thread per triangle to find that out, most of its
+//! time. A rigid collider's folds do not change with its pose (rotation and translation keep
+//! angles), and the cloth's longest edge is measured once per frame, so a triangle with no sharp
+//! feature at the frame's start has none in any pass of it. The list is conservative: folds
+//! measured here in the collider's own frame count as sharp from `SHARP_MARGIN` of the pass's
+//! threshold (a pass measures them after its pose, rounded differently), and a triangle any of
+//! whose vertices (or its neighbours' apexes) deform in the frame is always listed. Each listed
+//! triangle's pass still applies the exact test, so the pairs are those the full dispatch found.
+
+use crate::atomics;
+use crate::contact::CONTACT_THREADS;
+use crate::self_contact::{EDGE_GROWTH2, NO_NEIGHBOUR, fold, sharp_features};
+use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
+use drape_types::{ColliderParams, DispatchArgs};
+use spirv_std::spirv;
+
+/// How much flatter than a pass's threshold a fold measured here may be and still list its
+/// triangle (the fold is scaled by this before the test).
+pub const SHARP_MARGIN: f32 = 1.25;
+
+/// Whether collider vertex `i` deforms in the frame (its position at the frame's end differs
+/// from its start).
+#[inline]
+fn deforms(i: u32, (vertices, previous): (&[Vec4], &[Vec4])) -> bool {
+    vertices[i as usize].xyz() != previous[i as usize].xyz()
+}
+
+/// The fold at edge `k` of the triangle `corners` (its neighbour across the edge has apex
+/// `across`), in the collider's frame at the frame's end.
+#[inline]
+fn local_fold(k: usize, corners: [Vec3; 3], across: u32, vertices: &[Vec4]) -> f32 {
+    if across == NO_NEIGHBOUR {
+        return 2.0;
+    }
+    fold(corners[k], corners[(k + 1) % 3], corners[(k + 2) % 3], vertices[across as usize].xyz())
+}
+
+/// Whether collider triangle `triangle` (`feature`: its neighbours' apexes and owned bits, as
+/// `collider_feature_contact_at` takes) may have a feature sharp for a cloth whose longest
+/// squared edge at the frame's start is `longest2` at `thickness`, in some pass of the frame.
+#[inline]
+pub fn may_be_sharp(
+    triangle: u32,
+    feature: UVec4,
+    (vertices, previous, indices): (&[Vec4], &[Vec4], &[u32]),
+    longest2: f32,
+    thickness: f32,
+) -> bool {
+    let owned = feature.w;
+    if owned == 0 {
+        return false;
+    }
+    let i = 3 * triangle as usize;
+    let ids = [indices[i], indices[i + 1], indices[i + 2]];
+    let mesh = (vertices, previous);
+    let mut moving = deforms(ids[0], mesh) || deforms(ids[1], mesh) || deforms(ids[2], mesh);
+    let across = [feature.x, feature.y, feature.z];
+    let mut k = 0;
+    while k < 3 {
+        moving = moving || (across[k] != NO_NEIGHBOUR && deforms(across[k], mesh));
+        k += 1;
+    }
+    if moving {
+        return true;
+    }
+    let corners = [vertices[ids[0] as usize].xyz(), vertices[ids[1] as usize].xyz(), vertices[ids[2] as usize].xyz()];
+    let folds = Vec3::new(
+        local_fold(0, corners, across[0], vertices),
+        local_fold(1, corners, across[1], vertices),
+        local_fold(2, corners, across[2], vertices),
+    );
+    sharp_features(owned, folds, (longest2, thickness), SHARP_MARGIN) != 0
+}
+
+/// Appends collider triangle `triangle` to the frame's list; the passes' indirect dispatch covers
+/// the list (`args`: x workgroups of `CONTACT_THREADS`, the count in `_pad`; the host writes
+/// {0, 1, 1, 0} before). The order is the atomics', which changes no result: the passes sum
+/// their corrections as integers and take their pushes' maxima.
+#[inline]
+pub fn list_sharp(triangle: u32, list: &mut [u32], args: &mut DispatchArgs) {
+    let slot = atomics::add(&mut args._pad, 1);
+    list[slot as usize] = triangle;
+    if slot.is_multiple_of(CONTACT_THREADS) {
+        atomics::max(&mut args.x, slot / CONTACT_THREADS + 1);
+    }
+}
+
+/// The cloth's longest squared edge as the passes take it (`self_scene_bounds` measured it at
+/// the frame's start), and the collider's contact thickness.
+#[inline]
+pub fn frame_threshold(self_params: &ColliderParams, collider: &ColliderParams) -> (f32, f32) {
+    (self_params.scene_max.w * EDGE_GROWTH2, collider.thickness)
+}
+
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(256)))]
+pub fn list_sharp_features(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] vertices: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] previous: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] features: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] sharp: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] sharp_args: &mut DispatchArgs,
+) {
+    if id.x as usize >= features.len() {
+        return;
+    }
+    let (longest2, thickness) = frame_threshold(self_params, collider);
+    let mesh = (vertices, previous, indices);
+    if may_be_sharp(id.x, features[id.x as usize], mesh, longest2, thickness) {
+        list_sharp(id.x, sharp, sharp_args);
+    }
+}
