@@ -7,7 +7,7 @@
 use crate::error::{Error, Result};
 use crate::graph::{Handle, Step};
 use crate::model::{ClothId, ColliderId};
-use crate::motion::ClothMotion;
+use crate::motion::{ClothMotion, Proximity, SELF_SUBSTEPS_LIMIT};
 use crate::program::SolverProgram;
 use crate::programs::cloth::FramePlan;
 use crate::programs::self_contact::{SelfContactBuffers, lists_pay};
@@ -134,6 +134,11 @@ impl ClothControl {
         self.apply_contact(settings)
     }
 
+    /// Whether the cloth's self-collision runs pair lists (`self_contact::lists_pay`).
+    fn self_lists(&self) -> bool {
+        self.self_collision.is_some_and(|t| lists_pay(self.shortest_height, t))
+    }
+
     /// The base stability raised to what contact needs now; returns whether the count changed.
     fn apply_contact(&mut self, settings: &SimSettings) -> bool {
         let stability = settings.with_contact(&self.base_stability, self.motion.contact_substeps);
@@ -221,7 +226,7 @@ impl Controls {
             .map(|c| {
                 // A cloth in contact with itself iterates its contacts every substep.
                 let passes = (!c.motion.self_contact).then_some(c.motion.contact_substeps);
-                let self_lists = c.self_collision.is_some_and(|t| lists_pay(c.shortest_height, t));
+                let self_lists = c.self_lists();
                 let plan = self.settings.plan(&c.params, &c.stability, c.motion.asleep, passes);
                 FramePlan { self_lists, self_rebuild: c.self_tree.rebuild, ..plan }
             })
@@ -292,13 +297,15 @@ impl Controls {
             let substep = c.stability.substep;
             log::trace!(
                 "cloth {index}: fastest particle {} m/s, moving at {} m/s over the last substep, {} self-contact \
-                 corrections",
+                 corrections, fastest pair that may touch {} m over the frame",
                 crate::motion::max_speed(health),
                 crate::motion::max_motion(health, substep),
-                health.self_contacts
+                health.self_contacts,
+                f32::from_bits(health.self_pair_motion_bits)
             );
             let self_contact = c.motion.self_contact;
-            c.motion.observe(health, substep, sleep);
+            let pairs_listed = c.self_lists();
+            c.motion.observe(health, substep, sleep, pairs_listed);
             // Its passes follow whether it touches itself.
             self.replan |= c.self_collision.is_some() && c.motion.self_contact != self_contact;
         }
@@ -588,9 +595,11 @@ impl Controls {
         let collider_thickness =
             self.colliders.iter().filter(|c| !c.swept_contact).map(|c| c.params.thickness).reduce(f32::min);
         for c in &mut self.cloths {
-            let thickness = [collider_thickness, c.self_collision].into_iter().flatten().reduce(f32::min);
+            let most = SELF_SUBSTEPS_LIMIT * c.base_stability.substeps;
+            let proximity =
+                Proximity { collider: collider_thickness, self_collision: c.self_collision.map(|t| (t, most)) };
             let near = moving.iter().any(|&(_, bounds)| c.motion.near(bounds));
-            let change = c.motion.plan_frame(thickness, (collider_speed, near), settings.frame_dt, settings.sleep);
+            let change = c.motion.plan_frame(proximity, (collider_speed, near), settings.frame_dt, settings.sleep);
             if change.substeps {
                 // A self-colliding cloth's passes follow the motion even when the substeps do not.
                 self.replan |= c.apply_contact(&settings) | c.self_collision.is_some();

@@ -8,7 +8,7 @@ use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::PairResponse;
 use drape_kernels::self_contact::self_triangle_contact_at;
 use drape_kernels::self_pairs::{
-    LIST_OVERFLOWED, WALK_THREADS, add_walker, count_full_list, cloth_triangle_bounds_at, escaped_at, list_self_pairs_at,
+    LIST_OVERFLOWED, WALK_THREADS, add_walker, count_full_list, cloth_triangle_bounds_at, escaped_at, list_self_pairs_at, note_pair_motion,
     listed_self_pairs_at, triangle_start_at, walk_self_pairs_at,
 };
 use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfPassPush};
@@ -211,8 +211,9 @@ fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (lists, counts) = (lists.slice_mut::<u32>(), counts.slice_mut::<u32>());
     let health = health.first_mut::<Health>()?;
     for leaf in 0..threads.min(c.leaf_count) {
-        list_self_pairs_at(leaf, &c, tree, motions, owned, anchors, (&mut *lists, &mut *counts));
+        let (_, motion) = list_self_pairs_at(leaf, &c, tree, motions, owned, anchors, (&mut *lists, &mut *counts));
         count_full_list(leaf, counts, health);
+        note_pair_motion(motion, health);
     }
     Ok(())
 }

@@ -298,12 +298,16 @@ pub(crate) fn may_touch(gap: f32, strays: f32, thickness: f32) -> bool {
     gap - strays < thickness * REACH_MARGIN + REACH_ABSOLUTE
 }
 
-/// A primitive pair's gap when the bound keeps it (`may_touch` with the slops), else infinity.
+/// A primitive pair's gap when the bound keeps it (`may_touch` with the slops), else infinity,
+/// and its relative predicted motion over the frame.
 #[inline]
-fn kept_gap(distance: f32, motion: f32, slops: f32, thickness: f32) -> f32 {
+fn kept_gap(distance: f32, motion: f32, slops: f32, thickness: f32) -> (f32, f32) {
     let gap = distance - motion;
-    if may_touch(gap, slops, thickness) { gap } else { f32::INFINITY }
+    (if may_touch(gap, slops, thickness) { gap } else { f32::INFINITY }, motion)
 }
+
+/// A primitive pair the bound leaves out.
+const LEFT_OUT: (f32, f32) = (f32::INFINITY, 0.0);
 
 /// Whether points in boxes `a` and `b` (`MovingBoxes`) may come within `thickness` at some
 /// fraction of the frame (the bound's cheap first test, `RelativeMotion`'s for primitives).
@@ -317,33 +321,35 @@ fn moving_boxes_meet(a: MovingBoxes, b: MovingBoxes, thickness: f32) -> bool {
 }
 
 /// Corner `k` of `vertex` against the face of `face`, at the frame's start (never when the
-/// corner is one of the face's: the pass skips those): its gap if it may touch (`kept_gap`).
+/// corner is one of the face's: the pass skips those): its gap if it may touch, and its motion
+/// (`kept_gap`).
 #[inline]
-fn vertex_face_gap(vertex: &AnchoredTriangle, k: usize, face: &AnchoredTriangle, thickness: f32) -> f32 {
+fn vertex_face_gap(vertex: &AnchoredTriangle, k: usize, face: &AnchoredTriangle, thickness: f32) -> (f32, f32) {
     if face.has(vertex.ids[k]) || !moving_boxes_meet(vertex.boxes_of(k, k), face.boxes3(), thickness) {
-        return f32::INFINITY;
+        return LEFT_OUT;
     }
     let p = vertex.corners[k];
     let [a, b, c] = face.corners;
     let area2 = (b.start - a.start).cross(c.start - a.start).length_squared();
     let longest = longest_side2(a.start, b.start, c.start);
     if area2 <= 1e-8 * longest * longest {
-        return f32::NEG_INFINITY; // no closest point to measure from a collapsed face: kept
+        // No closest point to measure from a collapsed face: kept.
+        return (f32::NEG_INFINITY, face.largest_motion_from(p.motion));
     }
     let (q, _) = closest_with_weights(p.start, a.start, b.start, c.start);
     kept_gap((p.start - q).length(), face.largest_motion_from(p.motion), p.slop + face.largest_slop(), thickness)
 }
 
 /// Edge `k` of `e` against edge `m` of `f`, at the frame's start (never when they share a
-/// particle: the pass skips those): its gap if it may touch (`kept_gap`).
+/// particle: the pass skips those): its gap if it may touch, and its motion (`kept_gap`).
 #[inline]
-fn edges_gap(e: &AnchoredTriangle, k: usize, f: &AnchoredTriangle, m: usize, thickness: f32) -> f32 {
+fn edges_gap(e: &AnchoredTriangle, k: usize, f: &AnchoredTriangle, m: usize, thickness: f32) -> (f32, f32) {
     let (ea, eb, fa, fb) = (e.ids[k], e.ids[(k + 1) % 3], f.ids[m], f.ids[(m + 1) % 3]);
     if ea == fa || ea == fb || eb == fa || eb == fb {
-        return f32::INFINITY;
+        return LEFT_OUT;
     }
     if !moving_boxes_meet(e.boxes_of(k, (k + 1) % 3), f.boxes_of(m, (m + 1) % 3), thickness) {
-        return f32::INFINITY;
+        return LEFT_OUT;
     }
     let (a, b) = (e.corners[k], e.corners[(k + 1) % 3]);
     let (c, d) = (f.corners[m], f.corners[(m + 1) % 3]);
@@ -359,17 +365,19 @@ fn edges_gap(e: &AnchoredTriangle, k: usize, f: &AnchoredTriangle, m: usize, thi
 }
 
 /// The primitive pairs of `mask` (`self_contact::pair_mask`) between triangles `a` (the
-/// earlier) and `b` that may touch within the frame, and the smallest of their gaps (what a
-/// pass compares with the strays it measures: `listed_self_pairs_at`).
+/// earlier) and `b` that may touch within the frame, the smallest of their gaps (what a pass
+/// compares with the strays it measures: `listed_self_pairs_at`) and the largest of their
+/// relative predicted motions over the frame (what the passes must resolve: `PairMotion`).
 #[inline]
-fn pairs_that_may_touch(a: &AnchoredTriangle, b: &AnchoredTriangle, mask: u32, thickness: f32) -> (u32, f32) {
+fn pairs_that_may_touch(a: &AnchoredTriangle, b: &AnchoredTriangle, mask: u32, thickness: f32) -> (u32, f32, f32) {
     let mut kept = 0;
     let mut smallest = f32::INFINITY;
+    let mut fastest = 0.0f32;
     let mut bit = 0;
     while bit < 15 {
         if mask & (1 << bit) != 0 {
             let k = (bit % 3) as usize;
-            let gap = if bit < 3 {
+            let (gap, motion) = if bit < 3 {
                 vertex_face_gap(a, k, b, thickness)
             } else if bit < 6 {
                 vertex_face_gap(b, k, a, thickness)
@@ -379,11 +387,12 @@ fn pairs_that_may_touch(a: &AnchoredTriangle, b: &AnchoredTriangle, mask: u32, t
             if gap < f32::INFINITY {
                 kept |= 1 << bit;
                 smallest = smallest.min(gap);
+                fastest = fastest.max(motion);
             }
         }
         bit += 1;
     }
-    (kept, smallest)
+    (kept, smallest, fastest)
 }
 
 /// What a list keeps of sorted leaves `leaf` and `other` (`leaf` < `other`): the primitive pairs
@@ -397,14 +406,17 @@ pub fn listed_pair_bound(
     let (mine, theirs) = (sorted[leaf as usize], sorted[other as usize]);
     let mask = pair_mask(owned[mine.w as usize], owned[theirs.w as usize]);
     let (a, b) = (AnchoredTriangle::load(mine, anchors), AnchoredTriangle::load(theirs, anchors));
-    pairs_that_may_touch(&a, &b, mask, thickness)
+    let (kept, gap, _) = pairs_that_may_touch(&a, &b, mask, thickness);
+    (kept, gap)
 }
 
 /// Sorted leaf `leaf`'s list for the frame (`lists[LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf..]`, count in
 /// `counts[leaf]`): the later leaves that may come within the thickness in the frame
 /// (`RelativeMotion`), with the primitive pairs that may touch, found by one walk of the frame's
 /// tree (built over the start boxes, `motions` its motion boxes: internal nodes', leaves').
-/// Returns whether the walk's stack overflowed (the list is marked overflowed).
+/// Returns whether the walk's stack overflowed (the list is marked overflowed), and the largest
+/// relative predicted motion over the frame of the primitive pairs it found (listed or not,
+/// `pairs_that_may_touch`).
 #[allow(clippy::too_many_arguments)]
 pub fn list_self_pairs_at(
     leaf: u32,
@@ -414,13 +426,13 @@ pub fn list_self_pairs_at(
     owned: &[u32],
     anchors: &[Vec4],
     (lists, counts): (&mut [u32], &mut [u32]),
-) -> bool {
+) -> (bool, f32) {
     let thickness = self_params.thickness;
     let ids = sorted[leaf as usize];
     let mine = AnchoredTriangle::load(ids, anchors);
     if mine.too_small_for(thickness) {
         counts[leaf as usize] = LIST_OVERFLOWED;
-        return false;
+        return (false, 0.0);
     }
     let mine_owned = owned[ids.w as usize];
     let (start, motion) = (&leaf_bounds[leaf as usize], &leaf_motions[leaf as usize]);
@@ -431,6 +443,7 @@ pub fn list_self_pairs_at(
     let base = (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf) as usize;
     let mut count = 0;
     let mut full = false;
+    let mut fastest = 0.0f32;
     while !walk.done() && !full {
         let batch = walk.next_batch_in(nodes, boxes, &mut found);
         let mut j = 0;
@@ -438,7 +451,9 @@ pub fn list_self_pairs_at(
             let other = found[j];
             let theirs = sorted[other as usize];
             let mask = pair_mask(mine_owned, owned[theirs.w as usize]);
-            let (kept, gap) = pairs_that_may_touch(&mine, &AnchoredTriangle::load(theirs, anchors), mask, thickness);
+            let (kept, gap, motion) =
+                pairs_that_may_touch(&mine, &AnchoredTriangle::load(theirs, anchors), mask, thickness);
+            fastest = fastest.max(motion);
             if kept != 0 {
                 if count == SELF_LIST_CAPACITY {
                     full = true;
@@ -454,7 +469,16 @@ pub fn list_self_pairs_at(
         }
     }
     counts[leaf as usize] = if full || walk.overflowed { LIST_OVERFLOWED } else { count };
-    walk.overflowed
+    (walk.overflowed, fastest)
+}
+
+/// Records a list's largest relative predicted motion (`list_self_pairs_at`) in the frame's
+/// health record (`Health::self_pair_motion_bits`, a float max on the bits).
+#[inline]
+pub fn note_pair_motion(motion: f32, health: &mut Health) {
+    if motion > 0.0 {
+        atomics::max(&mut health.self_pair_motion_bits, motion.to_bits());
+    }
 }
 
 /// Counts a leaf whose list is full (it walks at every pass of the frame) in the frame's
@@ -717,8 +741,9 @@ pub fn list_self_pairs(
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     let motions = (motion_aabbs, leaf_motions);
-    list_self_pairs_at(id.x, self_params, tree, motions, owned, anchors, (lists, counts));
+    let (_, motion) = list_self_pairs_at(id.x, self_params, tree, motions, owned, anchors, (lists, counts));
     count_full_list(id.x, counts, health);
+    note_pair_motion(motion, health);
 }
 
 #[allow(clippy::too_many_arguments)]

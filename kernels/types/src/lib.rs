@@ -94,7 +94,11 @@ pub struct Health {
     /// 1 when the fail-safe's last round still found a crossing pair and the whole cloth went
     /// back to the frame's start.
     pub self_rollback_all: u32,
-    pub _pad: [u32; 2],
+    /// Largest relative motion over the frame (m, as `f32::to_bits`) its velocities predicted
+    /// at its start for two primitives of the cloth that its pair lists found may touch
+    /// (`drape_kernels::self_pairs`): what its passes had to resolve, a thickness at a time.
+    pub self_pair_motion_bits: u32,
+    pub _pad: u32,
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
