@@ -107,33 +107,52 @@ impl EndTriangle {
     }
 }
 
-/// The sign of the orientation of `d` against the plane of `a`, `b`, `c` (1, -1, or 0 on it), as
-/// f32 rounds it. No tolerance: one that counts near-zero as zero takes two triangles of a sheet
-/// lying flat, 1e-7 off its plane, for touching (the pile's first frames put its whole cloth
-/// back).
+/// The bound on the rounding error of `orient`'s f32 determinant, relative to its permanent (the
+/// sum of its products' magnitudes): Shewchuk's orient3d bound, (7 + 56u) u with u = 2^-24,
+/// rounded up.
+pub const ORIENT_ERROR: f32 = 1e-6;
+
+/// The sign of the orientation of `d` against the plane of `a`, `b`, `c` (1, -1, or 0), where
+/// f32 can tell it: 0 on the plane and wherever the determinant is within its rounding error
+/// (`ORIENT_ERROR`), so near-coplanar points never get a sign that rounding gave them. With the
+/// plain f32 sign, two triangles of a cloth lying flat on a box (their corners 1e-7 m apart in
+/// height), whose boxes touch at a corner, took random signs and crossed: the fail-safe put the
+/// whole cloth back at its landing on a cube. A tolerance in metres did as badly the other way
+/// (the pile's upright strip, 1e-7 off its plane, counted as touching).
 #[inline]
 fn orient(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> i32 {
-    let o = (b - a).cross(c - a).dot(d - a);
-    if o > 0.0 {
+    let (u, v, w) = (b - a, c - a, d - a);
+    let o = u.cross(v).dot(w);
+    let permanent = ((u.y * v.z).abs() + (u.z * v.y).abs()) * w.x.abs()
+        + ((u.z * v.x).abs() + (u.x * v.z).abs()) * w.y.abs()
+        + ((u.x * v.y).abs() + (u.y * v.x).abs()) * w.z.abs();
+    let error = ORIENT_ERROR * permanent;
+    if o > error {
         1
-    } else if o < 0.0 {
+    } else if o < -error {
         -1
     } else {
         0
     }
 }
 
-/// Whether segment `p`-`q` crosses triangle (`a`, `b`, `c`), touching included: the f32 twin of
-/// `metrics::intersections::segment_crosses_triangle`, which is exact (where f32 rounds an
-/// orientation of nearly coplanar points to the wrong sign, the two may differ).
+/// Whether segment `p`-`q` passes through triangle (`a`, `b`, `c`), as far as f32 can tell: its
+/// ends on opposite sides of the plane and its line inside the three edges, each orientation
+/// beyond its rounding error (`orient`). The f32 twin of
+/// `metrics::intersections::segment_crosses_triangle`, which is exact and counts touching too;
+/// they differ only where an orientation is within f32's error. There this one says no: a
+/// segment nearly in the plane of a cloth triangle lying flat beside it (the cloth on a box's
+/// top, its heights a few f32 steps apart) has all three edge orientations within their error,
+/// and counted as touching, the fail-safe put the whole cloth back at its landing. Two
+/// triangles that truly cross meet along a segment whose ends are where edges pass through, so
+/// a crossing is missed only when all of those pass within f32's error of an edge or a plane.
 #[inline]
 pub fn segment_crosses(p: Vec3, q: Vec3, a: Vec3, b: Vec3, c: Vec3) -> bool {
-    let (sp, sq) = (orient(a, b, c, p), orient(a, b, c, q));
-    if (sp == 0 && sq == 0) || sp * sq > 0 {
+    if orient(a, b, c, p) * orient(a, b, c, q) >= 0 {
         return false;
     }
     let (e0, e1, e2) = (orient(p, q, a, b), orient(p, q, b, c), orient(p, q, c, a));
-    (e0 >= 0 && e1 >= 0 && e2 >= 0) || (e0 <= 0 && e1 <= 0 && e2 <= 0)
+    (e0 > 0 && e1 > 0 && e2 > 0) || (e0 < 0 && e1 < 0 && e2 < 0)
 }
 
 /// Whether triangles `t` and `u` intersect: an edge of one through the other.
