@@ -297,11 +297,14 @@ impl Controls {
             let substep = c.stability.substep;
             log::trace!(
                 "cloth {index}: fastest particle {} m/s, moving at {} m/s over the last substep, {} self-contact \
-                 corrections, fastest pair that may touch {} m over the frame",
+                 corrections, fastest pair that may touch {} m over the frame, {} self-collision walks, {} full \
+                 lists",
                 crate::motion::max_speed(health),
                 crate::motion::max_motion(health, substep),
                 health.self_contacts,
-                f32::from_bits(health.self_pair_motion_bits)
+                f32::from_bits(health.self_pair_motion_bits),
+                health.self_walks,
+                health.self_full_lists
             );
             let self_contact = c.motion.self_contact;
             let pairs_listed = c.self_lists();
