@@ -1,8 +1,22 @@
 //! Device-scope atomics that also run on the CPU (one invocation at a time), so kernels that use
 //! them keep a CPU twin. On SPIR-V they are real atomics; on the host, plain read-modify-writes.
 
+use drape_types::DispatchArgs;
 #[cfg(target_arch = "spirv")]
 use spirv_std::memory::{Scope, Semantics};
+
+/// Appends `value` to `list`, which an indirect dispatch of `threads`-wide workgroups covers
+/// (`args`: x workgroups, the count in `_pad`; the host writes {0, 1, 1, 0} before). The first
+/// entry of each workgroup's share raises x (atomics on one word are serialised: one in
+/// `threads`, not every entry). The order is the atomics'.
+#[inline]
+pub fn append_for_dispatch(value: u32, list: &mut [u32], args: &mut DispatchArgs, threads: u32) {
+    let slot = add(&mut args._pad, 1);
+    list[slot as usize] = value;
+    if slot.is_multiple_of(threads) {
+        max(&mut args.x, slot / threads + 1);
+    }
+}
 
 /// `*target += value`, returns the old value.
 #[inline]

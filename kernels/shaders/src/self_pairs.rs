@@ -710,13 +710,7 @@ pub const WALK_THREADS: u32 = 64;
 /// (`walk_args`: x workgroups, the count in `_pad`; the host writes {0, 1, 1, 0} before).
 #[inline]
 pub fn add_walker(leaf: u32, walkers: &mut [u32], walk_args: &mut DispatchArgs) {
-    let slot = atomics::add(&mut walk_args._pad, 1);
-    walkers[slot as usize] = leaf;
-    // The first walker of each workgroup's share raises the count (atomics on one word are
-    // serialised: one in WALK_THREADS, not every walker).
-    if slot.is_multiple_of(WALK_THREADS) {
-        atomics::max(&mut walk_args.x, slot / WALK_THREADS + 1);
-    }
+    atomics::append_for_dispatch(leaf, walkers, walk_args, WALK_THREADS);
 }
 
 #[allow(clippy::too_many_arguments)]

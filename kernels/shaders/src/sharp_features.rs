@@ -84,11 +84,7 @@ pub fn may_be_sharp(
 /// their corrections as integers and take their pushes' maxima.
 #[inline]
 pub fn list_sharp(triangle: u32, list: &mut [u32], args: &mut DispatchArgs) {
-    let slot = atomics::add(&mut args._pad, 1);
-    list[slot as usize] = triangle;
-    if slot.is_multiple_of(CONTACT_THREADS) {
-        atomics::max(&mut args.x, slot / CONTACT_THREADS + 1);
-    }
+    atomics::append_for_dispatch(triangle, list, args, CONTACT_THREADS);
 }
 
 /// The cloth's longest squared edge as the passes take it (`self_scene_bounds` measured it at
