@@ -216,6 +216,41 @@ fn self_failsafe_keeps_every_frame_of_the_pile_free_of_crossings() {
     assert_eq!(failsafe["whole_cloth_rollbacks"].as_u64(), Some(0), "{failsafe}");
 }
 
+/// `--self-failsafe on` with a 64^2 cloth landing flat on a cube (an OBJ written here): nothing
+/// goes back. Its triangles lie a few f32 steps apart in height, and pairs whose boxes touch at
+/// a corner took random f32 orientation signs; counted as touching, they "crossed" at frame 6
+/// and the fail-safe put the whole cloth back (the exact check found no crossing).
+#[test]
+fn a_cloth_landing_flat_on_a_cube_is_not_put_back() {
+    let dir = std::env::temp_dir().join(format!("drape-cube-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cube = dir.join("cube.obj");
+    let corners: String =
+        (0..8).map(|i| format!("v {} {} {}\n", i >> 2 & 1, i >> 1 & 1, i & 1)).collect::<Vec<_>>().concat();
+    let faces =
+        "f 1 2 4\nf 1 4 3\nf 5 7 8\nf 5 8 6\nf 1 5 6\nf 1 6 2\nf 3 4 8\nf 3 8 7\nf 1 3 7\nf 1 7 5\nf 2 6 8\nf 2 8 4\n";
+    std::fs::write(&cube, format!("{corners}{faces}")).unwrap();
+    let args = [
+        "--mesh",
+        cube.to_str().unwrap(),
+        "--self-collision",
+        "on",
+        "--self-failsafe",
+        "on",
+        "--frames",
+        "12",
+        "--check-every-frame",
+        "--no-timestamps",
+    ];
+    let report = json_report("cube-failsafe", &args);
+    std::fs::remove_dir_all(&dir).ok();
+    let failsafe = &report["self_collision_failsafe"];
+    assert_eq!(failsafe["whole_cloth_rollbacks"].as_u64(), Some(0), "{failsafe}");
+    assert_eq!(failsafe["particles_rolled_back"].as_u64(), Some(0), "{failsafe}");
+    assert_eq!(report["intersections_every_frame"]["frames_with_any"].as_u64(), Some(0), "{report}");
+    assert!(report["lowest_particle_y_m"].as_f64().unwrap() < 0.9, "the cloth must have landed and draped");
+}
+
 /// Every example scene in scenes/ runs (2 frames here; flags override the file) and its report
 /// says it ran the file's scene.
 #[test]
