@@ -134,6 +134,13 @@ pub fn longest_side2(a: Vec3, b: Vec3, c: Vec3) -> f32 {
 /// walk (`collider_feature_contact_at`).
 pub const EDGE_GROWTH2: f32 = 1.44;
 
+/// The cloth's longest squared edge as a frame's collider features are tested for it: measured
+/// at the frame's start (`self_scene_bounds`), grown by `EDGE_GROWTH2`.
+#[inline]
+pub fn grown_longest_edge2(self_params: &ColliderParams) -> f32 {
+    self_params.scene_max.w * EDGE_GROWTH2
+}
+
 /// Stores the cloth's bounds, grown by the thickness, as the tree's Morton box, and its
 /// longest squared edge (`bounds.max.w`) in `scene_max.w`.
 #[inline]
@@ -1074,7 +1081,7 @@ pub fn collider_feature_contact_at(
     let vertex_folds = vertex_folds(folds);
     // The features sharp enough for the cloth's longest edge (at the frame's start, grown by
     // `EDGE_GROWTH2`); none (most of a smooth body): nothing this triangle could test.
-    let longest2 = self_params.scene_max.w * EDGE_GROWTH2;
+    let longest2 = grown_longest_edge2(self_params);
     let sharp = sharp_features(owned, folds, (longest2, thickness), 1.0);
     if sharp == 0 {
         return false;

@@ -367,7 +367,8 @@ fn edges_gap(e: &AnchoredTriangle, k: usize, f: &AnchoredTriangle, m: usize, thi
 /// The primitive pairs of `mask` (`self_contact::pair_mask`) between triangles `a` (the
 /// earlier) and `b` that may touch within the frame, the smallest of their gaps (what a pass
 /// compares with the strays it measures: `listed_self_pairs_at`) and the largest of their
-/// relative predicted motions over the frame (what the passes must resolve: `PairMotion`).
+/// relative predicted motions over the frame (what the passes must resolve:
+/// `Health::self_pair_motion_bits`).
 #[inline]
 fn pairs_that_may_touch(a: &AnchoredTriangle, b: &AnchoredTriangle, mask: u32, thickness: f32) -> (u32, f32, f32) {
     let mut kept = 0;

@@ -15,7 +15,7 @@
 
 use crate::atomics;
 use crate::contact::CONTACT_THREADS;
-use crate::self_contact::{EDGE_GROWTH2, NO_NEIGHBOUR, fold, sharp_features};
+use crate::self_contact::{NO_NEIGHBOUR, fold, grown_longest_edge2, sharp_features};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{ColliderParams, DispatchArgs};
 use spirv_std::spirv;
@@ -91,7 +91,7 @@ pub fn list_sharp(triangle: u32, list: &mut [u32], args: &mut DispatchArgs) {
 /// the frame's start), and the collider's contact thickness.
 #[inline]
 pub fn frame_threshold(self_params: &ColliderParams, collider: &ColliderParams) -> (f32, f32) {
-    (self_params.scene_max.w * EDGE_GROWTH2, collider.thickness)
+    (grown_longest_edge2(self_params), collider.thickness)
 }
 
 #[allow(clippy::too_many_arguments)]
