@@ -199,8 +199,16 @@ mod tests {
     #[test]
     fn a_cloth_lying_flat_does_not_cross_itself_whatever_f32_rounds() {
         let landed = (
-            [Vec3::new(0.03321431, 0.93095, -0.54249465), Vec3::new(0.033214305, 0.9309501, -0.52033186), Vec3::new(0.055357154, 0.93095, -0.5424947)],
-            [Vec3::new(0.07749999, 0.93095, -0.54249465), Vec3::new(0.055357166, 0.9309501, -0.52033186), Vec3::new(0.07750002, 0.9309501, -0.52033186)],
+            [
+                Vec3::new(0.03321431, 0.93095, -0.54249465),
+                Vec3::new(0.033214305, 0.9309501, -0.52033186),
+                Vec3::new(0.055357154, 0.93095, -0.5424947),
+            ],
+            [
+                Vec3::new(0.07749999, 0.93095, -0.54249465),
+                Vec3::new(0.055357166, 0.9309501, -0.52033186),
+                Vec3::new(0.07750002, 0.9309501, -0.52033186),
+            ],
         );
         assert!(!triangles_cross(landed.0, landed.1) && !triangles_intersect(landed.0, landed.1));
         let n = 12u32;
@@ -215,7 +223,9 @@ mod tests {
                 0.93095 + steps * 6e-8
             })
             .collect();
-        let point = |i: u32, j: u32| Vec3::new(-0.1 + i as f32 * spacing, heights[(i * n + j) as usize], -0.5 + j as f32 * spacing);
+        let point = |i: u32, j: u32| {
+            Vec3::new(-0.1 + i as f32 * spacing, heights[(i * n + j) as usize], -0.5 + j as f32 * spacing)
+        };
         let mut triangles = Vec::new();
         for i in 0..n - 1 {
             for j in 0..n - 1 {

@@ -10,6 +10,7 @@
 //! one left the particles (`start`), so passes may be several substeps apart: `pass_due`.
 
 use super::contact::{ColliderBuffers, ColliderLeaves, substep_span};
+use super::empty_dispatch;
 use super::lbvh::LbvhBuffers;
 use super::self_failsafe::FailsafeBuffers;
 use crate::graph::{Dispatch, Handle, Resources, Step};
@@ -259,7 +260,7 @@ impl SelfContactBuffers {
         else {
             return;
         };
-        steps.push(Step::write(sharp.args, 0, &[DispatchArgs { x: 0, y: 1, z: 1, _pad: 0 }]));
+        steps.push(empty_dispatch(sharp.args));
         steps.push(Step::run(
             SHARP_FEATURES_LABEL,
             &LIST_SHARP_FEATURES,
@@ -295,7 +296,7 @@ impl SelfContactBuffers {
     fn triangle_bounds(&self, cloth: &SelfContactCloth, span: ContactPush, find_walkers: bool, steps: &mut Vec<Step>) {
         let t = &self.tree;
         if find_walkers {
-            steps.push(Step::write(self.walk_args, 0, &[DispatchArgs { x: 0, y: 1, z: 1, _pad: 0 }]));
+            steps.push(empty_dispatch(self.walk_args));
         }
         let push = SelfPassPush { from: span.from, to: span.to, find_walkers: find_walkers as u32, _pad: 0 };
         steps.push(Step::run_with(

@@ -5,6 +5,7 @@
 //! the first run only when the one before put a particle back (indirect dispatches the
 //! roll-back writes).
 
+use super::empty_dispatch;
 use super::self_contact::{SelfContactBuffers, SelfContactCloth};
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_failsafe::{FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_ROLL_BACK};
@@ -49,12 +50,11 @@ impl FailsafeBuffers {
     /// frame's end; `lists`: the frame built pair lists (the check takes them).
     pub fn frame_end_steps(&self, own: &SelfContactBuffers, cloth: &SelfContactCloth, lists: bool, steps: &mut Vec<Step>) {
         let t = &own.tree;
-        let nothing = DispatchArgs { x: 0, y: 1, z: 1, _pad: 0 };
         steps.push(Step::fill(self.flags, 0));
         steps.push(Step::fill(self.counters, 0));
         for &(check, roll_back) in &self.rounds {
-            steps.push(Step::write(check, 0, &[nothing]));
-            steps.push(Step::write(roll_back, 0, &[nothing]));
+            steps.push(empty_dispatch(check));
+            steps.push(empty_dispatch(roll_back));
         }
         let boxes = |dispatch| {
             Step::run(
