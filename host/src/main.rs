@@ -437,10 +437,11 @@ fn run(args: &Args) -> drape::Result<()> {
     if args.check_every_frame {
         json.insert("intersections_every_frame".into(), worst.json());
         say!(
-            "intersections (exact, every frame): frames with any {} of {}; worst frames: cloth-cloth {} (frame {}), \
+            "intersections (exact, every frame): frames with any {} of {}{}; worst frames: cloth-cloth {} (frame {}), \
              cloth edges through the collider {} (frame {}), collider edges through the cloth {} (frame {})",
             worst.frames_with_any,
             args.frames,
+            worst.first_frame.map_or(String::new(), |f| format!(" (the first: frame {f})")),
             worst.cloth_cloth.0,
             worst.cloth_cloth.1,
             worst.cloth_edges.0,

@@ -13,6 +13,8 @@ use serde_json::{Value, json};
 #[derive(Default)]
 pub(crate) struct WorstIntersections {
     pub(crate) frames_with_any: u32,
+    /// The first frame with any intersection.
+    pub(crate) first_frame: Option<u32>,
     pub(crate) cloth_cloth: (usize, u32),
     pub(crate) cloth_edges: (usize, u32),
     pub(crate) collider_edges: (usize, u32),
@@ -20,7 +22,10 @@ pub(crate) struct WorstIntersections {
 
 impl WorstIntersections {
     pub(crate) fn record(&mut self, frame: u32, found: drape::metrics::intersections::Intersections) {
-        self.frames_with_any += (found.total() > 0) as u32;
+        if found.total() > 0 {
+            self.frames_with_any += 1;
+            self.first_frame.get_or_insert(frame);
+        }
         for (worst, count) in [
             (&mut self.cloth_cloth, found.cloth_cloth),
             (&mut self.cloth_edges, found.cloth_edges_through_collider),
@@ -250,6 +255,7 @@ impl WorstIntersections {
     pub(crate) fn json(&self) -> Value {
         json!({
             "frames_with_any": self.frames_with_any,
+            "first_frame_with_any": self.first_frame,
             "worst_cloth_cloth": { "count": self.cloth_cloth.0, "frame": self.cloth_cloth.1 },
             "worst_cloth_edges_through_collider": { "count": self.cloth_edges.0, "frame": self.cloth_edges.1 },
             "worst_collider_edges_through_cloth": { "count": self.collider_edges.0, "frame": self.collider_edges.1 },
