@@ -475,6 +475,54 @@ fn a_spike_does_not_pierce_a_cloth_cell() {
     assert_validation_clean(&ctx);
 }
 
+/// A cone of `sides` sides, `height` tall, its tip at the top (apex angle `apex` degrees),
+/// standing on y = 0 with its base closed.
+fn cone(sides: u32, height: f32, apex: f32) -> drape::Mesh {
+    let radius = height * (0.5 * apex).to_radians().tan();
+    let mut vertices = vec![Vec3::new(0.0, height, 0.0), Vec3::ZERO];
+    vertices.extend((0..sides).map(|i| {
+        let a = std::f32::consts::TAU * i as f32 / sides as f32;
+        Vec3::new(radius * a.cos(), 0.0, radius * a.sin())
+    }));
+    let ring = |i: u32| 2 + i % sides;
+    let triangles = (0..sides).flat_map(|i| [[0, ring(i + 1), ring(i)], [1, ring(i), ring(i + 1)]]).collect();
+    drape::Mesh { vertices, triangles }
+}
+
+/// A whole cloth hanging from a spike's tip: the standard scene (24 x 24) over a tall 16-sided
+/// cone of 28 degrees, whose tip holds the cloth up through the particles of one cell. They are
+/// pulled down by the whole cloth, centimetres a substep past the tip at the stability bound's
+/// substeps, which pierces the cloth; the collider vertex's pushes past the thickness raise the
+/// substeps (`motion::FEATURE_PUSH_REACH`), and no frame has a crossing.
+#[test]
+fn a_cloth_hanging_from_a_cone_s_tip_is_not_pierced() {
+    let ctx = context();
+    let scene = drape::scenes::DrapeScene::standard(&cone(16, 1.0, 28.0), 24);
+    let cloth = scene.cloth.clone().self_collision(Some(0.005)).build().unwrap();
+    let run = |substeps: Option<u32>| {
+        let settings = SimSettings::default().with_timestamps(false).with_substeps(substeps);
+        let model = Model::single(&cloth, std::slice::from_ref(&scene.triangle_collider()), settings).unwrap();
+        let mut sim = Solver::new(&ctx, &model).unwrap();
+        let bound = sim.stability(CLOTH).unwrap().substeps;
+        let (mut frames_pierced, mut most_substeps) = (0, 0);
+        for _ in 0..120 {
+            sim.step().unwrap();
+            most_substeps = most_substeps.max(sim.stability(CLOTH).unwrap().substeps);
+            let x = sim.positions(CLOTH).unwrap();
+            let found = count_intersections(&x, &cloth.triangles, (&scene.mesh.vertices, &scene.mesh.triangles));
+            frames_pierced += (found.total() > 0) as u32;
+        }
+        (frames_pierced, bound, most_substeps)
+    };
+    let (held, bound, most) = run(None);
+    let (pierced, _, _) = run(Some(bound));
+    println!("cone: {pierced} frames pierced at the bound's {bound} substeps; {held} with up to {most} substeps");
+    assert!(pierced > 0, "the tip must pierce the cloth at the bound's substeps (the scene must test it)");
+    assert!(most > bound, "the tip's pushes must raise the substeps above the bound's {bound}");
+    assert_eq!(held, 0, "the cone's tip pierced the cloth in {held} of 120 frames (substeps up to {most})");
+    assert_validation_clean(&ctx);
+}
+
 /// A ridge's edge against the cloth's edges: a 16 x 16 cloth falls across a thin ridge (a
 /// prism on a platform, longer than the cloth, its apex edge between two particle columns). No
 /// collider vertex is under the cloth, so only the apex edge can cut its cells: particle contact

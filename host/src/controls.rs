@@ -7,7 +7,7 @@
 use crate::error::{Error, Result};
 use crate::graph::{Handle, Step};
 use crate::model::{ClothId, ColliderId};
-use crate::motion::{ClothMotion, Proximity, SELF_SUBSTEPS_LIMIT};
+use crate::motion::{ClothMotion, FEATURE_SUBSTEPS_LIMIT, Proximity, SELF_SUBSTEPS_LIMIT};
 use crate::program::SolverProgram;
 use crate::programs::cloth::FramePlan;
 use crate::programs::self_contact::{SelfContactBuffers, lists_pay};
@@ -298,17 +298,18 @@ impl Controls {
             log::trace!(
                 "cloth {index}: fastest particle {} m/s, moving at {} m/s over the last substep, {} self-contact \
                  corrections, fastest pair that may touch {} m over the frame, {} self-collision walks, {} full \
-                 lists",
+                 lists, largest collider vertex push {} thicknesses",
                 crate::motion::max_speed(health),
                 crate::motion::max_motion(health, substep),
                 health.self_contacts,
                 f32::from_bits(health.self_pair_motion_bits),
                 health.self_walks,
-                health.self_full_lists
+                health.self_full_lists,
+                f32::from_bits(health.collider_feature_push_bits)
             );
             let self_contact = c.motion.self_contact;
             let pairs_listed = c.self_lists();
-            c.motion.observe(health, substep, sleep, pairs_listed);
+            c.motion.observe(health, (substep, c.stability.substeps), sleep, pairs_listed);
             // Its passes follow whether it touches itself.
             self.replan |= c.self_collision.is_some() && c.motion.self_contact != self_contact;
         }
@@ -599,8 +600,12 @@ impl Controls {
             self.colliders.iter().filter(|c| !c.swept_contact).map(|c| c.params.thickness).reduce(f32::min);
         for c in &mut self.cloths {
             let most = SELF_SUBSTEPS_LIMIT * c.base_stability.substeps;
-            let proximity =
-                Proximity { collider: collider_thickness, self_collision: c.self_collision.map(|t| (t, most)) };
+            let features_most = FEATURE_SUBSTEPS_LIMIT * c.base_stability.substeps;
+            let proximity = Proximity {
+                collider: collider_thickness,
+                self_collision: c.self_collision.map(|t| (t, most)),
+                collider_features: c.self_collision.map(|_| features_most),
+            };
             let near = moving.iter().any(|&(_, bounds)| c.motion.near(bounds));
             let change = c.motion.plan_frame(proximity, (collider_speed, near), settings.frame_dt, settings.sleep);
             if change.substeps {

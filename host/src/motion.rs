@@ -69,6 +69,11 @@ pub struct ClothMotion {
     /// touched (m; `Health::self_pair_motion_bits`), when its self-collision pair lists
     /// measured it: what its self-collision passes had to resolve.
     pair_motion: Option<f32>,
+    /// The largest push a collider vertex gave one of its faces in a self-collision pass of the
+    /// last frame (thicknesses; `Health::collider_feature_push_bits`), and the substeps that
+    /// frame ran.
+    feature_push: f32,
+    substeps_run: u32,
     /// Substeps the motion needs now, and frames it has needed fewer.
     pub(crate) contact_substeps: u32,
     frames_needing_fewer: u32,
@@ -91,6 +96,9 @@ pub struct ClothMotion {
 pub(crate) struct Proximity {
     pub collider: Option<f32>,
     pub self_collision: Option<(f32, u32)>,
+    /// The most substeps the colliders' vertices against the cloth's faces may ask for
+    /// (`FEATURE_SUBSTEPS_LIMIT`), when they are tested (with self-collision).
+    pub collider_features: Option<u32>,
 }
 
 /// Self-collision raises a frame's substeps to at most this many times the stability bound's.
@@ -102,6 +110,29 @@ pub(crate) struct Proximity {
 /// bunny went through it in 17 of 120 frames and on the dragon in 10 of 40, and the fail-safe put
 /// particles of the pile back in 299 of 600 frames (the whole cloth once); at 2, none of that.
 pub const SELF_SUBSTEPS_LIMIT: u32 = 2;
+
+/// The push (in thicknesses) a collider vertex may give a cloth face per pass: more, and the
+/// next frames run more substeps (`substeps_for_push`). A push within the thickness corrects
+/// a face that came near the vertex; beyond it, the face passed the vertex within the pass.
+/// That happens where a spike's tip holds the cloth up through the particles of one cell. The
+/// cell is pulled down by the whole hanging cloth, about 2e4 m/s^2 under a 28-degree cone's tip,
+/// so about 2.8 cm per 1.67 ms substep, and a face that far past the tip is not always put back
+/// (passing it near an edge of the face, crossing the planes of both faces at that edge). Under
+/// a constant pull the push shrinks with the square of the substep.
+pub const FEATURE_PUSH_REACH: f32 = 1.0;
+
+/// Collider features raise a frame's substeps to at most this many times the stability bound's.
+/// The cone's 64^2 cloth was pierced at 18 and 24 substeps (4-11 mm pushes per pass at 24) and
+/// held at 30 and 40 (the bound takes 10).
+pub const FEATURE_SUBSTEPS_LIMIT: u32 = 4;
+
+/// Substeps under which a collider vertex's push stays within `FEATURE_PUSH_REACH`, from the
+/// last frame's largest push `push` at `substeps_run` substeps (the push scales with the square
+/// of the substep); `None` for no push.
+fn substeps_for_push(push: f32, substeps_run: u32) -> Option<u32> {
+    let scale = (push / FEATURE_PUSH_REACH).sqrt();
+    (push > 0.0 && scale.is_finite()).then(|| ((substeps_run.max(1) as f32 * scale).ceil() as u32).clamp(1, 100_000))
+}
 
 /// Substeps that move `motion` (m over a frame) at most `CONTACT_REACH` thicknesses each.
 fn substeps_for(motion: f32, thickness: f32) -> Option<u32> {
@@ -121,13 +152,22 @@ impl ClothMotion {
         ClothMotion { contact_substeps: 1, self_contact: true, ..Default::default() }
     }
 
-    /// After a frame of substep `substep`: its health check's speed and motion, and the motion
-    /// of its self-collision pairs when `pairs_listed` (the frame ran pair lists).
-    pub(crate) fn observe(&mut self, health: &Health, substep: f32, sleep: Option<Sleep>, pairs_listed: bool) {
+    /// After a frame of `substeps` substeps of `substep` s: its health check's speed and motion,
+    /// its colliders' pushes, and the motion of its self-collision pairs when `pairs_listed` (the
+    /// frame ran pair lists).
+    pub(crate) fn observe(
+        &mut self,
+        health: &Health,
+        (substep, substeps): (f32, u32),
+        sleep: Option<Sleep>,
+        pairs_listed: bool,
+    ) {
         if self.asleep {
             return; // a sleeping frame ran nothing; its health is the last awake frame's
         }
         self.last_speed = max_speed(health);
+        self.feature_push = f32::from_bits(health.collider_feature_push_bits);
+        self.substeps_run = substeps;
         self.pair_motion = pairs_listed.then(|| f32::from_bits(health.self_pair_motion_bits));
         self.self_contact = health.self_contacts > 0;
         match sleep {
@@ -202,7 +242,10 @@ impl ClothMotion {
         let collider = proximity.collider.and_then(|t| substeps_for(particle_motion, t));
         let self_collision =
             proximity.self_collision.and_then(|(t, most)| Some(substeps_for(self_motion, t)?.min(most.max(1))));
-        let needed = collider.max(self_collision).unwrap_or(1);
+        let features = proximity
+            .collider_features
+            .and_then(|most| Some(substeps_for_push(self.feature_push, self.substeps_run)?.min(most.max(1))));
+        let needed = collider.max(self_collision).max(features).unwrap_or(1);
         if needed > self.contact_substeps {
             (self.contact_substeps, self.frames_needing_fewer) = (needed, 0);
             change.substeps = true;
@@ -232,27 +275,27 @@ mod tests {
 
     /// Contact with a sphere collider of `thickness`.
     fn collider(thickness: f32) -> Proximity {
-        Proximity { collider: Some(thickness), self_collision: None }
+        Proximity { collider: Some(thickness), ..Default::default() }
     }
 
     #[test]
     fn fast_motion_raises_substeps_at_once_and_lowers_them_slowly() {
         let mut m = ClothMotion::new();
-        m.observe(&health(2.9), H, None, false);
+        m.observe(&health(2.9), (H, 10), None, false);
         // 2.9 m/s over 1/60 s is 48 mm: ten 5 mm substeps.
         assert_eq!(
             m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None),
             Change { substeps: true, sleep: false }
         );
         assert_eq!(m.contact_substeps, 10);
-        m.observe(&health(0.1), H, None, false);
+        m.observe(&health(0.1), (H, 10), None, false);
         for _ in 1..LOWER_AFTER {
             assert!(!m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None).substeps);
         }
         assert!(m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None).substeps);
         assert_eq!(m.contact_substeps, 1);
         // Without contact, motion needs nothing.
-        m.observe(&health(100.0), H, None, false);
+        m.observe(&health(100.0), (H, 10), None, false);
         m.plan_frame(Proximity::default(), (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 1);
     }
@@ -261,17 +304,17 @@ mod tests {
     /// fastest particle (which it falls back on without lists), up to its limit.
     #[test]
     fn self_collision_follows_its_pairs_motion_up_to_its_limit() {
-        let self_only = Proximity { collider: None, self_collision: Some((0.005, 20)) };
+        let self_only = Proximity { self_collision: Some((0.005, 20)), ..Default::default() };
         let mut m = ClothMotion::new();
         // A corner whipping through the air at 20 m/s; the fastest pair that may touch moves
         // 18 mm over the frame: four 5 mm substeps.
         let mut h = health(20.0);
         h.self_pair_motion_bits = 0.018f32.to_bits();
-        m.observe(&h, H, None, true);
+        m.observe(&h, (H, 10), None, true);
         m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 4);
         // Without lists: the fastest particle, 20 m/s over 1/60 s (333 mm), stopped at 20.
-        m.observe(&h, H, None, false);
+        m.observe(&h, (H, 10), None, false);
         m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 20);
         // A sphere collider's contact is not limited: 67 substeps.
@@ -280,17 +323,46 @@ mod tests {
         assert_eq!(m.contact_substeps, 67);
     }
 
+    /// A collider vertex that pushed a cloth face more than the thickness in a pass (the face
+    /// passed it) raises the substeps by the square root of the push, up to the features' limit;
+    /// pushes within the thickness keep what lowers them within it.
+    #[test]
+    fn a_collider_vertex_pushing_past_the_thickness_raises_substeps_up_to_its_limit() {
+        let features = Proximity { collider_features: Some(40), ..Default::default() };
+        let pushed = |push: f32| Health { collider_feature_push_bits: push.to_bits(), ..health(0.1) };
+        let mut m = ClothMotion::new();
+        // A push of 2.25 thicknesses at 10 substeps: 15 keep it within one.
+        m.observe(&pushed(2.25), (H, 10), None, true);
+        assert!(m.plan_frame(features, (0.0, false), 1.0 / 60.0, None).substeps);
+        assert_eq!(m.contact_substeps, 15);
+        // 25 thicknesses at 10 substeps would take 50: stopped at the limit.
+        m.observe(&pushed(25.0), (H, 10), None, true);
+        m.plan_frame(features, (0.0, false), 1.0 / 60.0, None);
+        assert_eq!(m.contact_substeps, 40);
+        // Within the thickness at 40 substeps (0.64): 32 keep it, once enough frames needed fewer.
+        m.observe(&pushed(0.64), (H, 40), None, true);
+        for _ in 0..LOWER_AFTER {
+            m.plan_frame(features, (0.0, false), 1.0 / 60.0, None);
+        }
+        assert_eq!(m.contact_substeps, 32);
+        // Without collider features tested, the push asks for nothing.
+        let mut m = ClothMotion::new();
+        m.observe(&pushed(25.0), (H, 10), None, true);
+        m.plan_frame(Proximity::default(), (0.0, false), 1.0 / 60.0, None);
+        assert_eq!(m.contact_substeps, 1);
+    }
+
     #[test]
     fn a_still_cloth_sleeps_and_a_moving_collider_wakes_it() {
         let sleep = Some(Sleep { speed: 0.01, frames: 3 });
         let mut m = ClothMotion::new();
         for _ in 0..3 {
-            m.observe(&health(0.001), H, sleep, false);
+            m.observe(&health(0.001), (H, 10), sleep, false);
             assert!(!m.plan_frame(Proximity::default(), (0.0, false), 1.0 / 60.0, sleep).sleep || m.asleep);
         }
         assert!(m.asleep);
         // A sleeping frame's (stale) health does not count.
-        m.observe(&health(5.0), H, sleep, false);
+        m.observe(&health(5.0), (H, 10), sleep, false);
         assert!(m.asleep);
         assert_eq!(
             m.plan_frame(Proximity::default(), (0.2, true), 1.0 / 60.0, sleep),
@@ -298,7 +370,7 @@ mod tests {
         );
         assert!(!m.asleep);
         // One fast frame restarts the count.
-        m.observe(&health(0.5), H, sleep, false);
+        m.observe(&health(0.5), (H, 10), sleep, false);
         m.plan_frame(Proximity::default(), (0.0, false), 1.0 / 60.0, sleep);
         assert!(!m.asleep);
     }

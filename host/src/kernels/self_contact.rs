@@ -93,6 +93,7 @@ pub static COLLIDER_FEATURE_CONTACT: Kernel = Kernel {
             write("pushes"),
             read("sharp"),
             read("sharp_args"),
+            write("health"),
         ],
         push_constant_size: size_of::<ContactPush>() as u32,
         workgroup_size: CONTACT_THREADS,
@@ -217,6 +218,7 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
         pushes,
         sharp,
         sharp_args,
+        health,
     ] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = self_params.first()?;
@@ -229,6 +231,7 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
     let (delta, pushes) = (delta.slice_mut::<u32>(), pushes.slice_mut::<u32>());
     let velocity_changes = velocity_changes.slice_mut::<u32>();
     let (sharp, listed) = (sharp.slice::<u32>(), sharp_args.first::<DispatchArgs>()?._pad);
+    let health = health.first_mut::<Health>()?;
     for i in 0..threads.min(listed) {
         let t = *sharp.get(i as usize).ok_or("the sharp features' count runs past their list")?;
         let mine = *features.get(t as usize).ok_or("a listed sharp feature is past the collider's triangles")?;
@@ -239,7 +242,7 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
             delta: &mut *delta,
             velocity_changes: &mut *velocity_changes,
         };
-        collider_feature_contact_at(t, mine, mesh, &motion, &c, tree, owned, (x, x_prev), (out, &mut *pushes));
+        collider_feature_contact_at(t, mine, mesh, &motion, &c, tree, owned, (x, x_prev), (out, &mut *pushes, &mut *health));
     }
     Ok(())
 }

@@ -442,6 +442,7 @@ impl SelfContactBuffers {
                 self.pushes.id(),
                 sharp.list.id(),
                 sharp.args.id(),
+                cloth.health.id(),
             ],
             bytemuck::cast(span),
             Dispatch::Indirect(sharp.args),

@@ -238,6 +238,10 @@ pub fn closest_with_weights(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Vec3) 
 pub struct PairCorrection {
     pub vertex: Vec3,
     pub corners: [Vec3; 3],
+    /// How far the pair is pushed apart along the face normal (m; vertex-triangle pairs):
+    /// the thickness less the vertex's height over the face, so over the thickness when the
+    /// vertex ended beyond the face.
+    pub push: f32,
     /// Where the pair touches, for its friction (`pair_friction`).
     pub contact: PairContact,
 }
@@ -304,10 +308,15 @@ pub fn pair_correction(
     pair_correction_within((p0, p1), then, now, (wp, w), (thickness, f32::INFINITY))
 }
 
-/// `pair_correction` that takes a crossing only up to `crossing_depth` beyond the face: a
-/// collider's vertex does not move, so in a pass that moves the cloth about a thickness a real
-/// crossing ends shallow, while a vertex deep under a cloth face that tilted or folded over it
-/// looks crossed too (pushed in full, those drove the cloth on the dragon unstable).
+/// `pair_correction` that takes a crossing ending over the face only up to `crossing_depth`
+/// beyond it, and one ending deeper (or beside the face) only when the vertex passed through
+/// the face itself during the pass (`passed_through`): a collider's vertex does not move, so
+/// a vertex deep under a cloth face that tilted or folded over it has changed sides without
+/// passing through the face (pushed in full, those drove the cloth on the dragon unstable),
+/// while a spike's tip holding a whole cloth through one cell is passed through by the cell
+/// a few centimetres a substep (a 28-degree cone's tip pierced its cloth in 108 of 120
+/// frames with only the shallow crossings undone). `crossing_depth` infinite (the cloth's own
+/// pairs) takes every crossing that ends over the face and tests no sweep.
 pub fn pair_correction_within(
     (p0, p1): (Vec3, Vec3),
     then: [Vec3; 3],
@@ -346,7 +355,10 @@ pub fn pair_correction_within(
     let height_l = (p1 - q).dot(dir); // height x L
     let target_l = thickness * length; // thickness x L
     let interior = weights.x > 0.0 && weights.y > 0.0 && weights.z > 0.0;
-    let crossed = height_l < 0.0 && height_l > -crossing_depth * length && interior && start != 0.0;
+    let shallow = height_l > -crossing_depth * length && interior;
+    let crossed = height_l < 0.0
+        && start != 0.0
+        && (shallow || (crossing_depth < f32::INFINITY && passed_through((p0, p1), then, now)));
     if !(distance < thickness || crossed) || height_l >= target_l {
         return None;
     }
@@ -357,10 +369,138 @@ pub fn pair_correction_within(
     // Unit normal x (thickness - height) / denom = dir x (target_l - height_l) / (L^2 denom).
     let s = (target_l - height_l) * (1.0 / (area2 * denom));
     Some(PairCorrection {
+        push: (target_l - height_l) * (1.0 / length),
         vertex: dir * (wp * s),
         corners: [dir * (-w.x * weights.x * s), dir * (-w.y * weights.y * s), dir * (-w.z * weights.z * s)],
         contact: PairContact { coefficients: [1.0, -weights.x, -weights.y, -weights.z], normal: dir },
     })
+}
+
+/// Whether the point moving from `p0` to `p1` passed through the triangle moving from `then`
+/// to `now` (each linearly over the pass): at some instant of the pass the point lies in the
+/// triangle's plane and over the triangle, its edges included up to `THROUGH_SLACK` of the
+/// triangle's size (the instants are found numerically; a neighbour sharing the edge may miss
+/// it too). The point's height over the plane is a cubic in time, with up to three such
+/// instants: a tip that passes through one cell's face near its edge can cross the plane of
+/// the face beside it twice, once outside that face.
+pub fn passed_through((p0, p1): (Vec3, Vec3), then: [Vec3; 3], now: [Vec3; 3]) -> bool {
+    let cubic = Height::of((p0, p1), then, now);
+    // The cubic is monotonic between its turning points: each piece holds at most one root.
+    let (t1, t2) = cubic.turning_points();
+    let mut lo = 0.0f32;
+    let mut piece = 0;
+    while piece < 3 {
+        let hi = if piece == 0 {
+            t1
+        } else if piece == 1 {
+            t2
+        } else {
+            1.0
+        };
+        if hi > lo && cubic.has_root_in(lo, hi) {
+            let t = cubic.root_in(lo, hi);
+            if over_triangle(p0 + (p1 - p0) * t, lerp_corners(t, then, now)) {
+                return true;
+            }
+        }
+        lo = lo.max(hi);
+        piece += 1;
+    }
+    false
+}
+
+/// Bisection steps of `Height::root_in`: a root to 2^-20 of the pass.
+pub const THROUGH_STEPS: u32 = 20;
+
+/// How far beside a triangle's edge (relative to its size) a point passing its plane still
+/// counts as passing through it (`passed_through`).
+pub const THROUGH_SLACK: f32 = 1e-3;
+
+/// A moving point's height over a moving triangle's plane (times the normal's length) as a
+/// cubic in the pass's fraction `t`: `c0 + c1 t + c2 t^2 + c3 t^3`.
+struct Height {
+    c: Vec4,
+}
+
+impl Height {
+    fn of((p0, p1): (Vec3, Vec3), then: [Vec3; 3], now: [Vec3; 3]) -> Height {
+        // Relative to the first corner: r = p - a, e1 = b - a, e2 = c - a, each start + t x change.
+        let (r, e1, e2) = (p0 - then[0], then[1] - then[0], then[2] - then[0]);
+        let dr = (p1 - now[0]) - r;
+        let (de1, de2) = ((now[1] - now[0]) - e1, (now[2] - now[0]) - e2);
+        // The normal e1 x e2 = n0 + n1 t + n2 t^2.
+        let n0 = e1.cross(e2);
+        let n1 = e1.cross(de2) + de1.cross(e2);
+        let n2 = de1.cross(de2);
+        Height { c: Vec4::new(r.dot(n0), r.dot(n1) + dr.dot(n0), r.dot(n2) + dr.dot(n1), dr.dot(n2)) }
+    }
+
+    #[inline]
+    fn at(&self, t: f32) -> f32 {
+        ((self.c.w * t + self.c.z) * t + self.c.y) * t + self.c.x
+    }
+
+    /// Where the cubic turns inside (0, 1), in order; pieces without a turning point end at 1.
+    fn turning_points(&self) -> (f32, f32) {
+        // 3 c3 t^2 + 2 c2 t + c1 = 0.
+        let (a, b, c) = (3.0 * self.c.w, 2.0 * self.c.z, self.c.y);
+        let (mut t1, mut t2) = (1.0f32, 1.0f32);
+        if a == 0.0 {
+            if b != 0.0 {
+                t1 = -c * (1.0 / b);
+            }
+        } else {
+            let discriminant = b * b - 4.0 * a * c;
+            if discriminant > 0.0 {
+                let root = discriminant.sqrt();
+                let half = 0.5 * (1.0 / a);
+                let (u, v) = ((-b - root) * half, (-b + root) * half);
+                (t1, t2) = if u < v { (u, v) } else { (v, u) };
+            }
+        }
+        let inside = |t: f32| if t > 0.0 && t < 1.0 { t } else { 1.0 };
+        let (t1, t2) = (inside(t1), inside(t2));
+        if t1 <= t2 { (t1, t2) } else { (t2, t1) }
+    }
+
+    /// Whether the height changes sign (strictly) over [lo, hi], or ends at zero.
+    fn has_root_in(&self, lo: f32, hi: f32) -> bool {
+        let (a, b) = (self.at(lo), self.at(hi));
+        (a > 0.0 && b <= 0.0) || (a < 0.0 && b >= 0.0)
+    }
+
+    /// The root in [lo, hi] (`has_root_in`), by bisection.
+    fn root_in(&self, mut lo: f32, mut hi: f32) -> f32 {
+        let below = self.at(lo) < 0.0;
+        let mut step = 0;
+        while step < THROUGH_STEPS {
+            let mid = 0.5 * (lo + hi);
+            if (self.at(mid) < 0.0) == below {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+            step += 1;
+        }
+        0.5 * (lo + hi)
+    }
+}
+
+/// Whether `p`, in the plane of triangle `corners` (or nearly), lies over it: on the inner
+/// side of each edge, up to `THROUGH_SLACK` of the triangle's size.
+#[inline]
+fn over_triangle(p: Vec3, [a, b, c]: [Vec3; 3]) -> bool {
+    let normal = (b - a).cross(c - a);
+    let slack = -THROUGH_SLACK * normal.length_squared();
+    (b - a).cross(p - a).dot(normal) >= slack
+        && (c - b).cross(p - b).dot(normal) >= slack
+        && (a - c).cross(p - c).dot(normal) >= slack
+}
+
+/// The triangle's corners at fraction `t` of the pass.
+#[inline]
+fn lerp_corners(t: f32, then: [Vec3; 3], now: [Vec3; 3]) -> [Vec3; 3] {
+    [then[0] + (now[0] - then[0]) * t, then[1] + (now[1] - then[1]) * t, then[2] + (now[2] - then[2]) * t]
 }
 
 /// Fixed-point scale of the summed friction velocity changes: 2^20 units per m/s (resolution
@@ -655,6 +795,17 @@ impl Corners {
         let hi = self.now[k].max(self.then[k]).max(self.now[m]).max(self.then[m]);
         (lo, hi)
     }
+
+    /// The box swept by segment `segment` of `segments` equal ones of the edge from corner `k`
+    /// to `m` (the part between the same fractions of it at the pass's start and end).
+    #[inline]
+    fn segment_box(&self, (k, m): (usize, usize), (segment, segments): (u32, u32)) -> (Vec3, Vec3) {
+        let step = 1.0 / segments as f32;
+        let (s0, s1) = (segment as f32 * step, (segment + 1) as f32 * step);
+        let (then, now) = (self.then[m] - self.then[k], self.now[m] - self.now[k]);
+        let ends = [self.then[k] + then * s0, self.then[k] + then * s1, self.now[k] + now * s0, self.now[k] + now * s1];
+        (ends[0].min(ends[1]).min(ends[2]).min(ends[3]), ends[0].max(ends[1]).max(ends[2]).max(ends[3]))
+    }
 }
 
 /// Corner `k` of `vertex` against triangle `face` (skipped when it is one of the face's).
@@ -929,12 +1080,45 @@ struct ColliderFeaturePairs<'a> {
     /// and its friction's.
     out: PairResponse<'a>,
     pushes: &'a mut [u32],
+    /// The largest push its vertices gave a cloth face, in thicknesses
+    /// (`Health::collider_feature_push_bits`).
+    largest_push: f32,
+    /// The walk's segment of its edge (`(k, m)`, of `segments`; 1 for a whole edge or a
+    /// vertex): a cloth triangle whose box meets an earlier segment's (grown by `reach`) was
+    /// tested there.
+    edge: (usize, usize),
+    segment: (u32, u32),
+    reach: Vec3,
+    leaf_bounds: &'a [Aabb],
+}
+
+impl ColliderFeaturePairs<'_> {
+    /// Whether an earlier segment of the walk's edge reached cloth triangle `leaf`.
+    #[inline]
+    fn met_before(&self, leaf: u32) -> bool {
+        let bounds = &self.leaf_bounds[leaf as usize];
+        let mut earlier = 0;
+        while earlier < self.segment.0 {
+            let (lo, hi) = self.feature.segment_box(self.edge, (earlier, self.segment.1));
+            if box_meets(bounds, lo - self.reach, hi + self.reach) {
+                return true;
+            }
+            earlier += 1;
+        }
+        false
+    }
 }
 
 /// Collider corner `k` of `feature` (moving at `velocity`) against cloth triangle `face` (into
-/// the cloth's own mean), with the collider's friction.
+/// the cloth's own mean), with the collider's friction; returns how far it pushed the face
+/// (`PairCorrection::push`; 0 for none).
 #[inline]
-fn collider_vertex_face(feature: &Corners, (k, velocity): (usize, Vec3), face: &Corners, out: &mut PairResponse) {
+fn collider_vertex_face(
+    feature: &Corners,
+    (k, velocity): (usize, Vec3),
+    face: &Corners,
+    out: &mut PairResponse,
+) -> f32 {
     let weights = (0.0, face.weights);
     let limits = (out.thickness, COLLIDER_CROSSING_DEPTH * out.thickness);
     if let Some(c) = pair_correction_within((feature.then[k], feature.now[k]), face.then, face.now, weights, limits) {
@@ -944,7 +1128,9 @@ fn collider_vertex_face(feature: &Corners, (k, velocity): (usize, Vec3), face: &
         let ids = UVec4::new(0, face.ids.x, face.ids.y, face.ids.z);
         let w = Vec4::new(0.0, face.weights.x, face.weights.y, face.weights.z);
         out.add_friction(ids, w, &c.contact, [velocity, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO]);
+        return c.push;
     }
+    0.0
 }
 
 /// Collider edge `k` of `feature` against edge `m` of cloth triangle `cloth`.
@@ -978,6 +1164,9 @@ fn collider_edge_edge(
 
 impl LeafVisitor for ColliderFeaturePairs<'_> {
     fn visit(&mut self, leaf: u32) {
+        if self.segment.0 > 0 && self.met_before(leaf) {
+            return;
+        }
         let ids = self.sorted[leaf as usize];
         let cloth = Corners::load(ids, (self.x, self.x_prev));
         let cloth_owned = self.owned_bits[ids.w as usize];
@@ -991,7 +1180,8 @@ impl LeafVisitor for ColliderFeaturePairs<'_> {
                 && within(feature.swept_box(k, k), face_box, thickness)
             {
                 let velocity = pick(self.velocities[0], self.velocities[1], self.velocities[2], k as u32);
-                collider_vertex_face(feature, (k, velocity), &cloth, &mut self.out);
+                let push = collider_vertex_face(feature, (k, velocity), &cloth, &mut self.out);
+                self.largest_push = self.largest_push.max(push * (1.0 / thickness));
             }
             if self.owned & (1 << k) != 0 {
                 let edge = (k, component_f(self.folds, k as u32));
@@ -1051,7 +1241,7 @@ pub fn collider_feature_contact_at(
     (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
     cloth_owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
-    (out, pushes): (PairResponse, &mut [u32]),
+    (out, pushes, health): (PairResponse, &mut [u32], &mut Health),
 ) -> bool {
     let thickness = out.thickness;
     let owned = feature.w;
@@ -1101,6 +1291,11 @@ pub fn collider_feature_contact_at(
         x_prev,
         out,
         pushes,
+        largest_push: 0.0,
+        edge: (0, 0),
+        segment: (0, 1),
+        reach,
+        leaf_bounds,
     };
     // A triangle much larger than the cloth's edges (a ground plane, a box's side) would reach
     // every cloth triangle over it, though its features (its rim, its corners) lie far from
@@ -1108,27 +1303,40 @@ pub fn collider_feature_contact_at(
     // tested the whole pile, 2048 triangles, in one thread). Otherwise one walk tests them all.
     // Both ways go through the one call of the walk below, which inlines large: a second call
     // made the kernel's SPIR-V 1.7x the size.
+    // An edge much longer than the cloth's edges walks in segments of about that length, each
+    // with its own box: the box of a whole long slanted edge holds far more cloth than lies
+    // near the edge (a 1.9 m edge of a tall cone under the cloth hanging around it: one thread
+    // tested most of the cloth, 10 ms a pass on an H100).
     let one_by_one = spans_many_cloth_edges(hi - lo, longest2);
     let mut overflowed = false;
     let mut feature: u32 = 0;
+    let mut segment: u32 = 0;
     while feature < 6 {
         let (bit, (k, m)) = if feature < 3 {
-            (1 << feature, (feature, (feature + 1) % 3))
+            (1 << feature, (feature as usize, (feature as usize + 1) % 3))
         } else {
-            (VERTEX_OWNED_BIT << (feature - 3), (feature - 3, feature - 3))
+            (VERTEX_OWNED_BIT << (feature - 3), (feature as usize - 3, feature as usize - 3))
         };
+        let segments = if one_by_one && k != m { edge_segments(pairs.feature.swept_box(k, m), longest2) } else { 1 };
         let (walk, query) = if one_by_one {
-            let (flo, fhi) = pairs.feature.swept_box(k as usize, m as usize);
+            let (flo, fhi) = pairs.feature.segment_box((k, m), (segment, segments));
             (bit, (flo - reach, fhi + reach))
         } else {
             (sharp, (lo, hi))
         };
         if sharp & walk != 0 {
-            pairs.owned = walk;
+            (pairs.owned, pairs.edge, pairs.segment) = (walk, (k, m), (segment, segments));
             let tree = (nodes, aabbs, leaf_bounds);
             overflowed |= walk_overlapping(tree, self_params.leaf_count, query, &mut pairs);
         }
-        feature = if one_by_one { feature + 1 } else { 6 };
+        segment += 1;
+        if segment >= segments || sharp & walk == 0 {
+            segment = 0;
+            feature = if one_by_one { feature + 1 } else { 6 };
+        }
+    }
+    if pairs.largest_push > 0.0 {
+        atomics::max(&mut health.collider_feature_push_bits, pairs.largest_push.to_bits());
     }
     overflowed
 }
@@ -1141,6 +1349,30 @@ pub fn spans_many_cloth_edges(extent: Vec3, cloth_edge2: f32) -> bool {
     let longest = extent.max_element();
     longest * longest > FEATURE_WALK_EDGES * FEATURE_WALK_EDGES * cloth_edge2
 }
+
+/// The segments a collider edge whose swept box is `(lo, hi)` walks in: about
+/// `FEATURE_WALK_EDGES` cloth edges (`cloth_edge2`, the longest squared) each, at most
+/// `MAX_EDGE_SEGMENTS`.
+#[inline]
+pub fn edge_segments((lo, hi): (Vec3, Vec3), cloth_edge2: f32) -> u32 {
+    let longest = (hi - lo).max_element();
+    let span = FEATURE_WALK_EDGES * cloth_edge2.sqrt();
+    if span.is_nan() || span <= 0.0 {
+        return 1;
+    }
+    let segments = (longest * (1.0 / span)).ceil();
+    if segments >= MAX_EDGE_SEGMENTS as f32 {
+        MAX_EDGE_SEGMENTS
+    } else if segments >= 1.0 {
+        segments as u32
+    } else {
+        1
+    }
+}
+
+/// The most segments an edge walks in (`edge_segments`): each segment's walk first tests the
+/// boxes of those before it for every cloth triangle it reaches.
+pub const MAX_EDGE_SEGMENTS: u32 = 32;
 
 /// Cloth edges a collider triangle must span before its features walk one by one: a walk per
 /// feature repeats the loads of the cloth triangles near two features (a corner and its edges),
@@ -1173,6 +1405,7 @@ pub fn collider_feature_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 18)] pushes: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 19)] sharp: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 20)] sharp_args: &DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 21)] health: &mut Health,
 ) {
     // One thread per triangle the frame listed as possibly sharp (`sharp_features`).
     if id.x >= sharp_args._pad {
@@ -1184,7 +1417,17 @@ pub fn collider_feature_contact(
     let mesh = (vertices, previous, indices);
     let mine = features[triangle as usize];
     let out = PairResponse { thickness: collider.thickness, friction: collider.friction, v, delta, velocity_changes };
-    collider_feature_contact_at(triangle, mine, mesh, &motion, self_params, tree, owned, (x, x_prev), (out, pushes));
+    collider_feature_contact_at(
+        triangle,
+        mine,
+        mesh,
+        &motion,
+        self_params,
+        tree,
+        owned,
+        (x, x_prev),
+        (out, pushes, health),
+    );
 }
 
 /// How deep beyond a cloth face a collider vertex may be and still count as having crossed it
@@ -1454,6 +1697,60 @@ mod tests {
         // Beside the face it crossed nothing.
         let (p0, p1) = (Vec3::new(2.0, 0.01, 2.0), Vec3::new(2.0, -0.03, 2.0));
         assert!(pair_correction((p0, p1), FLAT, FLAT, (1.0, Vec3::ZERO), 0.005).is_none());
+    }
+
+    /// A collider's vertex (weight 0) counts a crossing deeper than `COLLIDER_CROSSING_DEPTH`
+    /// only when it passed through the face itself within the pass: through a face pulled past
+    /// a tip, yes at any depth; beside a face that only tilted over a vertex deep under it, no.
+    #[test]
+    fn a_collider_vertex_deep_past_a_face_counts_only_if_it_passed_through_it() {
+        let limits = (0.005, COLLIDER_CROSSING_DEPTH * 0.005);
+        let weights = (0.0, Vec3::ONE);
+        let tip = Vec3::new(0.2, 0.0, 0.2);
+        // The face pulled 3 cm down past a tip 3 mm under it.
+        let then = FLAT.map(|c| c + Vec3::Y * 0.003);
+        let now = FLAT.map(|c| c - Vec3::Y * 0.027);
+        assert!(passed_through((tip, tip), then, now));
+        let c = pair_correction_within((tip, tip), then, now, weights, limits).unwrap();
+        assert!((c.push - 0.032).abs() < 1e-5, "pushed {} m", c.push);
+        // The same while the face slides 70 cm along x, the tip ending beside it: it passed
+        // through the face early in the pass (at 10 %, 7 cm along).
+        let slid = FLAT.map(|c| c + Vec3::new(0.7, -0.027, 0.0));
+        assert!(passed_through((tip, tip), then, slid));
+        // A face tilting about its edge b-c over a vertex 10 cm under where it was: the vertex
+        // changes sides of the face's plane beside the face, never through it.
+        let deep = Vec3::new(0.9, -0.1, -0.3);
+        let tilted = [Vec3::new(0.0, -0.6, 0.0), FLAT[1], FLAT[2]];
+        assert!(!passed_through((deep, deep), FLAT, tilted));
+        assert!(pair_correction_within((deep, deep), FLAT, tilted, weights, limits).is_none());
+        // Shallow crossings over the face need no sweep; crossing beside it is nothing.
+        let (p0, p1) = (Vec3::new(2.0, 0.01, 2.0), Vec3::new(2.0, -0.03, 2.0));
+        assert!(!passed_through((p0, p1), FLAT, FLAT));
+    }
+
+    /// A long edge walks in segments of about `FEATURE_WALK_EDGES` cloth edges, at most
+    /// `MAX_EDGE_SEGMENTS`; together their boxes hold the edge's swept box, each far smaller.
+    #[test]
+    fn a_long_edge_walks_in_segments_whose_boxes_cover_it() {
+        let slanted = Corners {
+            ids: UVec4::ZERO,
+            then: [Vec3::ZERO, Vec3::new(0.46, 1.86, 0.1), Vec3::X],
+            now: [Vec3::new(0.0, -0.01, 0.0), Vec3::new(0.46, 1.85, 0.1), Vec3::X],
+            weights: Vec3::ZERO,
+        };
+        let whole = slanted.swept_box(0, 1);
+        let cloth_edge2 = 0.044f32 * 0.044;
+        let segments = edge_segments(whole, cloth_edge2);
+        assert_eq!(segments, (1.87f32 / (FEATURE_WALK_EDGES * 0.044)).ceil() as u32);
+        assert_eq!(edge_segments(whole, 1e-8), MAX_EDGE_SEGMENTS);
+        assert_eq!(edge_segments(whole, 100.0), 1);
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for segment in 0..segments {
+            let (a, b) = slanted.segment_box((0, 1), (segment, segments));
+            assert!((b - a).y <= 1.87 / segments as f32 + 0.011, "segment {segment}: {a} {b}");
+            (lo, hi) = (lo.min(a), hi.max(b));
+        }
+        assert!((lo - whole.0).abs().max_element() < 1e-6 && (hi - whole.1).abs().max_element() < 1e-6);
     }
 
     #[test]

@@ -98,7 +98,11 @@ pub struct Health {
     /// at its start for two primitives of the cloth that its pair lists found may touch
     /// (`drape_kernels::self_pairs`): what its passes had to resolve, a thickness at a time.
     pub self_pair_motion_bits: u32,
-    pub _pad: u32,
+    /// Largest push a collider vertex gave a cloth face in one self-collision pass, in
+    /// thicknesses of that collider's contact (as `f32::to_bits`; `drape_kernels::self_contact`):
+    /// a face within the thickness takes at most 1, so more means the face passed the vertex
+    /// within the pass (a spike's tip holding the cloth up), by the excess.
+    pub collider_feature_push_bits: u32,
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
