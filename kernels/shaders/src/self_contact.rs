@@ -1080,15 +1080,14 @@ struct ColliderFeaturePairs<'a> {
     /// and its friction's.
     out: PairResponse<'a>,
     pushes: &'a mut [u32],
-    /// The largest push its vertices gave a cloth face, in thicknesses
-    /// (`Health::collider_feature_push_bits`).
+    /// The largest push its vertices gave a cloth face (m; `Health::collider_feature_push_bits`
+    /// takes it in thicknesses).
     largest_push: f32,
     /// The walk's segment of its edge (`(k, m)`, of `segments`; 1 for a whole edge or a
-    /// vertex): a cloth triangle whose box meets an earlier segment's (grown by `reach`) was
-    /// tested there.
+    /// vertex): a cloth triangle whose box meets an earlier segment's (grown by the thickness)
+    /// was tested there.
     edge: (usize, usize),
     segment: (u32, u32),
-    reach: Vec3,
     leaf_bounds: &'a [Aabb],
 }
 
@@ -1097,10 +1096,11 @@ impl ColliderFeaturePairs<'_> {
     #[inline]
     fn met_before(&self, leaf: u32) -> bool {
         let bounds = &self.leaf_bounds[leaf as usize];
+        let reach = Vec3::splat(self.out.thickness);
         let mut earlier = 0;
         while earlier < self.segment.0 {
             let (lo, hi) = self.feature.segment_box(self.edge, (earlier, self.segment.1));
-            if box_meets(bounds, lo - self.reach, hi + self.reach) {
+            if box_meets(bounds, lo - reach, hi + reach) {
                 return true;
             }
             earlier += 1;
@@ -1181,7 +1181,7 @@ impl LeafVisitor for ColliderFeaturePairs<'_> {
             {
                 let velocity = pick(self.velocities[0], self.velocities[1], self.velocities[2], k as u32);
                 let push = collider_vertex_face(feature, (k, velocity), &cloth, &mut self.out);
-                self.largest_push = self.largest_push.max(push * (1.0 / thickness));
+                self.largest_push = self.largest_push.max(push);
             }
             if self.owned & (1 << k) != 0 {
                 let edge = (k, component_f(self.folds, k as u32));
@@ -1258,7 +1258,8 @@ pub fn collider_feature_contact_at(
     let (lo, hi) = moving.swept_box3();
     let reach = Vec3::splat(thickness);
     let (lo, hi) = (lo - reach, hi + reach);
-    if self_params.leaf_count > 1 && !box_meets(&aabbs[0], lo, hi) {
+    let leaves = self_params.leaf_count;
+    if !meets_cloth(aabbs, leaves, (lo, hi)) {
         return false; // away from the whole cloth (the tree's root): no folds to measure
     }
     // The folds at the pass's end (a deforming collider's change).
@@ -1294,7 +1295,6 @@ pub fn collider_feature_contact_at(
         largest_push: 0.0,
         edge: (0, 0),
         segment: (0, 1),
-        reach,
         leaf_bounds,
     };
     // A triangle much larger than the cloth's edges (a ground plane, a box's side) would reach
@@ -1311,14 +1311,19 @@ pub fn collider_feature_contact_at(
     let mut overflowed = false;
     let mut feature: u32 = 0;
     let mut segment: u32 = 0;
+    // The feature's segments, and whether it comes near the cloth at all (set at its first).
+    let (mut segments, mut feature_near) = (1, true);
     while feature < 6 {
         let (bit, (k, m)) = if feature < 3 {
             (1 << feature, (feature as usize, (feature as usize + 1) % 3))
         } else {
             (VERTEX_OWNED_BIT << (feature - 3), (feature as usize - 3, feature as usize - 3))
         };
-        let whole = pairs.feature.swept_box(k, m);
-        let segments = if one_by_one && k != m { edge_segments(whole, longest2) } else { 1 };
+        if segment == 0 && one_by_one {
+            let whole = pairs.feature.swept_box(k, m);
+            segments = if k != m { edge_segments(whole, longest2) } else { 1 };
+            feature_near = meets_cloth(aabbs, leaves, (whole.0 - reach, whole.1 + reach));
+        }
         let (walk, query) = if one_by_one {
             let (flo, fhi) = pairs.feature.segment_box((k, m), (segment, segments));
             (bit, (flo - reach, fhi + reach))
@@ -1328,12 +1333,10 @@ pub fn collider_feature_contact_at(
         // A segment, or a whole feature, away from the whole cloth (the tree's root) has
         // nothing to walk: a 6 m ground's rim in 32 segments set up 128 empty walks a pass, and
         // testing each segment's box one after another still took the H100 27 us a pass.
-        let leaves = self_params.leaf_count;
-        let feature_near = !one_by_one || meets_cloth(aabbs, leaves, (whole.0 - reach, whole.1 + reach));
         if sharp & walk != 0 && feature_near && meets_cloth(aabbs, leaves, query) {
             (pairs.owned, pairs.edge, pairs.segment) = (walk, (k, m), (segment, segments));
             let tree = (nodes, aabbs, leaf_bounds);
-            overflowed |= walk_overlapping(tree, self_params.leaf_count, query, &mut pairs);
+            overflowed |= walk_overlapping(tree, leaves, query, &mut pairs);
         }
         segment += 1;
         if segment >= segments || sharp & walk == 0 || !feature_near {
@@ -1342,7 +1345,8 @@ pub fn collider_feature_contact_at(
         }
     }
     if pairs.largest_push > 0.0 {
-        atomics::max(&mut health.collider_feature_push_bits, pairs.largest_push.to_bits());
+        let thicknesses = pairs.largest_push * (1.0 / thickness);
+        atomics::max(&mut health.collider_feature_push_bits, thicknesses.to_bits());
     }
     overflowed
 }
