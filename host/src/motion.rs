@@ -131,13 +131,17 @@ pub const FEATURE_SUBSTEPS_LIMIT: u32 = 4;
 /// of the substep); `None` for no push.
 fn substeps_for_push(push: f32, substeps_run: u32) -> Option<u32> {
     let scale = (push / FEATURE_PUSH_REACH).sqrt();
-    (push > 0.0 && scale.is_finite()).then(|| ((substeps_run.max(1) as f32 * scale).ceil() as u32).clamp(1, 100_000))
+    if push > 0.0 { whole_substeps(substeps_run.max(1) as f32 * scale) } else { None }
+}
+
+/// `substeps` (a count the motion asks for) rounded up, in 1..=100000; `None` when not finite.
+fn whole_substeps(substeps: f32) -> Option<u32> {
+    substeps.is_finite().then(|| (substeps.ceil() as u32).clamp(1, 100_000))
 }
 
 /// Substeps that move `motion` (m over a frame) at most `CONTACT_REACH` thicknesses each.
 fn substeps_for(motion: f32, thickness: f32) -> Option<u32> {
-    let reach = motion / (CONTACT_REACH * thickness);
-    (thickness > 0.0 && reach.is_finite()).then(|| (reach.ceil() as u32).clamp(1, 100_000))
+    if thickness > 0.0 { whole_substeps(motion / (CONTACT_REACH * thickness)) } else { None }
 }
 
 /// What a frame's start changed of a cloth's schedule.
