@@ -493,14 +493,18 @@ fn cone(sides: u32, height: f32, apex: f32) -> drape::Mesh {
 /// cone of 28 degrees, whose tip holds the cloth up through the particles of one cell. They are
 /// pulled down by the whole cloth, centimetres a substep past the tip at the stability bound's
 /// substeps, which pierces the cloth; the collider vertex's pushes past the thickness raise the
-/// substeps (`motion::FEATURE_PUSH_REACH`), and no frame has a crossing.
+/// substeps (`motion::FEATURE_PUSH_REACH`), and no frame has a crossing. Both runs without the
+/// fail-safe, which puts the crossed cells back (`a_needle_s_tip_is_held_by_the_fail_safe`):
+/// the passes and their substeps alone hold this cloth. At the bound's substeps with the
+/// fail-safe, no frame has a crossing either.
 #[test]
 fn a_cloth_hanging_from_a_cone_s_tip_is_not_pierced() {
     let ctx = context();
     let scene = drape::scenes::DrapeScene::standard(&cone(16, 1.0, 28.0), 24);
     let cloth = scene.cloth.clone().self_collision(Some(0.005)).build().unwrap();
-    let run = |substeps: Option<u32>| {
-        let settings = SimSettings::default().with_timestamps(false).with_substeps(substeps);
+    let run_with = |substeps: Option<u32>, failsafe: bool| {
+        let settings =
+            SimSettings::default().with_timestamps(false).with_substeps(substeps).with_self_failsafe(failsafe);
         let model = Model::single(&cloth, std::slice::from_ref(&scene.triangle_collider()), settings).unwrap();
         let mut sim = Solver::new(&ctx, &model).unwrap();
         let bound = sim.stability(CLOTH).unwrap().substeps;
@@ -514,12 +518,74 @@ fn a_cloth_hanging_from_a_cone_s_tip_is_not_pierced() {
         }
         (frames_pierced, bound, most_substeps)
     };
-    let (held, bound, most) = run(None);
-    let (pierced, _, _) = run(Some(bound));
-    println!("cone: {pierced} frames pierced at the bound's {bound} substeps; {held} with up to {most} substeps");
+    let (held, bound, most) = run_with(None, false);
+    let (pierced, _, _) = run_with(Some(bound), false);
+    let (put_back, _, _) = run_with(Some(bound), true);
+    println!(
+        "cone: {pierced} frames pierced at the bound's {bound} substeps; {held} with up to {most} substeps; \
+         {put_back} at the bound's with the fail-safe"
+    );
     assert!(pierced > 0, "the tip must pierce the cloth at the bound's substeps (the scene must test it)");
     assert!(most > bound, "the tip's pushes must raise the substeps above the bound's {bound}");
     assert_eq!(held, 0, "the cone's tip pierced the cloth in {held} of 120 frames (substeps up to {most})");
+    assert_eq!(put_back, 0, "with the fail-safe, {put_back} of 120 frames at the bound's substeps were pierced");
+    assert_validation_clean(&ctx);
+}
+
+/// A needle's tip through the cloth hanging from it: the standard scene (24 x 24, 8 times its
+/// mass) over a 4-sided spike of 6 degrees (8.9 m tall once the scene scales it), whose tip holds
+/// the whole cloth up through one cell. From frame 28 the cell slips over the tip within a pass
+/// and ends it on the far side, where no later pass sees it cross again: without the fail-safe
+/// the needle's edges go through the cloth and stay through (33 of 60 frames). With it, the
+/// frame's end is checked against the needle's triangles, the cells it crossed go back to where
+/// the frame found them, and no frame has a crossing of any kind (the cell goes back in 31 of
+/// 60 frames, 123 particles in all). The frame of the first roll-back equals its CPU twin.
+#[test]
+fn a_needle_s_tip_is_held_by_the_fail_safe() {
+    let ctx = context();
+    let scene = drape::scenes::DrapeScene::standard(&cone(4, 1.0, 6.0), 24);
+    let side = 1.5 * drape::scenes::MESH_EXTENT;
+    let heavy = scene.cloth.clone().mass(8.0 * 0.2 * side * side);
+    let cloth = heavy.self_collision(Some(0.005)).build().unwrap();
+    let collider = scene.triangle_collider();
+    let colliders = std::slice::from_ref(&collider);
+    let mesh = (&scene.mesh.vertices[..], &scene.mesh.triangles[..]);
+    let model_with = |failsafe: bool| {
+        let settings = SimSettings::default().with_timestamps(false).with_self_failsafe(failsafe);
+        Model::single(&cloth, colliders, settings).unwrap()
+    };
+    const FRAMES: u32 = 48;
+    let mut without = Solver::new(&ctx, &model_with(false)).unwrap();
+    let mut pierced = 0;
+    for _ in 0..FRAMES {
+        without.step().unwrap();
+        pierced += (count_intersections(&without.positions(CLOTH).unwrap(), &cloth.triangles, mesh).total() > 0) as u32;
+    }
+    drop(without);
+    let model = model_with(true);
+    let mut sim = Solver::new(&ctx, &model).unwrap();
+    let (mut crossed, mut put_back, mut compared) = (0, 0, false);
+    for frame in 1..=FRAMES {
+        let before = sim.state().unwrap();
+        let report = sim.step_report().unwrap();
+        let x = sim.positions(CLOTH).unwrap();
+        crossed += (count_intersections(&x, &cloth.triangles, mesh).total() > 0) as u32;
+        put_back += report.self_rollbacks;
+        if report.self_rollbacks > 0 && !compared {
+            let mut cpu = CpuSolver::new(&model).unwrap();
+            cpu.set_state(&before).unwrap();
+            cpu.step().unwrap();
+            assert_eq!(x, cpu.positions(CLOTH).unwrap(), "frame {frame}: the CPU twin put back others");
+            assert_eq!(sim.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {frame}");
+            compared = true;
+        }
+    }
+    println!(
+        "needle: {pierced} of {FRAMES} frames pierced without the fail-safe; with it {crossed}, {put_back} particles put back"
+    );
+    assert!(pierced > 0, "the needle must pierce the cloth without the fail-safe (the scene must test it)");
+    assert!(put_back > 0 && compared, "the fail-safe must put the cells the tip crossed back");
+    assert_eq!(crossed, 0, "with the fail-safe {crossed} of {FRAMES} frames have a crossing");
     assert_validation_clean(&ctx);
 }
 
@@ -898,7 +964,7 @@ fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
     s.frame_start_steps(&own, substeps, (true, true), &mut steps);
     let start_steps = steps;
     let mut steps = vec![];
-    s.failsafe.frame_end_steps(&s, &own, true, &mut steps);
+    s.failsafe.frame_end_steps((&s, &own), true, &[], &mut steps);
     let failsafe_steps = steps;
     let mut engine = Engine::new(&ctx).unwrap();
     engine.allocate(&resources).unwrap();

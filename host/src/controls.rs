@@ -298,14 +298,16 @@ impl Controls {
             log::trace!(
                 "cloth {index}: fastest particle {} m/s, moving at {} m/s over the last substep, {} self-contact \
                  corrections, fastest pair that may touch {} m over the frame, {} self-collision walks, {} full \
-                 lists, largest collider vertex push {} thicknesses",
+                 lists, largest collider vertex push {} thicknesses, {} particles put back by the fail-safe{}",
                 crate::motion::max_speed(health),
                 crate::motion::max_motion(health, substep),
                 health.self_contacts,
                 f32::from_bits(health.self_pair_motion_bits),
                 health.self_walks,
                 health.self_full_lists,
-                f32::from_bits(health.collider_feature_push_bits)
+                f32::from_bits(health.collider_feature_push_bits),
+                health.self_rollbacks,
+                if health.self_rollback_all != 0 { " (the whole cloth)" } else { "" }
             );
             let self_contact = c.motion.self_contact;
             let pairs_listed = c.self_lists();

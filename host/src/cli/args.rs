@@ -142,9 +142,9 @@ pub(crate) struct Args {
     #[arg(long, value_enum, default_value = "on")]
     pub(crate) tile_sleep: OnOff,
     /// With `--self-collision on`, end each frame by checking the cloth for triangles that
-    /// intersect (and did not at the frame's start) and put their particles back where the frame
-    /// started, so no frame ends with the cloth through itself (off: the passes alone, for
-    /// comparison).
+    /// intersect each other or a collider's sharp triangles (and did not at the frame's start)
+    /// and put their particles back where the frame started, so no frame ends with the cloth
+    /// through itself or a spike through the cloth (off: the passes alone, for comparison).
     #[arg(long, value_enum, default_value = "on")]
     pub(crate) self_failsafe: OnOff,
     /// Raise automatic substeps so no particle moves more than the contact thickness per

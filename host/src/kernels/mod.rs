@@ -19,7 +19,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 49] = [
+pub const ALL: [&Kernel; 50] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::NORMALS_AND_HEALTH,
@@ -40,6 +40,7 @@ pub const ALL: [&Kernel; 49] = [
     &self_contact::APPLY_COLLIDER_PUSHES,
     &self_failsafe::FAILSAFE_BOXES,
     &self_failsafe::FAILSAFE_CHECK,
+    &self_failsafe::FAILSAFE_COLLIDER_CHECK,
     &self_failsafe::FAILSAFE_ROLL_BACK,
     &sort::RADIX_COUNT,
     &sort::RADIX_SCATTER,

@@ -1,13 +1,15 @@
 //! Self-collision's fail-safe kernels (`drape_kernels::self_failsafe`): the triangles' boxes over
-//! the frame, the check of every pair of triangles at the frame's end, and the roll-back of the
-//! particles of the pairs found.
+//! the frame, the check of every pair of triangles at the frame's end (and of a triangle
+//! collider's sharp triangles against the cloth's), and the roll-back of the particles of the
+//! pairs found.
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::self_failsafe::{
-    CHECK_THREADS, Found, WITH_LISTS, Walkers, check_frame_at, frame_box_at, note_everything, roll_back_at,
+    CHECK_THREADS, Found, WITH_LISTS, Walkers, check_collider_triangle_at, check_frame_at, frame_box_at, note_everything,
+    roll_back_at,
 };
-use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, FailsafePush, Health};
+use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health};
 use glam::{UVec4, Vec4};
 
 const fn read(name: &'static str) -> BindingSpec {
@@ -57,6 +59,31 @@ pub static FAILSAFE_CHECK: Kernel = Kernel {
         workgroup_size: CHECK_THREADS,
     },
     cpu: check_cpu,
+};
+
+pub static FAILSAFE_COLLIDER_CHECK: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_failsafe::failsafe_collider_check",
+        bindings: &[
+            read("self_params"),
+            read("pose"),
+            read("vertices"),
+            read("indices"),
+            read("sharp"),
+            read("sharp_args"),
+            read("nodes"),
+            read("aabbs"),
+            read("leaf_bounds"),
+            read("sorted"),
+            read("x"),
+            read("anchors"),
+            write("flags"),
+            write("counters"),
+        ],
+        push_constant_size: size_of::<FailsafePush>() as u32,
+        workgroup_size: CHECK_THREADS,
+    },
+    cpu: collider_check_cpu,
 };
 
 pub static FAILSAFE_ROLL_BACK: Kernel = Kernel {
@@ -120,6 +147,48 @@ fn check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     for leaf in 0..threads.min(c.leaf_count) {
         let found = Found { flags: &mut *flags, pairs: &mut *pairs };
         check_frame_at(leaf, &c, tree, (x, anchors), with_lists, found);
+    }
+    Ok(())
+}
+
+fn collider_check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: FailsafePush = d.push_as();
+    let threads = d.invocations();
+    let [
+        self_params,
+        pose,
+        vertices,
+        indices,
+        sharp,
+        sharp_args,
+        nodes,
+        aabbs,
+        leaf_bounds,
+        sorted,
+        x,
+        anchors,
+        flags,
+        counters,
+    ] = d.bindings()?;
+    if threads == 0 {
+        return Ok(()); // a round the one before left nothing to check
+    }
+    let c: ColliderParams = self_params.first()?;
+    let pose: ColliderPose = pose.first()?;
+    let mesh = (vertices.slice::<Vec4>(), indices.slice::<u32>(), &pose);
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
+    let (x, anchors) = (x.slice::<Vec4>(), anchors.slice::<Vec4>());
+    let (flags, counters) = (flags.slice_mut::<u32>(), counters.slice_mut::<u32>());
+    let pairs = counters.get_mut(2 * push.round as usize).ok_or("fail-safe round out of range")?;
+    let (sharp, listed) = (sharp.slice::<u32>(), sharp_args.first::<DispatchArgs>()?._pad);
+    // The kernel's threads stride over the whole list: every listed triangle, whatever the count.
+    for i in 0..listed {
+        let t = *sharp.get(i as usize).ok_or("the sharp triangles' count runs past their list")?;
+        if 3 * t as usize + 2 >= mesh.1.len() {
+            return Err("a listed sharp triangle is past the collider's triangles".into());
+        }
+        let found = Found { flags: &mut *flags, pairs: &mut *pairs };
+        check_collider_triangle_at(t, mesh, &c, tree, (x, anchors), found);
     }
     Ok(())
 }

@@ -260,7 +260,8 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
         }
     }
     if let Some(s) = cloth.self_contact.as_ref().filter(|_| plan.self_failsafe) {
-        s.failsafe.frame_end_steps(s, &cloth.self_contact_cloth(), plan.self_lists, &mut steps);
+        let collider_buffers: Vec<_> = colliders.iter().map(|(collider, _)| *collider).collect();
+        s.failsafe.frame_end_steps((s, &cloth.self_contact_cloth()), plan.self_lists, &collider_buffers, &mut steps);
     }
     if !plan.normals {
         steps.push(Step::Skip { label: "normals" });

@@ -1,20 +1,25 @@
 //! Self-collision's fail-safe as a sub-graph over handles (`drape_kernels::self_failsafe`): at
 //! the frame's end, the self-collision tree refit to each triangle's box over the frame, every
-//! pair of triangles tested for intersection at the end, and the particles of the pairs that
-//! cross there (and did not at the start) put back where the frame found them; the rounds after
+//! pair of triangles tested for intersection at the end (and each triangle collider's sharp
+//! triangles against the cloth's), and the particles of the pairs that cross there (and did not
+//! at the start) put back where the frame found them; the rounds after
 //! the first run only when the one before put a particle back (indirect dispatches the
 //! roll-back writes).
 
 use super::empty_dispatch;
 use super::self_contact::{SelfContactBuffers, SelfContactCloth};
 use crate::graph::{Dispatch, Handle, Resources, Step};
-use crate::kernels::self_failsafe::{FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_ROLL_BACK};
+use super::contact::{ColliderBuffers, ColliderLeaves};
+use crate::kernels::self_failsafe::{FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_COLLIDER_CHECK, FAILSAFE_ROLL_BACK};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::self_failsafe::{CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, WITH_LISTS};
 use drape_types::{DispatchArgs, FailsafePush};
 
 /// The timing table's line of the fail-safe's check (every round's).
 pub const FAILSAFE_CHECK_LABEL: &str = "self: fail-safe check";
+/// The timing table's line of the fail-safe's check of the colliders' sharp triangles (every
+/// round's).
+pub const FAILSAFE_COLLIDER_CHECK_LABEL: &str = "self: fail-safe collider check";
 /// The timing table's line of the fail-safe's roll-back (every round's).
 pub const FAILSAFE_ROLL_BACK_LABEL: &str = "self: fail-safe roll-back";
 
@@ -47,8 +52,15 @@ impl FailsafeBuffers {
     }
 
     /// The frame's fail-safe, after its last self-collision pass and before anything reads the
-    /// frame's end; `lists`: the frame built pair lists (the check takes them).
-    pub fn frame_end_steps(&self, own: &SelfContactBuffers, cloth: &SelfContactCloth, lists: bool, steps: &mut Vec<Step>) {
+    /// frame's end; `lists`: the frame built pair lists (the check takes them); `colliders`: the
+    /// model's, in its order (each triangle collider's sharp triangles are checked too).
+    pub fn frame_end_steps(
+        &self,
+        (own, cloth): (&SelfContactBuffers, &SelfContactCloth),
+        lists: bool,
+        colliders: &[&ColliderBuffers],
+        steps: &mut Vec<Step>,
+    ) {
         let t = &own.tree;
         steps.push(Step::fill(self.flags, 0));
         steps.push(Step::fill(self.counters, 0));
@@ -114,6 +126,9 @@ impl FailsafeBuffers {
                 bytemuck::cast(push),
                 check,
             ));
+            for (index, collider) in colliders.iter().enumerate() {
+                steps.extend(self.collider_check_step((own, cloth), (collider, index), push, check));
+            }
             let (next_check, next_roll_back) = self.rounds[round as usize];
             steps.push(Step::run_with(
                 FAILSAFE_ROLL_BACK_LABEL,
@@ -133,5 +148,44 @@ impl FailsafeBuffers {
                 roll_back,
             ));
         }
+    }
+
+    /// A round's check of triangle collider `collider` (the model's `index`-th): its triangles
+    /// listed as possibly sharp this frame against the cloth's at the frame's end, dispatched as
+    /// the round's own check (`drape_kernels::self_failsafe::failsafe_collider_check`); `None`
+    /// for a sphere collider, whose spheres are smooth.
+    fn collider_check_step(
+        &self,
+        (own, cloth): (&SelfContactBuffers, &SelfContactCloth),
+        (collider, index): (&ColliderBuffers, usize),
+        push: FailsafePush,
+        dispatch: Dispatch,
+    ) -> Option<Step> {
+        let (ColliderLeaves::Triangles(mesh), Some(Some(sharp))) = (&collider.leaves, own.sharp.get(index)) else {
+            return None;
+        };
+        let t = &own.tree;
+        Some(Step::run_with(
+            FAILSAFE_COLLIDER_CHECK_LABEL,
+            &FAILSAFE_COLLIDER_CHECK,
+            vec![
+                t.collider.id(),
+                collider.pose.id(),
+                mesh.vertices.id(),
+                mesh.indices.id(),
+                sharp.list.id(),
+                sharp.args.id(),
+                t.nodes.id(),
+                t.aabbs.id(),
+                t.sorted_bounds.id(),
+                own.sorted.id(),
+                cloth.x.id(),
+                own.anchors.id(),
+                self.flags.id(),
+                self.counters.id(),
+            ],
+            bytemuck::cast(push),
+            dispatch,
+        ))
     }
 }

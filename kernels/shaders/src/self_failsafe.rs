@@ -11,8 +11,13 @@
 //! - every pair of triangles that share no particle and whose boxes at the frame's end meet is
 //!   tested for intersection there (an edge of one through the other: `triangles_cross`), and a
 //!   pair that crosses at the end but did not at the start is found;
-//! - the particles of both triangles of each pair found go back to their positions at the
-//!   frame's start, at rest.
+//! - each triangle collider's triangles that the frame listed as possibly sharp for the cloth
+//!   (`sharp_features`: those whose vertices and edges the passes test against the cloth's
+//!   faces) are tested against the cloth's triangles at the end the same way, the collider
+//!   where the frame ends (`check_collider_triangle_at`): a needle's tip that a cell slipped
+//!   over within a pass ends the pass on the wrong side, where no later pass sees it cross;
+//! - the particles of both triangles of each pair found (of the cloth's triangle, for a
+//!   collider's) go back to their positions at the frame's start, at rest.
 //!
 //! The state's end, not the straight path from its start: on a cloth folding over itself at
 //! 5-7 cm a frame (the 64^2 swing from frame 30), that path ran two layers a thickness apart
@@ -32,10 +37,13 @@
 
 use crate::atomics;
 use crate::lbvh::PairWalk;
-use crate::self_contact::{LeafVisitor, walk_in_batches, within};
+use crate::pose::to_world;
+use crate::self_contact::{LeafVisitor, walk_in_batches, walk_overlapping, within};
 use crate::self_pairs::{ANCHOR_WORDS, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, escaped_at, may_touch};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, FailsafePush, Health, SelfPassPush, SimParams};
+use drape_types::{
+    Aabb, BvhNode, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health, SelfPassPush, SimParams,
+};
 use spirv_std::spirv;
 
 /// How near (a share of the thickness) two triangles' boxes at the frame's end must come to be
@@ -349,6 +357,62 @@ pub fn check_frame_brute_force_at(
     }
 }
 
+/// A collider triangle (its corners where the frame ends) against the cloth triangles whose
+/// boxes over the frame meet its box.
+struct ColliderFramePairs<'a> {
+    corners: [Vec3; 3],
+    sorted: &'a [UVec4],
+    x: &'a [Vec4],
+    anchors: &'a [Vec4],
+    separation: f32,
+    found: Found<'a>,
+}
+
+impl LeafVisitor for ColliderFramePairs<'_> {
+    fn visit(&mut self, leaf: u32) {
+        let cloth = EndTriangle::load(self.sorted[leaf as usize], self.x);
+        let c = self.corners;
+        let box_of = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+        if !within(cloth.end_box(), box_of, self.separation) {
+            return;
+        }
+        if triangles_cross(cloth.now, c) && !triangles_cross(cloth.start(self.anchors), c) {
+            self.found.mark(cloth.ids, cloth.ids);
+        }
+    }
+}
+
+/// Collider triangle `triangle` (`indices` into its mesh's local `vertices`, placed by its
+/// pose where the frame ends) against the cloth's triangles at the frame's end: a cloth
+/// triangle that crosses it there, and would not with its particles back where the frame found
+/// them, has them marked to go back. That is a collider's vertex or edge through a cloth cell
+/// (a needle's tip that a cell slipped over within a pass, which no later pass sees again, as
+/// it starts on the wrong side), or a cloth edge through the collider's face. Against where the
+/// collider ends, not where it started: going back undoes only what the cloth's own motion
+/// did, and a collider that swept into where the cloth was is left to the next frame's contact.
+pub fn check_collider_triangle_at(
+    triangle: u32,
+    (vertices, indices, pose): (&[Vec4], &[u32], &ColliderPose),
+    self_params: &ColliderParams,
+    (nodes, aabbs, leaf_bounds, sorted): (&[BvhNode], &[Aabb], &[Aabb], &[UVec4]),
+    (x, anchors): (&[Vec4], &[Vec4]),
+    found: Found,
+) {
+    let i = 3 * triangle as usize;
+    let corners = [
+        to_world(&pose.current, vertices[indices[i] as usize].xyz()),
+        to_world(&pose.current, vertices[indices[i + 1] as usize].xyz()),
+        to_world(&pose.current, vertices[indices[i + 2] as usize].xyz()),
+    ];
+    let separation = SEPARATION * self_params.thickness;
+    let reach = Vec3::splat(separation);
+    let (lo, hi) = (corners[0].min(corners[1]).min(corners[2]), corners[0].max(corners[1]).max(corners[2]));
+    let mut pairs = ColliderFramePairs { corners, sorted, x, anchors, separation, found };
+    // A walk whose stack overflowed may have missed a crossing; the exact check after the frame
+    // (`metrics::intersections`) would count it.
+    walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo - reach, hi + reach), &mut pairs);
+}
+
 /// `FailsafePush::flags`: this round is the last (a pair it finds puts the whole cloth back).
 pub const LAST_ROUND: u32 = 1;
 /// `FailsafePush::flags`: the frame built pair lists (`check_frame_at` takes them).
@@ -453,6 +517,48 @@ pub fn failsafe_check(
     let with_lists = (push.flags & WITH_LISTS != 0, Walkers { escaped, counts }, lists, strays);
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     check_frame_at(id.x, self_params, tree, (x, anchors), with_lists, found);
+}
+
+/// A triangle collider's triangles listed as possibly sharp for the cloth this frame
+/// (`sharp_features`; count in `sharp_args._pad`) against the cloth's at the frame's end
+/// (`check_collider_triangle_at`), each thread taking every `check_groups x CHECK_THREADS`-th:
+/// dispatched like the round's check (after the first round, only when the round before put a
+/// particle back); push constants: `FailsafePush` (the round).
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn failsafe_collider_check(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &FailsafePush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] vertices: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sharp: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] sharp_args: &DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] anchors: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] flags: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] counters: &mut [u32],
+) {
+    let stride = push.check_groups * CHECK_THREADS;
+    let mut listed = id.x;
+    while listed < sharp_args._pad {
+        let found = Found { flags: &mut *flags, pairs: &mut counters[(2 * push.round) as usize] };
+        let tree = (nodes, aabbs, leaf_bounds, sorted);
+        check_collider_triangle_at(
+            sharp[listed as usize],
+            (vertices, indices, pose),
+            self_params,
+            tree,
+            (x, anchors),
+            found,
+        );
+        listed += stride;
+    }
 }
 
 /// One thread per particle: `roll_back_at`; push constants: `FailsafePush`.

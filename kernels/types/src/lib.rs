@@ -89,7 +89,7 @@ pub struct Health {
     /// neither integrated nor collided.
     pub tiles_asleep: u32,
     /// Particles self-collision's fail-safe put back where the frame started (two of the cloth's
-    /// triangles intersected at its end: `drape_kernels::self_failsafe`).
+    /// triangles, or one and a collider's, intersected at its end: `drape_kernels::self_failsafe`).
     pub self_rollbacks: u32,
     /// 1 when the fail-safe's last round still found a crossing pair and the whole cloth went
     /// back to the frame's start.
