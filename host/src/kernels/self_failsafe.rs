@@ -68,6 +68,7 @@ pub static FAILSAFE_COLLIDER_CHECK: Kernel = Kernel {
             read("self_params"),
             read("pose"),
             read("vertices"),
+            read("previous"),
             read("indices"),
             read("sharp"),
             read("sharp_args"),
@@ -158,6 +159,7 @@ fn collider_check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         self_params,
         pose,
         vertices,
+        previous,
         indices,
         sharp,
         sharp_args,
@@ -175,7 +177,7 @@ fn collider_check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     }
     let c: ColliderParams = self_params.first()?;
     let pose: ColliderPose = pose.first()?;
-    let mesh = (vertices.slice::<Vec4>(), indices.slice::<u32>(), &pose);
+    let mesh = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>(), &pose);
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let (x, anchors) = (x.slice::<Vec4>(), anchors.slice::<Vec4>());
     let (flags, counters) = (flags.slice_mut::<u32>(), counters.slice_mut::<u32>());
@@ -184,7 +186,7 @@ fn collider_check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     // The kernel's threads stride over the whole list: every listed triangle, whatever the count.
     for i in 0..listed {
         let t = *sharp.get(i as usize).ok_or("the sharp triangles' count runs past their list")?;
-        if 3 * t as usize + 2 >= mesh.1.len() {
+        if 3 * t as usize + 2 >= mesh.2.len() {
             return Err("a listed sharp triangle is past the collider's triangles".into());
         }
         let found = Found { flags: &mut *flags, pairs: &mut *pairs };

@@ -172,6 +172,7 @@ impl FailsafeBuffers {
                 t.collider.id(),
                 collider.pose.id(),
                 mesh.vertices.id(),
+                mesh.previous.id(),
                 mesh.indices.id(),
                 sharp.list.id(),
                 sharp.args.id(),
