@@ -589,6 +589,76 @@ fn a_needle_s_tip_is_held_by_the_fail_safe() {
     assert_validation_clean(&ctx);
 }
 
+/// A 5-pointed star prism (outer radius 1, inner 0.4, 0.3 high, as the scene scales it: points
+/// 0.47 m out), its faces wound as an OBJ written for the check had them.
+fn star_prism() -> drape::Mesh {
+    let ring = |i: u32, y: f32| {
+        let (radius, a) = (if i.is_multiple_of(2) { 1.0 } else { 0.4 }, std::f32::consts::TAU * i as f32 / 10.0);
+        Vec3::new(radius * a.cos(), y, radius * a.sin())
+    };
+    let mut vertices = vec![Vec3::ZERO, Vec3::new(0.0, 0.3, 0.0)];
+    vertices.extend((0..10).map(|i| ring(i, 0.0)));
+    vertices.extend((0..10).map(|i| ring(i, 0.3)));
+    let (bottom, top) = (|i: u32| 2 + i % 10, |i: u32| 12 + i % 10);
+    let triangles = (0..10)
+        .flat_map(|i| {
+            [
+                [0, bottom(i + 1), bottom(i)],
+                [1, top(i), top(i + 1)],
+                [bottom(i), bottom(i + 1), top(i + 1)],
+                [bottom(i), top(i + 1), top(i)],
+            ]
+        })
+        .collect();
+    drape::Mesh { vertices, triangles }
+}
+
+/// A star prism spinning at 6 rad/s under the falling cloth (32 x 32, the standard scene): its
+/// knife edges (2.8 m/s at the points) find the cloth's edges by proximity alone, so a substep
+/// must not move them much more than the thickness against the cloth. With contact substeps
+/// off (the bound's) they cut the cloth as it lands and it stays cut; with them on, the
+/// collider's motion against the cloth's raises the substeps and no frame has a crossing. The
+/// fail-safe puts nothing back: the star moves, so its triangles are not checked (going back
+/// would leave the cloth where the star now is).
+#[test]
+fn a_spinning_star_s_knife_edges_do_not_cut_the_cloth() {
+    use drape::ColliderId;
+    use glam::Quat;
+    let ctx = context();
+    let scene = drape::scenes::DrapeScene::standard(&star_prism(), 32);
+    let (lo, hi) = scene.mesh.bounds();
+    let centre = 0.5 * (lo + hi);
+    let cloth = scene.cloth.clone().self_collision(Some(0.005)).build().unwrap();
+    let collider = scene.triangle_collider();
+    let run = |contact_substeps: bool| {
+        let settings = SimSettings::default().with_timestamps(false).with_contact_substeps(contact_substeps);
+        let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap();
+        let mut sim = Solver::new(&ctx, &model).unwrap();
+        let (mut crossed, mut put_back, mut most) = (0, 0, 0);
+        for frame in 1..=40 {
+            let turn = Quat::from_rotation_y(6.0 * frame as f32 / 60.0);
+            let translation = centre - turn * centre; // about the star's own axis
+            sim.set_collider_pose(ColliderId::new(0), turn, translation).unwrap();
+            put_back += sim.step_report().unwrap().self_rollbacks;
+            most = most.max(sim.stability(CLOTH).unwrap().substeps);
+            let world: Vec<Vec3> = scene.mesh.vertices.iter().map(|v| turn * *v + translation).collect();
+            let x = sim.positions(CLOTH).unwrap();
+            crossed += (count_intersections(&x, &cloth.triangles, (&world, &scene.mesh.triangles)).total() > 0) as u32;
+        }
+        (crossed, put_back, most)
+    };
+    let (cut, _, bound) = run(false);
+    let (crossed, put_back, most) = run(true);
+    println!(
+        "spinning star: {cut} of 40 frames cut at {bound} substeps; {crossed} with up to {most}, {put_back} put back"
+    );
+    assert!(cut > 0, "the star must cut the cloth at the bound's {bound} substeps (the scene must test it)");
+    assert!(most > bound, "the star's motion must raise the substeps above the bound's {bound}");
+    assert_eq!(crossed, 0, "the spinning star cut the cloth in {crossed} of 40 frames (substeps up to {most})");
+    assert_eq!(put_back, 0, "the fail-safe put {put_back} particles back against a moving collider");
+    assert_validation_clean(&ctx);
+}
+
 /// A ridge's edge against the cloth's edges: a 16 x 16 cloth falls across a thin ridge (a
 /// prism on a platform, longer than the cloth, its apex edge between two particle columns). No
 /// collider vertex is under the cloth, so only the apex edge can cut its cells: particle contact

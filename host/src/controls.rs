@@ -600,13 +600,17 @@ impl Controls {
         // ends only.
         let collider_thickness =
             self.colliders.iter().filter(|c| !c.swept_contact).map(|c| c.params.thickness).reduce(f32::min);
+        // A triangle collider's vertices and edges against a self-colliding cloth's faces and
+        // edges (`drape_kernels::self_contact`) are found by proximity too.
+        let feature_thickness =
+            self.colliders.iter().filter(|c| c.swept_contact).map(|c| c.params.thickness).reduce(f32::min);
         for c in &mut self.cloths {
             let most = SELF_SUBSTEPS_LIMIT * c.base_stability.substeps;
             let features_most = FEATURE_SUBSTEPS_LIMIT * c.base_stability.substeps;
             let proximity = Proximity {
                 collider: collider_thickness,
                 self_collision: c.self_collision.map(|t| (t, most)),
-                collider_features: c.self_collision.map(|_| features_most),
+                collider_features: c.self_collision.and(feature_thickness).map(|t| (t, features_most)),
             };
             let near = moving.iter().any(|&(_, bounds)| c.motion.near(bounds));
             let change = c.motion.plan_frame(proximity, (collider_speed, near), settings.frame_dt, settings.sleep);

@@ -151,7 +151,8 @@ pub(crate) struct Args {
     /// substep (from the last frame's fastest particle and the colliders' motion; for
     /// self-collision, from its fastest pair of primitives that may touch, to at most twice the
     /// stability bound's substeps; and while a collider vertex pushes a cloth face more than
-    /// the thickness in a pass, as a spike's tip holding the cloth does, to at most 4 times),
+    /// the thickness in a pass, as a spike's tip holding the cloth does, or a triangle collider
+    /// moves, its edges finding the cloth's by proximity, to at most 4 times),
     /// and run self-collision only as many passes per frame as that needs (off: one per
     /// substep).
     #[arg(long, value_enum, default_value = "on")]
