@@ -7,7 +7,7 @@
 use crate::error::{Error, Result};
 use crate::graph::{Handle, Step};
 use crate::model::{ClothId, ColliderId};
-use crate::motion::{ClothMotion, FEATURE_SUBSTEPS_LIMIT, Proximity, SELF_SUBSTEPS_LIMIT};
+use crate::motion::{ClothMotion, FEATURE_SUBSTEPS_LIMIT, FeatureContact, Proximity, SELF_SUBSTEPS_LIMIT};
 use crate::program::SolverProgram;
 use crate::programs::cloth::FramePlan;
 use crate::programs::self_contact::{SelfContactBuffers, lists_pay};
@@ -298,7 +298,8 @@ impl Controls {
             log::trace!(
                 "cloth {index}: fastest particle {} m/s, moving at {} m/s over the last substep, {} self-contact \
                  corrections, fastest pair that may touch {} m over the frame, {} self-collision walks, {} full \
-                 lists, largest collider vertex push {} thicknesses, {} particles put back by the fail-safe{}",
+                 lists, largest collider vertex push {} thicknesses, {} particles put back by the fail-safe{} ({} \
+                 cloth triangles through a collider's)",
                 crate::motion::max_speed(health),
                 crate::motion::max_motion(health, substep),
                 health.self_contacts,
@@ -307,8 +308,15 @@ impl Controls {
                 health.self_full_lists,
                 f32::from_bits(health.collider_feature_push_bits),
                 health.self_rollbacks,
-                if health.self_rollback_all != 0 { " (the whole cloth)" } else { "" }
+                if health.self_rollback_all != 0 { " (the whole cloth)" } else { "" },
+                health.self_rollback_collider_pairs
             );
+            if health.self_rollback_all != 0 {
+                log::warn!(
+                    "cloth {index}: self-collision's fail-safe put the whole cloth back where the frame started (a \
+                     crossing its rounds could not undo by parts); it lost the frame's motion"
+                );
+            }
             let self_contact = c.motion.self_contact;
             let pairs_listed = c.self_lists();
             c.motion.observe(health, (substep, c.stability.substeps), sleep, pairs_listed);
@@ -585,16 +593,17 @@ impl Controls {
     fn plan_motion(&mut self) -> Vec<(Vec3, Vec3)> {
         let settings = self.settings;
         // Each moving collider's surface speed and swept box, grown by its contact reach.
-        let moving: Vec<(f32, (Vec3, Vec3))> = self
+        let moving: Vec<(f32, bool, (Vec3, Vec3))> = self
             .colliders
             .iter()
             .filter_map(|c| {
                 let (speed, (lo, hi)) = c.frame_motion(settings.frame_dt)?;
                 let reach = Vec3::splat(c.params.thickness);
-                Some((speed, (lo - reach, hi + reach)))
+                Some((speed, c.swept_contact, (lo - reach, hi + reach)))
             })
             .collect();
         let collider_speed = moving.iter().map(|m| m.0).fold(0.0, f32::max);
+        let triangle_speed = moving.iter().filter(|m| m.1).map(|m| m.0).fold(0.0, f32::max);
         // Triangle contact sweeps each particle's path against the moving triangles (CCD): any
         // substep length is safe. Sphere contact and self-collision test proximity at substep
         // ends only.
@@ -610,9 +619,13 @@ impl Controls {
             let proximity = Proximity {
                 collider: collider_thickness,
                 self_collision: c.self_collision.map(|t| (t, most)),
-                collider_features: c.self_collision.and(feature_thickness).map(|t| (t, features_most)),
+                collider_features: c.self_collision.and(feature_thickness).map(|thickness| FeatureContact {
+                    thickness,
+                    speed: triangle_speed,
+                    most: features_most,
+                }),
             };
-            let near = moving.iter().any(|&(_, bounds)| c.motion.near(bounds));
+            let near = moving.iter().any(|&(_, _, bounds)| c.motion.near(bounds));
             let change = c.motion.plan_frame(proximity, (collider_speed, near), settings.frame_dt, settings.sleep);
             if change.substeps {
                 // A self-colliding cloth's passes follow the motion even when the substeps do not.
@@ -629,7 +642,7 @@ impl Controls {
             }
             self.replan |= change.sleep;
         }
-        moving.into_iter().map(|(_, bounds)| bounds).collect()
+        moving.into_iter().map(|(_, _, bounds)| bounds).collect()
     }
 }
 

@@ -99,10 +99,20 @@ pub struct ClothMotion {
 pub(crate) struct Proximity {
     pub collider: Option<f32>,
     pub self_collision: Option<(f32, u32)>,
-    /// The thinnest triangle collider's thickness and the most substeps the colliders' vertices
-    /// and edges against the cloth's faces and edges may ask for (`FEATURE_SUBSTEPS_LIMIT`),
-    /// when they are tested (with self-collision).
-    pub collider_features: Option<(f32, u32)>,
+    /// The triangle colliders' vertices and edges against the cloth's faces and edges, when
+    /// they are tested (with self-collision).
+    pub collider_features: Option<FeatureContact>,
+}
+
+/// A self-colliding cloth's contact with the triangle colliders' vertices and edges, found by
+/// proximity: the thinnest such collider's thickness, the fastest surface point of those that
+/// move this frame (m/s; 0 when none does), and the most substeps they may ask for
+/// (`FEATURE_SUBSTEPS_LIMIT`).
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+pub(crate) struct FeatureContact {
+    pub thickness: f32,
+    pub speed: f32,
+    pub most: u32,
 }
 
 /// Self-collision raises a frame's substeps to at most this many times the stability bound's.
@@ -254,10 +264,11 @@ impl ClothMotion {
         // a collider moves, its motion against the cloth's (its edges find the cloth's by
         // proximity alone: a star prism spinning at 6 rad/s, its knife edges at 2.8 m/s, cut
         // the falling 32^2 cloth at its 11 substeps and held it at 15).
-        let features = proximity.collider_features.and_then(|(thickness, most)| {
+        let features = proximity.collider_features.and_then(|f| {
             let pushed = substeps_for_push(self.feature_push, self.substeps_run);
-            let moving = if collider_speed > 0.0 { substeps_for(particle_motion, thickness) } else { None };
-            Some(pushed.max(moving)?.min(most.max(1)))
+            let motion = (self.last_speed + f.speed) * frame_dt;
+            let moving = if f.speed > 0.0 { substeps_for(motion, f.thickness) } else { None };
+            Some(pushed.max(moving)?.min(f.most.max(1)))
         });
         let needed = collider.max(self_collision).max(features).unwrap_or(1);
         if needed > self.contact_substeps {
@@ -342,7 +353,7 @@ mod tests {
     /// pushes within the thickness keep what lowers them within it.
     #[test]
     fn a_collider_vertex_pushing_past_the_thickness_raises_substeps_up_to_its_limit() {
-        let features = Proximity { collider_features: Some((0.005, 40)), ..Default::default() };
+        let features = feature_contact(0.0);
         let pushed = |push: f32| Health { collider_feature_push_bits: push.to_bits(), ..health(0.1) };
         let mut m = ClothMotion::new();
         // A push of 2.25 thicknesses at 10 substeps: 15 keep it within one.
@@ -366,18 +377,26 @@ mod tests {
         assert_eq!(m.contact_substeps, 1);
     }
 
-    /// A moving collider's features (found by proximity) move at most a thickness per substep
-    /// against the cloth: its fastest surface point at 2.8 m/s and the cloth's at 0.1 m/s over
-    /// 1/60 s (48 mm) ask 10 substeps of a 5 mm thickness, up to the features' limit; a cloth
-    /// it does not test asks nothing.
+    /// Triangle colliders' features at 5 mm, moving at `speed`, up to 40 substeps.
+    fn feature_contact(speed: f32) -> Proximity {
+        let f = FeatureContact { thickness: 0.005, speed, most: 40 };
+        Proximity { collider_features: Some(f), ..Default::default() }
+    }
+
+    /// A moving triangle collider's features (found by proximity) move at most a thickness per
+    /// substep against the cloth: its fastest surface point at 2.8 m/s and the cloth's at 0.1
+    /// m/s over 1/60 s (48 mm) ask 10 substeps of a 5 mm thickness, up to the features' limit.
+    /// At rest they ask nothing, whatever else moves (a sphere collider's speed is not theirs),
+    /// and a cloth they are not tested against asks nothing.
     #[test]
     fn a_moving_collider_raises_substeps_for_its_features_up_to_their_limit() {
-        let features = Proximity { collider_features: Some((0.005, 40)), ..Default::default() };
         let mut m = ClothMotion::new();
         m.observe(&health(0.1), (H, 10), None, true);
-        assert!(m.plan_frame(features, (2.8, true), 1.0 / 60.0, None).substeps);
+        m.plan_frame(feature_contact(0.0), (2.8, true), 1.0 / 60.0, None);
+        assert_eq!(m.contact_substeps, 1);
+        assert!(m.plan_frame(feature_contact(2.8), (2.8, true), 1.0 / 60.0, None).substeps);
         assert_eq!(m.contact_substeps, 10);
-        m.plan_frame(features, (28.0, true), 1.0 / 60.0, None);
+        m.plan_frame(feature_contact(28.0), (28.0, true), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 40);
         let mut m = ClothMotion::new();
         m.plan_frame(Proximity::default(), (28.0, true), 1.0 / 60.0, None);

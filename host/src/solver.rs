@@ -45,6 +45,9 @@ pub struct FrameReport {
     /// (its last round still found a crossing).
     pub self_rollbacks: u32,
     pub self_rollbacks_whole: u32,
+    /// Of the pairs the fail-safe found, those of a cloth triangle and a collider triangle (a
+    /// collider's vertex or edge through a cloth cell, or a cloth edge through its face).
+    pub self_rollback_collider_pairs: u32,
     /// Cloths that slept through the frame (ran nothing).
     pub cloths_asleep: u32,
     /// Tiles of the awake cloths that slept through the frame (`SimSettings::tile_sleep`),
@@ -155,6 +158,7 @@ impl Solver {
             if let (Some(s), Some(plan)) = (&cloth.self_contact, plans.get(i)) {
                 report.self_rollbacks += health.self_rollbacks;
                 report.self_rollbacks_whole += health.self_rollback_all;
+                report.self_rollback_collider_pairs += health.self_rollback_collider_pairs;
                 let passes = plan.self_passes.clamp(1, plan.substeps.max(1));
                 report.self_triangle_passes += s.tree.leaves * passes;
                 // Without lists every triangle walks; with them, those that escaped and those

@@ -39,19 +39,22 @@ impl WorstIntersections {
 }
 
 /// Self-collision's fail-safe over the run: the particles put back where their frame started,
-/// the frames that put any back, and the cloths put back whole (`drape_kernels::self_failsafe`).
+/// the frames that put any back, the cloths put back whole, and the pairs found of a cloth
+/// triangle and a collider's (`drape_kernels::self_failsafe`).
 #[derive(Default)]
 pub(crate) struct Rollbacks {
     particles: u64,
     frames: u32,
     whole: u32,
     first_frame: Option<u32>,
+    collider_pairs: u64,
 }
 
 impl Rollbacks {
     pub(crate) fn record(&mut self, r: &drape::FrameReport, frame: u32) {
         self.particles += u64::from(r.self_rollbacks);
         self.whole += r.self_rollbacks_whole;
+        self.collider_pairs += u64::from(r.self_rollback_collider_pairs);
         if r.self_rollbacks > 0 {
             self.frames += 1;
             self.first_frame.get_or_insert(frame);
@@ -65,8 +68,8 @@ impl Rollbacks {
         let first = self.first_frame.map_or(String::new(), |f| format!(", the first at frame {f}"));
         format!(
             "self-collision fail-safe: {} particles put back where their frame started, in {} of {frames} frames{first}; \
-             whole cloth put back {} times",
-            self.particles, self.frames, self.whole
+             whole cloth put back {} times; {} cloth triangles found through a collider's",
+            self.particles, self.frames, self.whole, self.collider_pairs
         )
     }
 
@@ -76,6 +79,7 @@ impl Rollbacks {
             "frames_with_rollbacks": self.frames,
             "first_frame": self.first_frame,
             "whole_cloth_rollbacks": self.whole,
+            "collider_pairs_found": self.collider_pairs,
         })
     }
 }

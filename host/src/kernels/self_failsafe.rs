@@ -80,6 +80,7 @@ pub static FAILSAFE_COLLIDER_CHECK: Kernel = Kernel {
             read("anchors"),
             write("flags"),
             write("counters"),
+            write("health"),
         ],
         push_constant_size: size_of::<FailsafePush>() as u32,
         workgroup_size: CHECK_THREADS,
@@ -171,6 +172,7 @@ fn collider_check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         anchors,
         flags,
         counters,
+        health,
     ] = d.bindings()?;
     if threads == 0 {
         return Ok(()); // a round the one before left nothing to check
@@ -183,6 +185,7 @@ fn collider_check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (flags, counters) = (flags.slice_mut::<u32>(), counters.slice_mut::<u32>());
     let pairs = counters.get_mut(2 * push.round as usize).ok_or("fail-safe round out of range")?;
     let (sharp, listed) = (sharp.slice::<u32>(), sharp_args.first::<DispatchArgs>()?._pad);
+    let health = health.first_mut::<Health>()?;
     // The kernel's threads stride over the whole list: every listed triangle, whatever the count.
     for i in 0..listed {
         let t = *sharp.get(i as usize).ok_or("the sharp triangles' count runs past their list")?;
@@ -190,7 +193,7 @@ fn collider_check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
             return Err("a listed sharp triangle is past the collider's triangles".into());
         }
         let found = Found { flags: &mut *flags, pairs: &mut *pairs };
-        check_collider_triangle_at(t, mesh, &c, tree, (x, anchors), found);
+        check_collider_triangle_at(t, mesh, &c, tree, (x, anchors), (found, &mut *health));
     }
     Ok(())
 }

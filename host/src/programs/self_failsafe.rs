@@ -184,6 +184,7 @@ impl FailsafeBuffers {
                 own.anchors.id(),
                 self.flags.id(),
                 self.counters.id(),
+                cloth.health.id(),
             ],
             bytemuck::cast(push),
             dispatch,

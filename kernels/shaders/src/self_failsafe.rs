@@ -1,6 +1,7 @@
-//! Self-collision's fail-safe: the frame's end is checked for cloth triangles that intersect,
-//! and the particles of any pair that did not at the frame's start are put back where the frame
-//! found them.
+//! Self-collision's fail-safe: the frame's end is checked for cloth triangles that intersect
+//! each other or a triangle collider's (those the frame listed as possibly sharp, and that did
+//! not move), and the particles of any pair that did not at the frame's start are put back where
+//! the frame found them.
 //!
 //! The passes (`self_contact`) push pairs within the thickness apart, each particle by the mean
 //! of its corrections. Where the cloth is squeezed (a layer pressed between the ground and the
@@ -31,7 +32,12 @@
 //! some particles back and others moved is a new state, so the check runs again
 //! (`ROLLBACK_ROUNDS` rounds, each after the first dispatched only when the round before put a
 //! particle back). If the last round still finds a pair, the whole cloth goes back: the frame's
-//! start has no new crossing, so the frame's end has none either.
+//! start has no new crossing, so the frame's end has none either (against a collider triangle
+//! that did not move; one that moved is not checked).
+//!
+//! A collider triangle is checked only when the frame listed it as possibly sharp for the cloth:
+//! where the surface folds too little to reach into a cloth cell, only a particle can cross it,
+//! which the triangle contact's sweeps stop; a cloth edge through such a face is not checked.
 //!
 //! The frame's start: each particle's anchor (`self_pairs::anchor_at`) holds it.
 
@@ -51,7 +57,8 @@ use spirv_std::spirv;
 pub const SEPARATION: f32 = 1e-3;
 
 /// Rounds of check and roll-back in a frame (the last puts the whole cloth back if it still
-/// finds a pair). A round that does not run costs its three empty indirect dispatches.
+/// finds a pair). A round that does not run costs its three empty indirect dispatches, and one
+/// more per triangle collider (its collider check).
 pub const ROLLBACK_ROUNDS: u32 = 4;
 
 /// Words of the fail-safe's counters: per round, the pairs found and the particles that went
@@ -366,6 +373,10 @@ struct ColliderFramePairs<'a> {
     anchors: &'a [Vec4],
     separation: f32,
     found: Found<'a>,
+    /// Counts the pairs found (`Health::self_rollback_collider_pairs`; atomically, through the
+    /// pointer: a count kept in the visitor makes it a value the walk's loop carries, a
+    /// pointer-holding phi, `tests/engine.rs`).
+    health: &'a mut Health,
 }
 
 impl LeafVisitor for ColliderFramePairs<'_> {
@@ -378,6 +389,7 @@ impl LeafVisitor for ColliderFramePairs<'_> {
         }
         if triangles_cross(cloth.now, c) && !triangles_cross(cloth.start(self.anchors), c) {
             self.found.mark(cloth.ids, cloth.ids);
+            atomics::add(&mut self.health.self_rollback_collider_pairs, 1);
         }
     }
 }
@@ -400,7 +412,7 @@ pub fn check_collider_triangle_at(
     self_params: &ColliderParams,
     (nodes, aabbs, leaf_bounds, sorted): (&[BvhNode], &[Aabb], &[Aabb], &[UVec4]),
     (x, anchors): (&[Vec4], &[Vec4]),
-    found: Found,
+    (found, health): (Found, &mut Health),
 ) {
     let i = 3 * triangle as usize;
     let (ia, ib, ic) = (indices[i] as usize, indices[i + 1] as usize, indices[i + 2] as usize);
@@ -417,7 +429,7 @@ pub fn check_collider_triangle_at(
     let separation = SEPARATION * self_params.thickness;
     let reach = Vec3::splat(separation);
     let (lo, hi) = (corners[0].min(corners[1]).min(corners[2]), corners[0].max(corners[1]).max(corners[2]));
-    let mut pairs = ColliderFramePairs { corners, sorted, x, anchors, separation, found };
+    let mut pairs = ColliderFramePairs { corners, sorted, x, anchors, separation, found, health };
     // A walk whose stack overflowed may have missed a crossing; the exact check after the frame
     // (`metrics::intersections`) would count it.
     walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo - reach, hi + reach), &mut pairs);
@@ -554,6 +566,7 @@ pub fn failsafe_collider_check(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] anchors: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] flags: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] counters: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] health: &mut Health,
 ) {
     let stride = push.check_groups * CHECK_THREADS;
     let mut listed = id.x;
@@ -566,7 +579,7 @@ pub fn failsafe_collider_check(
             self_params,
             tree,
             (x, anchors),
-            found,
+            (found, &mut *health),
         );
         listed += stride;
     }

@@ -103,6 +103,10 @@ pub struct Health {
     /// a face within the thickness takes at most 1, so more means the face passed the vertex
     /// within the pass (a spike's tip holding the cloth up), by the excess.
     pub collider_feature_push_bits: u32,
+    /// Pairs of a cloth triangle and a collider triangle that self-collision's fail-safe found
+    /// crossed at the frame's end (summed over its rounds; `drape_kernels::self_failsafe`): a
+    /// collider's vertex or edge through a cloth cell, or a cloth edge through its face.
+    pub self_rollback_collider_pairs: u32,
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
@@ -138,7 +142,7 @@ const _: () = assert!(core::mem::size_of::<SimParams>() == 96);
 const _: () = assert!(core::mem::size_of::<Spring>() == 16);
 const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
-const _: () = assert!(core::mem::size_of::<Health>() == 48);
+const _: () = assert!(core::mem::size_of::<Health>() == 52);
 const _: () = assert!(core::mem::size_of::<FailsafePush>() == 16);
 const _: () = assert!(core::mem::size_of::<TileParams>() == 32);
 
