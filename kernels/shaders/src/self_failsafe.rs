@@ -113,16 +113,21 @@ impl EndTriangle {
     /// The box of the triangle at the frame's end.
     #[inline]
     pub fn end_box(&self) -> (Vec3, Vec3) {
-        let n = self.now;
-        (n[0].min(n[1]).min(n[2]), n[0].max(n[1]).max(n[2]))
+        box_of(self.now)
     }
 
     /// The box of the whole triangle over the frame.
     #[inline]
     pub fn frame_box(&self, anchors: &[Vec4]) -> (Vec3, Vec3) {
-        let (n, t) = (self.now, self.start(anchors));
-        (n[0].min(n[1]).min(n[2]).min(t[0]).min(t[1]).min(t[2]), n[0].max(n[1]).max(n[2]).max(t[0]).max(t[1]).max(t[2]))
+        let ((now_lo, now_hi), (start_lo, start_hi)) = (box_of(self.now), box_of(self.start(anchors)));
+        (now_lo.min(start_lo), now_hi.max(start_hi))
     }
+}
+
+/// The box of a triangle's corners.
+#[inline]
+fn box_of(c: [Vec3; 3]) -> (Vec3, Vec3) {
+    (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]))
 }
 
 /// The bound on the rounding error of `orient`'s f32 determinant, relative to its permanent (the
@@ -371,6 +376,8 @@ pub fn check_frame_brute_force_at(
 /// boxes over the frame meet its box.
 struct ColliderFramePairs<'a> {
     corners: [Vec3; 3],
+    /// Their box (`box_of`).
+    bounds: (Vec3, Vec3),
     sorted: &'a [UVec4],
     x: &'a [Vec4],
     anchors: &'a [Vec4],
@@ -386,8 +393,7 @@ impl LeafVisitor for ColliderFramePairs<'_> {
     fn visit(&mut self, leaf: u32) {
         let cloth = EndTriangle::load(self.sorted[leaf as usize], self.x);
         let c = self.corners;
-        let box_of = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
-        if !within(cloth.end_box(), box_of, self.separation) {
+        if !within(cloth.end_box(), self.bounds, self.separation) {
             return;
         }
         if triangles_cross(cloth.now, c) && !triangles_cross(cloth.start(self.anchors), c) {
@@ -431,8 +437,8 @@ pub fn check_collider_triangle_at(
     ];
     let separation = SEPARATION * self_params.thickness;
     let reach = Vec3::splat(separation);
-    let (lo, hi) = (corners[0].min(corners[1]).min(corners[2]), corners[0].max(corners[1]).max(corners[2]));
-    let mut pairs = ColliderFramePairs { corners, sorted, x, anchors, separation, found, health };
+    let (lo, hi) = box_of(corners);
+    let mut pairs = ColliderFramePairs { corners, bounds: (lo, hi), sorted, x, anchors, separation, found, health };
     // A walk whose stack overflowed may have missed a crossing; the exact check after the frame
     // (`metrics::intersections`) would count it.
     walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo - reach, hi + reach), &mut pairs);
