@@ -297,13 +297,14 @@ impl Controls {
             let substep = c.stability.substep;
             log::trace!(
                 "cloth {index}: fastest particle {} m/s, moving at {} m/s over the last substep, {} self-contact \
-                 corrections, fastest pair that may touch {} m over the frame, {} self-collision walks, {} full \
-                 lists, largest collider vertex push {} thicknesses, {} particles put back by the fail-safe{} ({} \
+                 corrections, fastest pair that may touch {} m over the frame (closing {} m), {} self-collision walks, \
+                 {} full lists, largest collider vertex push {} thicknesses, {} particles put back by the fail-safe{} ({} \
                  cloth triangles through a collider's)",
                 crate::motion::max_speed(health),
                 crate::motion::max_motion(health, substep),
                 health.self_contacts,
                 f32::from_bits(health.self_pair_motion_bits),
+                f32::from_bits(health.self_pair_approach_bits),
                 health.self_walks,
                 health.self_full_lists,
                 f32::from_bits(health.collider_feature_push_bits),

@@ -68,9 +68,11 @@ pub fn max_motion(health: &Health, substep: f32) -> f32 {
 pub struct ClothMotion {
     /// Fastest particle at the end of the last frame (m/s).
     last_speed: f32,
-    /// The largest relative motion over the last frame of two of its primitives that may have
-    /// touched (m; `Health::self_pair_motion_bits`), when its self-collision pair lists
-    /// measured it: what its self-collision passes had to resolve.
+    /// What its self-collision passes had to resolve over the last frame, when its pair lists
+    /// measured it (m): of two of its primitives that may have touched, the largest relative
+    /// motion while the cloth touched itself (`Health::self_pair_motion_bits`: its layers slide
+    /// over each other's faces and folds), else the largest approach
+    /// (`Health::self_pair_approach_bits`: a pair sliding past another never closes).
     pair_motion: Option<f32>,
     /// The largest push a collider vertex gave one of its faces in a self-collision pass of the
     /// last frame (thicknesses; `Health::collider_feature_push_bits`), and the substeps that
@@ -186,8 +188,9 @@ impl ClothMotion {
         self.last_speed = max_speed(health);
         self.feature_push = f32::from_bits(health.collider_feature_push_bits);
         self.substeps_run = substeps;
-        self.pair_motion = pairs_listed.then(|| f32::from_bits(health.self_pair_motion_bits));
         self.self_contact = health.self_contacts > 0;
+        let pairs = if self.self_contact { health.self_pair_motion_bits } else { health.self_pair_approach_bits };
+        self.pair_motion = pairs_listed.then(|| f32::from_bits(pairs));
         match sleep {
             Some(s) if max_motion(health, substep) < s.speed => self.still_frames += 1,
             _ => self.still_frames = 0,
@@ -326,18 +329,24 @@ mod tests {
     }
 
     /// Self-collision's substeps follow the fastest pair its lists found may touch, not the
-    /// fastest particle (which it falls back on without lists), up to its limit.
+    /// fastest particle (which it falls back on without lists), up to its limit: the pairs'
+    /// approach while the cloth does not touch itself, their whole motion while it does.
     #[test]
     fn self_collision_follows_its_pairs_motion_up_to_its_limit() {
         let self_only = Proximity { self_collision: Some((0.005, 20)), ..Default::default() };
         let mut m = ClothMotion::new();
         // A corner whipping through the air at 20 m/s; the fastest pair that may touch moves
-        // 18 mm over the frame: four 5 mm substeps.
+        // 38 mm over the frame and closes 18 mm: four 5 mm substeps.
         let mut h = health(20.0);
-        h.self_pair_motion_bits = 0.018f32.to_bits();
+        h.self_pair_motion_bits = 0.038f32.to_bits();
+        h.self_pair_approach_bits = 0.018f32.to_bits();
         m.observe(&h, (H, 10), None, true);
         m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 4);
+        // Touching itself (a correction in the frame): the whole 38 mm, eight substeps.
+        m.observe(&Health { self_contacts: 1, ..h }, (H, 10), None, true);
+        m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
+        assert_eq!(m.contact_substeps, 8);
         // Without lists: the fastest particle, 20 m/s over 1/60 s (333 mm), stopped at 20.
         m.observe(&h, (H, 10), None, false);
         m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);

@@ -96,8 +96,13 @@ pub struct Health {
     pub self_rollback_all: u32,
     /// Largest relative motion over the frame (m, as `f32::to_bits`) its velocities predicted
     /// at its start for two primitives of the cloth that its pair lists found may touch
-    /// (`drape_kernels::self_pairs`): what its passes had to resolve, a thickness at a time.
+    /// (`drape_kernels::self_pairs`): what its passes had to resolve, a thickness at a time,
+    /// while the cloth touches itself (its layers slide over each other's faces and folds).
     pub self_pair_motion_bits: u32,
+    /// The same pairs' largest approach (m, as `f32::to_bits`): how far their ends close along
+    /// the direction they were apart in at the frame's start. What the passes of a cloth that
+    /// does not touch itself must resolve: a pair that only slides past another never closes.
+    pub self_pair_approach_bits: u32,
     /// Largest push a collider vertex gave a cloth face in one self-collision pass, in
     /// thicknesses of that collider's contact (as `f32::to_bits`; `drape_kernels::self_contact`):
     /// a face within the thickness takes at most 1, so more means the face passed the vertex
@@ -142,7 +147,7 @@ const _: () = assert!(core::mem::size_of::<SimParams>() == 96);
 const _: () = assert!(core::mem::size_of::<Spring>() == 16);
 const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
-const _: () = assert!(core::mem::size_of::<Health>() == 52);
+const _: () = assert!(core::mem::size_of::<Health>() == 56);
 const _: () = assert!(core::mem::size_of::<FailsafePush>() == 16);
 const _: () = assert!(core::mem::size_of::<TileParams>() == 32);
 
