@@ -334,7 +334,10 @@ fn kept_pair(offset: Vec3, motion: f32, moves: [Vec3; 4], (slops, thickness): (f
 /// pair by a weighted mean of its ends' `moves`, so no further than the most of them (a
 /// separating axis). A free corner whipping past the cloth closes little of its speed on the
 /// faces it passes: the 64^2 swing, which never touches itself, ran 28 substeps where the
-/// bound takes 14 when its passes followed the whole motion.
+/// bound takes 14 when its passes followed the whole motion. It bounds the closing over the
+/// frame, not where a pass ends: a pair converging sideways may cross within a pass, which the
+/// passes' start-side tests and the fail-safe undo (so a cloth touching itself plans from the
+/// whole motion, `motion::ClothMotion`).
 #[inline]
 fn approach(offset: Vec3, (distance, motion): (f32, f32), moves: [Vec3; 4]) -> f32 {
     if distance <= 0.0 {
@@ -343,7 +346,9 @@ fn approach(offset: Vec3, (distance, motion): (f32, f32), moves: [Vec3; 4]) -> f
     let axis = offset * (1.0 / distance);
     // An end closes by minus its move along the axis.
     let least = axis.dot(moves[0]).min(axis.dot(moves[1])).min(axis.dot(moves[2])).min(axis.dot(moves[3]));
-    (-least).clamp(0.0, motion)
+    // (Not `(-least).clamp(..)`: a pair only sliding would give -0.0, whose bits win the
+    // health record's integer max.)
+    if least < 0.0 { (-least).min(motion) } else { 0.0 }
 }
 
 /// Whether points in boxes `a` and `b` (`MovingBoxes`) may come within `thickness` at some
@@ -929,6 +934,66 @@ mod tests {
         let fall = vertex_face_pair(&vertex, 0, &face, 0.005);
         assert!((fall.approach - 0.03).abs() < 1e-6, "{}", fall.approach);
         let (vertex, face) = vertex_over_face(over, Vec3::new(0.1, 0.03, 0.0));
-        assert_eq!(vertex_face_pair(&vertex, 0, &face, 0.005).approach, 0.0);
+        assert_eq!(vertex_face_pair(&vertex, 0, &face, 0.005).approach.to_bits(), 0);
+    }
+
+    /// A still vertex over a face one of whose corners (the third) rises 2 cm toward it: the
+    /// pair closes by that corner's move along the normal, whichever corner moves.
+    #[test]
+    fn a_face_s_rising_corner_is_its_approach() {
+        let (x, v) = (
+            [
+                Vec4::new(0.0, 0.0, 0.0, 1.0),
+                Vec4::new(0.1, 0.0, 0.0, 1.0),
+                Vec4::new(0.0, 0.0, 0.1, 1.0),
+                Vec4::new(0.02, 0.008, 0.02, 1.0),
+            ],
+            [Vec4::ZERO, Vec4::ZERO, Vec4::new(0.0, 1.2, 0.0, 0.0), Vec4::ZERO],
+        );
+        let mut anchors = [Vec4::ZERO; 4 * ANCHOR_WORDS as usize];
+        for i in 0..4 {
+            anchor_at(i, (&x, &v), (1.0 / 60.0, Vec3::ZERO, 0.005), &mut anchors);
+        }
+        let (vertex, face) = (
+            AnchoredTriangle::load(UVec4::new(3, 3, 3, 1), &anchors),
+            AnchoredTriangle::load(UVec4::new(0, 1, 2, 0), &anchors),
+        );
+        let pair = vertex_face_pair(&vertex, 0, &face, 0.005);
+        assert!(
+            (pair.approach - 0.02).abs() < 1e-6 && (pair.motion - 0.02).abs() < 1e-6,
+            "{} {}",
+            pair.approach,
+            pair.motion
+        );
+    }
+
+    /// Two crossed edges 8 mm apart (one along x at y = 0.008, one along z at y = 0): sliding
+    /// past each other along x, no approach; the upper one sinking 3 cm, 3 cm.
+    #[test]
+    fn crossed_edges_approach_only_when_they_close() {
+        let pair = |motion: Vec3| {
+            let x = [
+                Vec4::new(-0.05, 0.008, 0.0, 1.0),
+                Vec4::new(0.05, 0.008, 0.0, 1.0),
+                Vec4::new(0.0, 0.0, 0.0, 1.0), // a third corner, far, for each triangle
+                Vec4::new(0.0, 0.0, -0.05, 1.0),
+                Vec4::new(0.0, 0.0, 0.05, 1.0),
+                Vec4::new(0.5, 0.0, 0.0, 1.0),
+            ];
+            let m = (motion * 60.0).extend(0.0);
+            let v = [m, m, m, Vec4::ZERO, Vec4::ZERO, Vec4::ZERO];
+            let mut anchors = [Vec4::ZERO; 6 * ANCHOR_WORDS as usize];
+            for i in 0..6 {
+                anchor_at(i, (&x, &v), (1.0 / 60.0, Vec3::ZERO, 0.005), &mut anchors);
+            }
+            let e = AnchoredTriangle::load(UVec4::new(0, 1, 2, 0), &anchors);
+            let f = AnchoredTriangle::load(UVec4::new(3, 4, 5, 1), &anchors);
+            edges_pair(&e, 0, &f, 0, 0.005)
+        };
+        let slide = pair(Vec3::new(0.04, 0.0, 0.0));
+        assert!(slide.gap < 0.0 && (slide.motion - 0.04).abs() < 1e-6, "kept: {} {}", slide.gap, slide.motion);
+        assert_eq!(slide.approach.to_bits(), 0);
+        let sink = pair(Vec3::new(0.04, -0.03, 0.0));
+        assert!((sink.approach - 0.03).abs() < 1e-6, "{}", sink.approach);
     }
 }
