@@ -205,13 +205,6 @@ impl AnchoredTriangle {
     fn largest_slop(&self) -> f32 {
         self.corners[0].slop.max(self.corners[1].slop).max(self.corners[2].slop)
     }
-
-    /// The largest difference between `motion` and a corner's predicted motion.
-    #[inline]
-    fn largest_motion_from(&self, motion: Vec3) -> f32 {
-        let [a, b, c] = self.corners;
-        (a.motion - motion).length().max((b.motion - motion).length()).max((c.motion - motion).length())
-    }
 }
 
 /// Cloth triangle `t`'s box at the frame's start, each corner grown by its slop (the frame's
@@ -299,34 +292,38 @@ pub(crate) fn may_touch(gap: f32, strays: f32, thickness: f32) -> bool {
 }
 
 /// A primitive pair the bound keeps: its gap (its distance at the frame's start less the
-/// largest difference of its points' predicted motions), that motion, and its approach (how far
-/// its ends close along the direction it is apart in: `approach`).
+/// largest difference of its points' predicted motions), that motion and its approach
+/// (`PairMotion`).
 #[derive(Copy, Clone)]
 struct KeptPair {
     gap: f32,
-    motion: f32,
-    approach: f32,
+    motion: PairMotion,
 }
 
 /// A primitive pair the bound leaves out.
-const LEFT_OUT: KeptPair = KeptPair { gap: f32::INFINITY, motion: 0.0, approach: 0.0 };
+const LEFT_OUT: KeptPair = KeptPair { gap: f32::INFINITY, motion: PairMotion { motion: 0.0, approach: 0.0 } };
+
+/// The largest of the relative motions `moves` (a pair's points move by weighted means of them).
+#[inline]
+fn longest(moves: [Vec3; 4]) -> f32 {
+    moves[0].length().max(moves[1].length()).max(moves[2].length()).max(moves[3].length())
+}
 
 /// A primitive pair's `KeptPair` when the bound keeps it (`may_touch` with the slops), else
-/// `LEFT_OUT`, from `offset` (the vector between its closest points at the frame's start), the
-/// largest difference of its points' predicted motions `motion`, and the relative predicted
-/// motions of its ends (`moves`: of the vertex from each corner of the face, a vertex-face pair
+/// `LEFT_OUT`, from `offset` (the vector between its closest points at the frame's start) and
+/// the relative predicted motions of its ends (`moves`, the longest the pair's motion: of the vertex from each corner of the face, a vertex-face pair
 /// repeating one, or of each end of one edge from each of the other's; each point of the pair
 /// moves by a weighted mean of them). The gap takes the whole motion, in any direction: the
 /// passes also undo crossings of pairs that never came near (a vertex passing round a face's
 /// edge to end under it), and the lists keep what a walk over the passes' boxes finds.
 #[inline]
-fn kept_pair(offset: Vec3, motion: f32, moves: [Vec3; 4], (slops, thickness): (f32, f32)) -> KeptPair {
-    let distance = offset.length();
+fn kept_pair(offset: Vec3, moves: [Vec3; 4], (slops, thickness): (f32, f32)) -> KeptPair {
+    let (distance, motion) = (offset.length(), longest(moves));
     let gap = distance - motion;
     if !may_touch(gap, slops, thickness) {
         return LEFT_OUT;
     }
-    KeptPair { gap, motion, approach: approach(offset, (distance, motion), moves) }
+    KeptPair { gap, motion: PairMotion { motion, approach: approach(offset, (distance, motion), moves) } }
 }
 
 /// How far a pair apart by `offset` (`distance` long) at the frame's start closes along that
@@ -372,15 +369,15 @@ fn vertex_face_pair(vertex: &AnchoredTriangle, k: usize, face: &AnchoredTriangle
     let p = vertex.corners[k];
     let [a, b, c] = face.corners;
     let area2 = (b.start - a.start).cross(c.start - a.start).length_squared();
-    let longest = longest_side2(a.start, b.start, c.start);
-    if area2 <= 1e-8 * longest * longest {
+    let side2 = longest_side2(a.start, b.start, c.start);
+    let moves = [p.motion - a.motion, p.motion - b.motion, p.motion - c.motion, p.motion - c.motion];
+    if area2 <= 1e-8 * side2 * side2 {
         // No closest point to measure from a collapsed face: kept.
-        let motion = face.largest_motion_from(p.motion);
-        return KeptPair { gap: f32::NEG_INFINITY, motion, approach: motion };
+        let motion = longest(moves);
+        return KeptPair { gap: f32::NEG_INFINITY, motion: PairMotion { motion, approach: motion } };
     }
     let (q, _) = closest_with_weights(p.start, a.start, b.start, c.start);
-    let moves = [p.motion - a.motion, p.motion - b.motion, p.motion - c.motion, p.motion - c.motion];
-    kept_pair(p.start - q, face.largest_motion_from(p.motion), moves, (p.slop + face.largest_slop(), thickness))
+    kept_pair(p.start - q, moves, (p.slop + face.largest_slop(), thickness))
 }
 
 /// Edge `k` of `e` against edge `m` of `f`, at the frame's start (never when they share a
@@ -400,8 +397,7 @@ fn edges_pair(e: &AnchoredTriangle, k: usize, f: &AnchoredTriangle, m: usize, th
     let offset = (a.start + (b.start - a.start) * s) - (c.start + (d.start - c.start) * t);
     let moves = [a.motion - c.motion, a.motion - d.motion, b.motion - c.motion, b.motion - d.motion];
     let slops = a.slop.max(b.slop) + c.slop.max(d.slop);
-    let motion = moves[0].length().max(moves[1].length()).max(moves[2].length()).max(moves[3].length());
-    kept_pair(offset, motion, moves, (slops, thickness))
+    kept_pair(offset, moves, (slops, thickness))
 }
 
 /// The largest relative predicted motion and the largest approach over the frame of the
@@ -448,7 +444,7 @@ fn pairs_that_may_touch(
             if pair.gap < f32::INFINITY {
                 kept |= 1 << bit;
                 smallest = smallest.min(pair.gap);
-                fastest = fastest.max(PairMotion { motion: pair.motion, approach: pair.approach });
+                fastest = fastest.max(pair.motion);
             }
         }
         bit += 1;
@@ -929,12 +925,12 @@ mod tests {
         let (vertex, face) = vertex_over_face(over, Vec3::new(0.1, 0.0, 0.0));
         let slide = vertex_face_pair(&vertex, 0, &face, 0.005);
         assert!(slide.gap < 0.0, "kept: {}", slide.gap);
-        assert!((slide.motion - 0.1).abs() < 1e-6 && slide.approach == 0.0, "{} {}", slide.motion, slide.approach);
+        assert!((slide.motion.motion - 0.1).abs() < 1e-6 && slide.motion.approach == 0.0, "{:?}", slide.motion);
         let (vertex, face) = vertex_over_face(over, Vec3::new(0.1, -0.03, 0.0));
         let fall = vertex_face_pair(&vertex, 0, &face, 0.005);
-        assert!((fall.approach - 0.03).abs() < 1e-6, "{}", fall.approach);
+        assert!((fall.motion.approach - 0.03).abs() < 1e-6, "{}", fall.motion.approach);
         let (vertex, face) = vertex_over_face(over, Vec3::new(0.1, 0.03, 0.0));
-        assert_eq!(vertex_face_pair(&vertex, 0, &face, 0.005).approach.to_bits(), 0);
+        assert_eq!(vertex_face_pair(&vertex, 0, &face, 0.005).motion.approach.to_bits(), 0);
     }
 
     /// A still vertex over a face one of whose corners (the third) rises 2 cm toward it: the
@@ -960,9 +956,8 @@ mod tests {
         );
         let pair = vertex_face_pair(&vertex, 0, &face, 0.005);
         assert!(
-            (pair.approach - 0.02).abs() < 1e-6 && (pair.motion - 0.02).abs() < 1e-6,
-            "{} {}",
-            pair.approach,
+            (pair.motion.approach - 0.02).abs() < 1e-6 && (pair.motion.motion - 0.02).abs() < 1e-6,
+            "{:?}",
             pair.motion
         );
     }
@@ -991,9 +986,14 @@ mod tests {
             edges_pair(&e, 0, &f, 0, 0.005)
         };
         let slide = pair(Vec3::new(0.04, 0.0, 0.0));
-        assert!(slide.gap < 0.0 && (slide.motion - 0.04).abs() < 1e-6, "kept: {} {}", slide.gap, slide.motion);
-        assert_eq!(slide.approach.to_bits(), 0);
+        assert!(
+            slide.gap < 0.0 && (slide.motion.motion - 0.04).abs() < 1e-6,
+            "kept: {} {}",
+            slide.gap,
+            slide.motion.motion
+        );
+        assert_eq!(slide.motion.approach.to_bits(), 0);
         let sink = pair(Vec3::new(0.04, -0.03, 0.0));
-        assert!((sink.approach - 0.03).abs() < 1e-6, "{}", sink.approach);
+        assert!((sink.motion.approach - 0.03).abs() < 1e-6, "{}", sink.motion.approach);
     }
 }
