@@ -70,7 +70,9 @@ pub use cloth_mesh::{ClothMesh, ClothUvs};
 pub use cpu_solver::CpuSolver;
 pub use drape_types::{RigidPose, SimParams};
 pub use error::{Error, Result};
-pub use gpu::{AllocatorStats, Context, DeviceInfo, ExternalDevice, FrameTimings, PassTiming, Validation};
+pub use gpu::{
+    AllocatorStats, Context, DeviceInfo, ExternalDevice, FrameTimings, PassTiming, Validation, vulkan_loader_lock,
+};
 pub use lbvh::Lbvh;
 pub use mesh::Mesh;
 pub use model::{ClothId, Collider, ColliderId, ColliderShape, ContactSearch, Model, ModelBuilder, rigid_pose};

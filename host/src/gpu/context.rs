@@ -2,6 +2,7 @@
 //! memory allocator. Everything else holds an `Arc<Context>`, so the context outlives every
 //! object created from it; `Drop` tears down allocator, device, messenger, instance in that order.
 
+use super::loader_lock::vulkan_loader_lock;
 use crate::error::{Error, Result, VkContext};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
@@ -192,6 +193,9 @@ impl Context {
             // Also catches errors in vkCreateInstance / vkDestroyInstance themselves.
             instance_info = instance_info.push_next(&mut messenger_info);
         }
+        // Instance, messenger and device (with its function tables) are made under the loader
+        // lock (`super::loader_lock`); the allocator after them needs none.
+        let lifecycle = vulkan_loader_lock();
         // SAFETY: create info and everything it points to live across the call.
         let instance = unsafe { entry.create_instance(&instance_info, None) }.map_err(|result| match result {
             vk::Result::ERROR_INCOMPATIBLE_DRIVER => Error::NoComputeDevice,
@@ -199,7 +203,7 @@ impl Context {
         })?;
 
         // From here on, a failure must destroy what exists: build a partial Context.
-        let mut partial = PartialContext { entry, instance, debug: None, device: None };
+        let mut partial = PartialContext { entry, instance, debug: None, device: None, lifecycle: Some(lifecycle) };
         if validate {
             let utils = ash::ext::debug_utils::Instance::new(&partial.entry, &partial.instance);
             // SAFETY: valid instance with debug_utils enabled.
@@ -223,9 +227,11 @@ impl Context {
         partial.device = Some(device.clone());
         // SAFETY: the family was created with one queue.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        // The debug-utils device functions are loaded through vkGetDeviceProcAddr too.
+        let debug_names = debug_utils.then(|| ash::ext::debug_utils::Device::new(&partial.instance, &device));
+        partial.lifecycle = None;
         let allocator = new_allocator(&partial.instance, &device, physical_device)?;
         let (entry, instance, debug) = partial.into_parts();
-        let debug_names = debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
         log::info!("drape device: {} ({:?}, {})", info.name, info.device_type, info.driver);
         Ok(Arc::new(Context {
             _entry: entry,
@@ -284,7 +290,10 @@ impl Context {
         let queue = unsafe { device.get_device_queue(queue_family, queue_index) };
         let allocator = new_allocator(&instance, &device, physical_device)?;
         log::info!("drape on an imported device: {} ({:?})", info.name, info.device_type);
-        let debug_names = debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        let debug_names = debug_utils.then(|| {
+            let _lifecycle = vulkan_loader_lock();
+            ash::ext::debug_utils::Device::new(&instance, &device)
+        });
         Ok(Arc::new(Context {
             _entry: entry,
             instance,
@@ -397,6 +406,8 @@ impl Context {
         let Some(utils) = &self.debug_names else { return };
         let Ok(name) = std::ffi::CString::new(format!("drape: {name}")) else { return };
         let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(object).object_name(&name);
+        // The loader's terminator of this call walks every device of the process.
+        let _loader = vulkan_loader_lock();
         // SAFETY: the object belongs to this device; the info lives across the call.
         if let Err(e) = unsafe { utils.set_debug_utils_object_name(&info) } {
             log::debug!("vkSetDebugUtilsObjectNameEXT({name:?}): {e}");
@@ -422,6 +433,7 @@ impl Drop for Context {
                 // submissions were all waited on).
                 return;
             }
+            let _lifecycle = vulkan_loader_lock();
             self.device.destroy_device(None);
             if let Some((utils, messenger)) = self.debug.take() {
                 utils.destroy_debug_utils_messenger(messenger, None);
@@ -437,20 +449,26 @@ struct PartialContext {
     instance: ash::Instance,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     device: Option<ash::Device>,
+    /// The loader lock while the messenger and device are being made (`super::loader_lock`).
+    lifecycle: Option<MutexGuard<'static, ()>>,
 }
 
 type InstanceParts = (ash::Entry, ash::Instance, Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>);
 
 impl PartialContext {
     fn into_parts(self) -> InstanceParts {
-        let this = std::mem::ManuallyDrop::new(self);
-        // SAFETY: fields are moved out exactly once and `this` is never dropped.
+        let mut this = std::mem::ManuallyDrop::new(self);
+        this.lifecycle = None;
+        // SAFETY: fields are moved out exactly once and `this` is never dropped (`device` is a
+        // function table with nothing to drop; the lock was released above).
         unsafe { (std::ptr::read(&this.entry), std::ptr::read(&this.instance), std::ptr::read(&this.debug)) }
     }
 }
 
 impl Drop for PartialContext {
     fn drop(&mut self) {
+        // `Context::new` failing while it creates the messenger or device already holds the lock.
+        let _lifecycle = self.lifecycle.take().unwrap_or_else(vulkan_loader_lock);
         // SAFETY: reverse creation order; nothing else refers to these handles yet.
         unsafe {
             if let Some(device) = self.device.take() {
