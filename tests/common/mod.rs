@@ -3,15 +3,68 @@
 
 use drape::{Context, Validation};
 use glam::Vec4;
-use std::sync::Arc;
+use std::cell::Cell;
+use std::sync::{Arc, Mutex, MutexGuard};
+
+/// The validation layer this project tests with (Debian 12's 1.3.239) keeps its instances and
+/// devices in a process-wide map that every intercepted call reads and that creating or
+/// destroying an instance or device changes, without a lock
+/// (KhronosGroup/Vulkan-ValidationLayers#4391). Tests run on parallel threads, so one test's
+/// new or dropped context could crash another's Vulkan calls: CI died of SIGSEGV in
+/// `tests/collision.rs` once in 37 runs, and 8 threads making 300 validated contexts each
+/// crashed in 2 of 9 runs (in 1 of 13 with drape's own loader lock). Each test therefore takes
+/// its turn on Vulkan for as long as it holds a context; tests without one (the CPU twin's,
+/// the CLI's subprocesses) still run beside it.
+static VULKAN_TURN: Mutex<()> = Mutex::new(());
+
+thread_local! {
+    /// Turns this thread holds (a test may hold a context and a device of its own at once).
+    static TURNS_HELD: Cell<u32> = const { Cell::new(0) };
+}
+
+/// This test's turn on Vulkan (`VULKAN_TURN`), taken by the first of a thread's holders.
+pub struct VulkanTurn {
+    _guard: Option<MutexGuard<'static, ()>>,
+}
+
+impl VulkanTurn {
+    pub fn take() -> Self {
+        let held = TURNS_HELD.get();
+        TURNS_HELD.set(held + 1);
+        // A test that failed while holding the turn poisons it; the next test is still valid.
+        let guard = (held == 0).then(|| VULKAN_TURN.lock().unwrap_or_else(|e| e.into_inner()));
+        VulkanTurn { _guard: guard }
+    }
+}
+
+impl Drop for VulkanTurn {
+    fn drop(&mut self) {
+        TURNS_HELD.set(TURNS_HELD.get() - 1);
+    }
+}
+
+/// A validated context and the test's turn on Vulkan, released after the context: declare
+/// what uses the context after it, so it is dropped first.
+pub struct TestContext {
+    ctx: Arc<Context>,
+    _turn: VulkanTurn,
+}
+
+impl std::ops::Deref for TestContext {
+    type Target = Arc<Context>;
+    fn deref(&self) -> &Arc<Context> {
+        &self.ctx
+    }
+}
 
 /// A context with the validation layer on; tests fail if it is missing or reports an error.
-pub fn context() -> Arc<Context> {
+pub fn context() -> TestContext {
+    let turn = VulkanTurn::take();
     let ctx = Context::new(Validation::Required).expect("Vulkan with VK_LAYER_KHRONOS_validation");
     assert!(ctx.validation_enabled());
     // Validation brings VK_EXT_debug_utils: every test also runs drape's names and labels.
     assert!(ctx.debug_names());
-    ctx
+    TestContext { ctx, _turn: turn }
 }
 
 /// Fails the test if the validation layer reported any error.
