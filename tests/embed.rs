@@ -433,8 +433,8 @@ fn a_blow_up_in_a_recorded_frame_is_reported_late_without_a_stall() {
 
 /// An engine may make and drop contexts on several threads at once: drape takes its loader lock
 /// around what the loader does not guard (`drape::vulkan_loader_lock`, Vulkan-Loader#2018).
-/// Without validation: the validation layer races on its own map of instances and devices
-/// (Vulkan-ValidationLayers#4391), which is why the other tests take turns on Vulkan. A stress
+/// It runs without validation: the validation layer races on its own map of instances and
+/// devices (Vulkan-ValidationLayers#4391), which is why the other tests take turns. A stress
 /// test to run by hand (about a minute on 2 cores; the race it guards against never showed in 16
 /// such runs, with the lock or without):
 /// `cargo test --release --features rebuild-kernels --test embed -- --ignored`.

@@ -311,9 +311,10 @@ fn longest(moves: [Vec3; 4]) -> f32 {
 
 /// A primitive pair's `KeptPair` when the bound keeps it (`may_touch` with the slops), else
 /// `LEFT_OUT`, from `offset` (the vector between its closest points at the frame's start) and
-/// the relative predicted motions of its ends (`moves`, the longest the pair's motion: of the vertex from each corner of the face, a vertex-face pair
-/// repeating one, or of each end of one edge from each of the other's; each point of the pair
-/// moves by a weighted mean of them). The gap takes the whole motion, in any direction: the
+/// the relative predicted motions of its ends (`moves`: of the vertex from each corner of the
+/// face, a vertex-face pair repeating one, or of each end of one edge from each of the other's;
+/// each point of the pair moves by a weighted mean of them, so the longest of them is the
+/// pair's motion). The gap takes the whole motion, in any direction: the
 /// passes also undo crossings of pairs that never came near (a vertex passing round a face's
 /// edge to end under it), and the lists keep what a walk over the passes' boxes finds.
 #[inline]
