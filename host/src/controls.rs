@@ -224,8 +224,9 @@ impl Controls {
         self.cloths
             .iter()
             .map(|c| {
-                // A cloth in contact with itself iterates its contacts every substep.
-                let passes = (!c.motion.self_contact).then_some(c.motion.contact_substeps);
+                // A cloth in contact with itself iterates its contacts every substep; one that
+                // is not runs the passes its last frame's motion asks for.
+                let passes = (!c.motion.self_contact).then_some(c.motion.self_passes);
                 let self_lists = c.self_lists();
                 let plan = self.settings.plan(&c.params, &c.stability, c.motion.asleep, passes);
                 FramePlan { self_lists, self_rebuild: c.self_tree.rebuild, ..plan }
@@ -641,7 +642,9 @@ impl Controls {
             if change.sleep {
                 log::debug!("cloth {}", if c.motion.asleep { "falls asleep" } else { "wakes" });
             }
-            self.replan |= change.sleep;
+            // The passes are encoded in the frame (only a cloth that does not touch itself runs
+            // them by its motion: `plans`).
+            self.replan |= change.sleep || (change.passes && c.self_collision.is_some() && !c.motion.self_contact);
         }
         moving.into_iter().map(|(_, _, bounds)| bounds).collect()
     }

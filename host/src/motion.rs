@@ -81,6 +81,13 @@ pub struct ClothMotion {
     substeps_run: u32,
     /// Substeps the motion needs now, and frames it has needed fewer.
     pub(crate) contact_substeps: u32,
+    /// Self-collision passes the last frame's motion asks of the next while the cloth does not
+    /// touch itself: its pairs' and the collider features' need (as `contact_substeps`), from
+    /// the last frame alone. The substeps come down only after `LOWER_AFTER` calm frames (a
+    /// changed count re-plans the frame and moves the stability margin); the passes need no
+    /// such hold: over the 64^2 swing's 60 frames the held count ran a pass every substep (14)
+    /// where its pairs' approach asked 6 (`self_passes`).
+    pub(crate) self_passes: u32,
     frames_needing_fewer: u32,
     still_frames: u32,
     pub(crate) asleep: bool,
@@ -165,11 +172,13 @@ fn substeps_for(motion: f32, thickness: f32) -> Option<u32> {
 pub(crate) struct Change {
     pub substeps: bool,
     pub sleep: bool,
+    /// The self-collision passes' need changed (`ClothMotion::self_passes`).
+    pub passes: bool,
 }
 
 impl ClothMotion {
     pub(crate) fn new() -> Self {
-        ClothMotion { contact_substeps: 1, self_contact: true, ..Default::default() }
+        ClothMotion { contact_substeps: 1, self_passes: 1, self_contact: true, ..Default::default() }
     }
 
     /// After a frame of `substeps` substeps of `substep` s: its health check's speed and motion,
@@ -274,6 +283,9 @@ impl ClothMotion {
             Some(pushed.max(moving)?.min(f.most.max(1)))
         });
         let needed = collider.max(self_collision).max(features).unwrap_or(1);
+        let passes = self_collision.max(features).unwrap_or(1);
+        change.passes = passes != self.self_passes;
+        self.self_passes = passes;
         if needed > self.contact_substeps {
             (self.contact_substeps, self.frames_needing_fewer) = (needed, 0);
             change.substeps = true;
@@ -313,7 +325,7 @@ mod tests {
         // 2.9 m/s over 1/60 s is 48 mm: ten 5 mm substeps.
         assert_eq!(
             m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None),
-            Change { substeps: true, sleep: false }
+            Change { substeps: true, sleep: false, passes: false }
         );
         assert_eq!(m.contact_substeps, 10);
         m.observe(&health(0.1), (H, 10), None, false);
@@ -355,6 +367,34 @@ mod tests {
         let both = Proximity { collider: Some(0.005), ..self_only };
         m.plan_frame(both, (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 67);
+    }
+
+    /// The passes follow the last frame's need alone (a change re-plans the frame), while the
+    /// substeps come down only after `LOWER_AFTER` frames that need fewer.
+    #[test]
+    fn self_passes_follow_the_last_frame_while_the_substeps_are_held() {
+        let self_only = Proximity { self_collision: Some((0.005, 20)), ..Default::default() };
+        let closing = |metres: f32| Health {
+            self_pair_motion_bits: metres.to_bits(),
+            self_pair_approach_bits: metres.to_bits(),
+            ..health(1.0)
+        };
+        let mut m = ClothMotion::new();
+        // Pairs closing 40 mm over the frame: eight 5 mm passes, and as many substeps.
+        m.observe(&closing(0.04), (H, 10), None, true);
+        let change = m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
+        assert!(change.substeps && change.passes, "{change:?}");
+        assert_eq!((m.contact_substeps, m.self_passes), (8, 8));
+        // Then 10 mm: two passes at once; the substeps stay.
+        m.observe(&closing(0.01), (H, 10), None, true);
+        let change = m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
+        assert!(!change.substeps && change.passes, "{change:?}");
+        assert_eq!((m.contact_substeps, m.self_passes), (8, 2));
+        // The same need again changes nothing.
+        m.observe(&closing(0.01), (H, 10), None, true);
+        let change = m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
+        assert!(!change.substeps && !change.passes, "{change:?}");
+        assert_eq!((m.contact_substeps, m.self_passes), (8, 2));
     }
 
     /// A collider vertex that pushed a cloth face more than the thickness in a pass (the face
@@ -426,7 +466,7 @@ mod tests {
         assert!(m.asleep);
         assert_eq!(
             m.plan_frame(Proximity::default(), (0.2, true), 1.0 / 60.0, sleep),
-            Change { substeps: false, sleep: true }
+            Change { substeps: false, sleep: true, passes: false }
         );
         assert!(!m.asleep);
         // One fast frame restarts the count.
