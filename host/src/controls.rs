@@ -642,6 +642,9 @@ impl Controls {
             if change.sleep {
                 log::debug!("cloth {}", if c.motion.asleep { "falls asleep" } else { "wakes" });
             }
+            if change.passes && c.self_collision.is_some() {
+                log::debug!("self-collision's motion needs {} passes per frame", c.motion.self_passes);
+            }
             // The passes are encoded in the frame (only a cloth that does not touch itself runs
             // them by its motion: `plans`).
             self.replan |= change.sleep || (change.passes && c.self_collision.is_some() && !c.motion.self_contact);
