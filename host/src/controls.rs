@@ -155,8 +155,18 @@ pub(crate) struct Controls {
     pub settings: SimSettings,
     pub cloths: Vec<ClothControl>,
     colliders: Vec<ColliderControl>,
-    /// A cloth's schedule changed (substeps, sleep) since the frame was last planned.
+    /// A cloth's schedule changed (substeps, self-collision passes, sleep) since the frame was
+    /// last planned.
     replan: bool,
+}
+
+/// Cloth `c`'s frame schedule under `settings`.
+fn plan_of(settings: &SimSettings, c: &ClothControl) -> FramePlan {
+    // A cloth in contact with itself iterates its contacts every substep; one that is not runs
+    // the passes its last frame's motion asks for.
+    let passes = (!c.motion.self_contact).then_some(c.motion.self_passes);
+    let plan = settings.plan(&c.params, &c.stability, c.motion.asleep, passes);
+    FramePlan { self_lists: c.self_lists(), self_rebuild: c.self_tree.rebuild, ..plan }
 }
 
 fn invalid(name: &'static str, problem: String) -> Error {
@@ -221,20 +231,11 @@ impl Controls {
 
     /// Each cloth's frame schedule for the current values.
     pub fn plans(&self) -> Vec<FramePlan> {
-        self.cloths
-            .iter()
-            .map(|c| {
-                // A cloth in contact with itself iterates its contacts every substep; one that
-                // is not runs the passes its last frame's motion asks for.
-                let passes = (!c.motion.self_contact).then_some(c.motion.self_passes);
-                let self_lists = c.self_lists();
-                let plan = self.settings.plan(&c.params, &c.stability, c.motion.asleep, passes);
-                FramePlan { self_lists, self_rebuild: c.self_tree.rebuild, ..plan }
-            })
-            .collect()
+        self.cloths.iter().map(|c| plan_of(&self.settings, c)).collect()
     }
 
-    /// Whether the frame must be planned again (a cloth's substeps or sleep changed); clears it.
+    /// Whether the frame must be planned again (a cloth's substeps, self-collision passes or
+    /// sleep changed); clears it.
     pub fn take_replan(&mut self) -> bool {
         std::mem::take(&mut self.replan)
     }
@@ -589,9 +590,10 @@ impl Controls {
         steps
     }
 
-    /// Each cloth's contact substeps and sleep for the frame about to run (`motion`), from the
-    /// last frame's speeds and the colliders' motion this frame; returns the moving colliders'
-    /// swept boxes, grown by their contact reach (what wakes the tiles near them).
+    /// Each cloth's contact substeps, self-collision passes and sleep for the frame about to run
+    /// (`motion`), from the last frame's speeds and the colliders' motion this frame; returns the
+    /// moving colliders' swept boxes, grown by their contact reach (what wakes the tiles near
+    /// them).
     fn plan_motion(&mut self) -> Vec<(Vec3, Vec3)> {
         let settings = self.settings;
         // Each moving collider's surface speed and swept box, grown by its contact reach.
@@ -628,10 +630,10 @@ impl Controls {
                 }),
             };
             let near = moving.iter().any(|&(_, _, bounds)| c.motion.near(bounds));
+            let passes = plan_of(&settings, c).self_passes;
             let change = c.motion.plan_frame(proximity, (collider_speed, near), settings.frame_dt, settings.sleep);
             if change.substeps {
-                // A self-colliding cloth's passes follow the motion even when the substeps do not.
-                self.replan |= c.apply_contact(&settings) | c.self_collision.is_some();
+                self.replan |= c.apply_contact(&settings);
                 log::debug!(
                     "contact needs {} substeps per frame: running {} (stability bound {})",
                     c.motion.contact_substeps,
@@ -642,12 +644,17 @@ impl Controls {
             if change.sleep {
                 log::debug!("cloth {}", if c.motion.asleep { "falls asleep" } else { "wakes" });
             }
-            if change.passes && c.self_collision.is_some() {
-                log::debug!("self-collision's motion needs {} passes per frame", c.motion.self_passes);
+            // The self-collision passes are encoded in the frame: those of a cloth that does not
+            // touch itself follow its last frame's motion (`ClothMotion::self_passes`).
+            let planned = plan_of(&settings, c).self_passes;
+            if c.self_collision.is_some() && planned != passes {
+                log::debug!(
+                    "self-collision runs {planned} passes per frame (its motion needs {})",
+                    c.motion.self_passes
+                );
+                self.replan = true;
             }
-            // The passes are encoded in the frame (only a cloth that does not touch itself runs
-            // them by its motion: `plans`).
-            self.replan |= change.sleep || (change.passes && c.self_collision.is_some() && !c.motion.self_contact);
+            self.replan |= change.sleep;
         }
         moving.into_iter().map(|(_, _, bounds)| bounds).collect()
     }

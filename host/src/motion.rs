@@ -1,5 +1,5 @@
-//! What a cloth's motion decides for its next frames: how many substeps its contact needs, and
-//! whether it sleeps.
+//! What a cloth's motion decides for its next frames: how many substeps its contact needs, how
+//! many self-collision passes, and whether it sleeps.
 //!
 //! - **Contact substeps.** Self-collision and sphere contact are found within the contact
 //!   thickness at each substep's end, with a start-side test for what crossed during it; a
@@ -12,6 +12,9 @@
 //!   particle, plus the colliders' fastest surface point this frame, moves at most
 //!   `CONTACT_REACH` thicknesses per substep. Raised at once, lowered only after `LOWER_AFTER`
 //!   frames that need fewer.
+//! - **Self-collision passes.** While a cloth does not touch itself, its passes follow the same
+//!   need of its pairs and the collider features, from the last frame alone
+//!   (`ClothMotion::self_passes`); while it does, it runs one every substep.
 //! - **Sleeping.** A cloth whose fastest particle moves slower than `Sleep::speed` over the last
 //!   substep of each of `Sleep::frames` frames sleeps: its frame runs nothing (listed as
 //!   skipped), so it cannot drift. Motion, not velocity: a particle resting on a collider ends
@@ -65,8 +68,8 @@ pub fn max_motion(health: &Health, substep: f32) -> f32 {
     f32::from_bits(health.max_moved_bits) / substep
 }
 
-/// One cloth's motion history: what its next frames' substeps and sleep follow from. Part of a
-/// `ClothState`, so a restored state replays the same schedule.
+/// One cloth's motion history: what its next frames' substeps, self-collision passes and sleep
+/// follow from. Part of a `ClothState`, so a restored state replays the same schedule.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ClothMotion {
     /// Fastest particle at the end of the last frame (m/s).
@@ -85,11 +88,12 @@ pub struct ClothMotion {
     /// Substeps the motion needs now, and frames it has needed fewer.
     pub(crate) contact_substeps: u32,
     /// Self-collision passes the last frame's motion asks of the next while the cloth does not
-    /// touch itself: its pairs' and the collider features' need (as `contact_substeps`), from
-    /// the last frame alone. The substeps come down only after `LOWER_AFTER` calm frames (a
-    /// changed count re-plans the frame and moves the stability margin); the passes need no
-    /// such hold: over the 64^2 swing's 60 frames the held count ran a pass every substep (14)
-    /// where its pairs' approach asked 6 (`self_passes`).
+    /// touch itself: its pairs' and the collider features' need (as `contact_substeps`, without
+    /// the sphere colliders', which the passes do not test), from the last frame alone. The
+    /// substeps come down only after `LOWER_AFTER` calm frames (a changed count re-plans the
+    /// frame and moves the stability margin); the passes need no such hold: over the 64^2
+    /// swing's 60 frames the held count ran a pass every substep (14) where its pairs' approach
+    /// asked for 4-10.
     pub(crate) self_passes: u32,
     frames_needing_fewer: u32,
     still_frames: u32,
@@ -175,8 +179,6 @@ fn substeps_for(motion: f32, thickness: f32) -> Option<u32> {
 pub(crate) struct Change {
     pub substeps: bool,
     pub sleep: bool,
-    /// The self-collision passes' need changed (`ClothMotion::self_passes`).
-    pub passes: bool,
 }
 
 impl ClothMotion {
@@ -286,9 +288,7 @@ impl ClothMotion {
             Some(pushed.max(moving)?.min(f.most.max(1)))
         });
         let needed = collider.max(self_collision).max(features).unwrap_or(1);
-        let passes = self_collision.max(features).unwrap_or(1);
-        change.passes = passes != self.self_passes;
-        self.self_passes = passes;
+        self.self_passes = self_collision.max(features).unwrap_or(1);
         if needed > self.contact_substeps {
             (self.contact_substeps, self.frames_needing_fewer) = (needed, 0);
             change.substeps = true;
@@ -328,7 +328,7 @@ mod tests {
         // 2.9 m/s over 1/60 s is 48 mm: ten 5 mm substeps.
         assert_eq!(
             m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None),
-            Change { substeps: true, sleep: false, passes: false }
+            Change { substeps: true, sleep: false }
         );
         assert_eq!(m.contact_substeps, 10);
         m.observe(&health(0.1), (H, 10), None, false);
@@ -372,8 +372,9 @@ mod tests {
         assert_eq!(m.contact_substeps, 67);
     }
 
-    /// The passes follow the last frame's need alone (a change re-plans the frame), while the
-    /// substeps come down only after `LOWER_AFTER` frames that need fewer.
+    /// The passes follow the last frame's need alone, while the substeps come down only after
+    /// `LOWER_AFTER` frames that need fewer (`Controls` re-plans the frame when the passes a plan
+    /// makes of the need change).
     #[test]
     fn self_passes_follow_the_last_frame_while_the_substeps_are_held() {
         let self_only = Proximity { self_collision: Some((0.005, 20)), ..Default::default() };
@@ -386,18 +387,18 @@ mod tests {
         // Pairs closing 40 mm over the frame: eight 5 mm passes, and as many substeps.
         m.observe(&closing(0.04), (H, 10), None, true);
         let change = m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
-        assert!(change.substeps && change.passes, "{change:?}");
+        assert!(change.substeps, "{change:?}");
         assert_eq!((m.contact_substeps, m.self_passes), (8, 8));
         // Then 10 mm: two passes at once; the substeps stay.
         m.observe(&closing(0.01), (H, 10), None, true);
         let change = m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
-        assert!(!change.substeps && change.passes, "{change:?}");
+        assert!(!change.substeps, "{change:?}");
         assert_eq!((m.contact_substeps, m.self_passes), (8, 2));
-        // The same need again changes nothing.
-        m.observe(&closing(0.01), (H, 10), None, true);
+        // Then 60 mm: twelve at once, both.
+        m.observe(&closing(0.06), (H, 10), None, true);
         let change = m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
-        assert!(!change.substeps && !change.passes, "{change:?}");
-        assert_eq!((m.contact_substeps, m.self_passes), (8, 2));
+        assert!(change.substeps, "{change:?}");
+        assert_eq!((m.contact_substeps, m.self_passes), (12, 12));
     }
 
     /// A collider vertex that pushed a cloth face more than the thickness in a pass (the face
@@ -469,7 +470,7 @@ mod tests {
         assert!(m.asleep);
         assert_eq!(
             m.plan_frame(Proximity::default(), (0.2, true), 1.0 / 60.0, sleep),
-            Change { substeps: false, sleep: true, passes: false }
+            Change { substeps: false, sleep: true }
         );
         assert!(!m.asleep);
         // One fast frame restarts the count.

@@ -174,7 +174,8 @@ pub struct FramePlan {
     /// The cloth sleeps: its frame runs nothing (`motion`).
     pub asleep: bool,
     /// Self-collision passes in the frame (1..=substeps; `self_contact::pass_due` spreads
-    /// them): as many as the cloth's motion needs (`motion`), not one per substep.
+    /// them): at least as many as the cloth's motion needs (`motion`, `self_contact::passes_for`),
+    /// not one per substep.
     pub self_passes: u32,
     /// Self-collision tests the frame's pair lists (`self_contact::lists_pay`), or walks the
     /// tree for every triangle at every pass.

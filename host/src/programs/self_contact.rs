@@ -191,25 +191,22 @@ pub struct SelfContactCloth {
     pub health: Handle<Health>,
 }
 
-/// How far a self-collision pass may let its pairs close, in thicknesses (the motion's budget
-/// is one, `motion::CONTACT_REACH`): passes end substeps, so a need of 8 in 14 substeps has
-/// gaps of 1.75 substeps to fit, which took a pass at every substep (the 64^2 swing's frames
-/// needing 8-13 passes ran 14). A pass that lets a pair through the thickness has its crossing
-/// tests undo it, and the budget is the last frame's approach anyway
-/// (`motion::ClothMotion::self_passes`).
-pub const PASS_REACH_NUMERATOR: u32 = 3;
-pub const PASS_REACH_DENOMINATOR: u32 = 2;
+/// How far a self-collision pass may let its pairs close, as a fraction (numerator,
+/// denominator) of the thickness they may close by (`motion::CONTACT_REACH`): 3/2. Passes end
+/// substeps, so a need of 8 in 14 substeps has gaps of 1.75 substeps to fit, which with no
+/// slack took a pass at every substep (the 64^2 swing's frames needing 8-13 passes ran 14). A
+/// pass that lets a pair through the thickness has its crossing tests undo it, and the need is
+/// the last frame's approach anyway (`motion::ClothMotion::self_passes`).
+const PASS_REACH: (u32, u32) = (3, 2);
 
 /// The passes a frame of `substeps` runs when the motion needs `needed` (each may span 1/`needed`
 /// of the frame): the fewest, at least `needed`, whose spread (`pass_due`: gaps of at most
-/// ceil(substeps / passes) substeps) keeps every pass within `PASS_REACH_NUMERATOR /
-/// PASS_REACH_DENOMINATOR` of that.
+/// ceil(substeps / passes) substeps) keeps every pass within `PASS_REACH` of that.
 pub fn passes_for(substeps: u32, needed: u32) -> u32 {
     let substeps = substeps.max(1);
     let needed = needed.clamp(1, substeps);
-    let fits = |passes: u32| {
-        PASS_REACH_DENOMINATOR * substeps.div_ceil(passes) * needed <= PASS_REACH_NUMERATOR * substeps
-    };
+    let (numerator, denominator) = PASS_REACH;
+    let fits = |passes: u32| denominator * substeps.div_ceil(passes) * needed <= numerator * substeps;
     // A pass at every substep always fits: one substep is within the budget (needed <= substeps).
     (needed..=substeps).find(|&p| fits(p)).unwrap_or(substeps)
 }
@@ -626,8 +623,9 @@ mod tests {
     }
 
     /// The passes: as many as asked (clamped to 1..=substeps), the last substep always one, and
-    /// spread so no two are further apart than the even spacing rounded up; with the plan's
-    /// count (`SimSettings::plan`) no gap is longer than `substeps / needed` substeps.
+    /// spread so no two are further apart than the even spacing rounded up; the plan's count
+    /// (`SimSettings::plan`) is the fewest passes, at least the need, whose gaps are at most 3/2
+    /// of `substeps / needed` substeps.
     #[test]
     fn passes_are_spread_evenly_and_end_the_frame() {
         for substeps in 1..40 {
