@@ -721,8 +721,9 @@ fn a_ridge_does_not_cut_a_cloth_cell() {
     assert_validation_clean(&ctx);
 }
 
-/// Self-collision runs as many passes per frame as the cloth's motion needs (at most the
-/// thickness between two, at least `MIN_SELF_PASSES`) while the cloth does not touch itself,
+/// Self-collision runs as many passes per frame as the cloth's motion needs (its pairs closing
+/// about the thickness between two, at most 3/2 of it: `passes_for`; at least
+/// `MIN_SELF_PASSES`) while the cloth does not touch itself,
 /// and a pass every substep while it does (each pass is also an iteration of its contacts):
 /// the swinging cloth, never touching itself, runs fewer passes than substeps; a stiff pile,
 /// folded onto itself, one every substep and never crosses itself. The counts are what the
