@@ -723,8 +723,8 @@ fn a_ridge_does_not_cut_a_cloth_cell() {
 
 /// Self-collision runs as many passes per frame as the cloth's motion needs (its pairs closing
 /// about the thickness between two, at most 3/2 of it: `passes_for`; at least
-/// `MIN_SELF_PASSES`) while the cloth does not touch itself,
-/// and a pass every substep while it does (each pass is also an iteration of its contacts):
+/// `MIN_SELF_PASSES`) while the cloth does not touch itself, and a pass every substep while it
+/// does (each pass is also an iteration of its contacts):
 /// the swinging cloth, never touching itself, runs fewer passes than substeps; a stiff pile,
 /// folded onto itself, one every substep and never crosses itself. The counts are what the
 /// timing table lists.

@@ -287,8 +287,10 @@ impl ClothMotion {
             let moving = if f.speed > 0.0 { substeps_for(motion, f.thickness) } else { None };
             Some(pushed.max(moving)?.min(f.most.max(1)))
         });
-        let needed = collider.max(self_collision).max(features).unwrap_or(1);
-        self.self_passes = self_collision.max(features).unwrap_or(1);
+        // The passes test the cloth's pairs and the collider features, not the sphere colliders.
+        let passes = self_collision.max(features);
+        self.self_passes = passes.unwrap_or(1);
+        let needed = collider.max(passes).unwrap_or(1);
         if needed > self.contact_substeps {
             (self.contact_substeps, self.frames_needing_fewer) = (needed, 0);
             change.substeps = true;
