@@ -116,7 +116,10 @@ fn the_tree_finds_the_pairs_the_brute_force_loop_finds() {
 /// made (no gravity) none does, and the lists alone must hold every pair. In every frame each
 /// list also equals the bound's choice over every later leaf without the tree
 /// (`assert_lists_equal_brute_force`); the tree is built every `SELF_TREE_REBUILD_FRAMES` frames
-/// and refit between, as a solver does.
+/// and refit between, as a solver does. The pass is run three ways with the same result: without
+/// collider features; with features in a frame whose colliders listed no possibly sharp
+/// triangle (the walkers found in the boxes' first run, the second dispatched over nothing);
+/// and with one that did (the second run finds them).
 #[test]
 fn pair_lists_and_walks_find_the_pairs_the_tree_walk_finds() {
     let exact = lists_and_walks_against_the_tree_walk(true);
@@ -202,33 +205,62 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
         s.frame_start_steps(&own, substeps, (true, rebuild), &mut steps);
         cpu.run(&steps).unwrap();
         assert_lists_equal_brute_force(&cpu, &s, (t, n), (&owned, thickness), frame);
-        // One pass over the whole frame, to where the solver took the cloth.
-        cpu.upload(own.x, &x).unwrap();
-        cpu.upload(own.v, &v).unwrap();
-        let mut steps = vec![];
-        s.substep_steps(&own, ((0, substeps - 1, substeps), true), vec![], &mut steps);
-        cpu.run(&steps).unwrap();
-        let words = 4 * n as usize;
-        let (found, found_friction) = (cpu.read(s.delta, words).unwrap(), cpu.read(s.velocity_changes, words).unwrap());
-        let health: Health = cpu.read(own.health, 1).unwrap()[0];
-        let walks = health.self_walks + health.self_full_lists;
-        walked += u64::from(walks);
-        listed += u64::from(t - walks);
-        // The tree walk of every triangle over the same tree (refit to the pass).
-        let tree_nodes: Vec<BvhNode> = cpu.read(s.tree.nodes, t as usize - 1).unwrap();
-        let aabbs: Vec<Aabb> = cpu.read(s.tree.aabbs, t as usize - 1).unwrap();
-        let leaf_bounds: Vec<Aabb> = cpu.read(s.tree.sorted_bounds, t as usize).unwrap();
-        let sorted: Vec<glam::UVec4> = cpu.read(s.sorted, t as usize).unwrap();
+        // The tree walk of every triangle over the tree refit to the pass (the pass's boxes:
+        // the cloth from where the frame started to where the solver took it).
         let c = SelfContactBuffers::params(t, thickness, friction);
-        let (mut walk, mut walk_friction) = (vec![0u32; words], vec![0u32; words]);
-        for leaf in 0..t {
-            let tree = (tree_nodes.as_slice(), aabbs.as_slice(), leaf_bounds.as_slice(), sorted.as_slice());
-            let out =
-                PairResponse { thickness, friction, v: &v, delta: &mut walk, velocity_changes: &mut walk_friction };
-            assert!(!self_triangle_contact_at(leaf, &c, tree, &owned, (&x, &before), out), "stack overflow");
+        let words = 4 * n as usize;
+        let mut tree_walk: Option<(Vec<u32>, Vec<u32>)> = None;
+        // One pass over the whole frame, to where the solver took the cloth: without collider
+        // features, and with features whose frame listed no sharp triangle (the walkers are
+        // found in the first run of the boxes, the second is dispatched over nothing) and with
+        // one that did (the second run finds them); the features' stand-in pushes nothing.
+        for features in [None, Some(false), Some(true)] {
+            cpu.upload(own.x, &x).unwrap();
+            cpu.upload(own.v, &v).unwrap();
+            cpu.upload(s.start, &before).unwrap();
+            cpu.upload(own.health, &[Health::default()]).unwrap();
+            let stand_in = match features {
+                None => vec![],
+                Some(armed) => {
+                    let groups = if armed { t.div_ceil(drape_kernels::WORKGROUP_SIZE) } else { 0 };
+                    let args = drape_types::DispatchArgs { x: groups, y: 1, z: 1, _pad: 0 };
+                    cpu.upload(s.features_found, &[args]).unwrap();
+                    vec![drape::graph::Step::fill(s.pushes, 0)]
+                }
+            };
+            let mut steps = vec![];
+            s.substep_steps(&own, ((0, substeps - 1, substeps), true), stand_in, &mut steps);
+            cpu.run(&steps).unwrap();
+            let (found, found_friction) =
+                (cpu.read(s.delta, words).unwrap(), cpu.read(s.velocity_changes, words).unwrap());
+            let health: Health = cpu.read(own.health, 1).unwrap()[0];
+            let walks = health.self_walks + health.self_full_lists;
+            if features.is_none() {
+                walked += u64::from(walks);
+                listed += u64::from(t - walks);
+            }
+            let (walk, walk_friction) = tree_walk.get_or_insert_with(|| {
+                let tree_nodes: Vec<BvhNode> = cpu.read(s.tree.nodes, t as usize - 1).unwrap();
+                let aabbs: Vec<Aabb> = cpu.read(s.tree.aabbs, t as usize - 1).unwrap();
+                let leaf_bounds: Vec<Aabb> = cpu.read(s.tree.sorted_bounds, t as usize).unwrap();
+                let sorted: Vec<glam::UVec4> = cpu.read(s.sorted, t as usize).unwrap();
+                let (mut walk, mut walk_friction) = (vec![0u32; words], vec![0u32; words]);
+                for leaf in 0..t {
+                    let tree = (tree_nodes.as_slice(), aabbs.as_slice(), leaf_bounds.as_slice(), sorted.as_slice());
+                    let out = PairResponse {
+                        thickness,
+                        friction,
+                        v: &v,
+                        delta: &mut walk,
+                        velocity_changes: &mut walk_friction,
+                    };
+                    assert!(!self_triangle_contact_at(leaf, &c, tree, &owned, (&x, &before), out), "stack overflow");
+                }
+                (walk, walk_friction)
+            });
+            assert_eq!(&found, walk, "frame {frame}, features {features:?}: corrections");
+            assert_eq!(&found_friction, walk_friction, "frame {frame}, features {features:?}: friction");
         }
-        assert_eq!(found, walk, "frame {frame}: corrections");
-        assert_eq!(found_friction, walk_friction, "frame {frame}: friction");
     }
     println!("exact prediction {exact_prediction}: triangle-passes {listed} from lists, {walked} walked");
     (listed, walked)

@@ -6,7 +6,7 @@
 use super::sort::RadixSort;
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::lbvh::{BUILD_NODES, GATHER_BOUNDS, MORTON_CODES, REFIT};
-use drape_types::{Aabb, BvhNode, ColliderParams};
+use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs};
 
 /// The buffers of one LBVH.
 pub struct LbvhBuffers {
@@ -83,6 +83,14 @@ impl LbvhBuffers {
         steps
     }
 
+    /// A second refit to the sorted leaves' boxes after `refit_sorted_steps`, over the
+    /// workgroups `dispatch` holds (none leaves the first refit's boxes): its xyz words are
+    /// written anew, the w words stay the zeros the first left.
+    pub fn refit_sorted_again_steps(&self, dispatch: Handle<DispatchArgs>) -> Vec<Step> {
+        let refit = self.refit_step("refit", (self.sorted_bounds, self.aabbs), Dispatch::Indirect(dispatch));
+        vec![Step::fill(self.flags, 0), refit]
+    }
+
     /// Another set of boxes over the same tree: the internal nodes' boxes (`aabbs`, one per
     /// internal node) of the leaves' `leaf_bounds` (tree order), e.g. what the leaves' points
     /// move by beside where they are.
@@ -126,7 +134,12 @@ impl LbvhBuffers {
         steps.push(Step::fill(self.flags, 0));
         // The refit writes xyz words only; zero the w words too.
         steps.push(Step::fill(aabbs, 0));
-        steps.push(Step::run(
+        steps.push(self.refit_step(label, (leaf_bounds, aabbs), Dispatch::Threads(self.leaves)));
+    }
+
+    /// The refit of `aabbs` to `leaf_bounds` (its flags zeroed before).
+    fn refit_step(&self, label: &'static str, (leaf_bounds, aabbs): (Handle<Aabb>, Handle<Aabb>), dispatch: Dispatch) -> Step {
+        Step::run(
             label,
             &REFIT,
             vec![
@@ -137,7 +150,7 @@ impl LbvhBuffers {
                 self.flags.id(),
                 aabbs.id(),
             ],
-            Dispatch::Threads(self.leaves),
-        ));
+            dispatch,
+        )
     }
 }

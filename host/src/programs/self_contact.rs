@@ -23,7 +23,8 @@ use crate::kernels::self_pairs::{
     WALK_SELF_PAIRS,
 };
 use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
-use drape_kernels::self_pairs::{ANCHOR_WORDS, LIST_ENTRY_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS};
+use drape_kernels::self_pairs::{
+    ANCHOR_WORDS, FIND_WALKERS, FIND_WALKERS_UNLESS_FEATURES, LIST_ENTRY_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS};
 use drape_types::{Aabb, BroadPhasePush, ColliderParams, ContactPush, DispatchArgs, Health, SelfPassPush, SimParams};
 use std::collections::{HashMap, HashSet};
 use glam::{UVec4, Vec4};
@@ -69,6 +70,10 @@ pub struct SelfContactBuffers {
     /// indirect dispatch (count in `_pad`).
     pub walkers: Handle<u32>,
     pub walk_args: Handle<DispatchArgs>,
+    /// The passes' second run of the triangle boxes and refit, after the collider features'
+    /// pushes: dispatched over the triangles when a collider listed a possibly sharp triangle
+    /// in the frame, else over none (`drape_kernels::sharp_features::arm_second_refit`).
+    pub features_found: Handle<DispatchArgs>,
     /// The frame's closing check for crossings (`super::self_failsafe`).
     pub failsafe: FailsafeBuffers,
     /// Per collider (in the model's order), for a triangle collider: its triangles that may
@@ -241,6 +246,7 @@ impl SelfContactBuffers {
             leaf_of: resources.device(format!("{name}: leaf of each triangle"), triangles),
             walkers: resources.device(format!("{name}: walkers"), triangles),
             walk_args: resources.device(format!("{name}: walk dispatch"), 1),
+            features_found: resources.device(format!("{name}: second refit dispatch"), 1),
             failsafe: FailsafeBuffers::declare(resources, &name, particles),
             sharp: Vec::new(),
             particles,
@@ -285,6 +291,7 @@ impl SelfContactBuffers {
                 features.id(),
                 sharp.list.id(),
                 sharp.args.id(),
+                self.features_found.id(),
             ],
             Dispatch::Threads(count),
         ));
@@ -302,15 +309,18 @@ impl SelfContactBuffers {
         ColliderParams { leaf_count: triangles, thickness, friction, ..Default::default() }
     }
 
-    /// The triangles' boxes over the pass spanning `span` and, when `find_walkers` (the pass's
-    /// last run of them), whether each escaped its region and the pass's walkers (counted from
-    /// zero).
-    fn triangle_bounds(&self, cloth: &SelfContactCloth, span: ContactPush, find_walkers: bool, steps: &mut Vec<Step>) {
+    /// The triangles' boxes over the pass spanning `span` and, as `find_walkers` says
+    /// (`drape_kernels::self_pairs::finds_walkers`), whether each escaped its region and the
+    /// pass's walkers, over `dispatch`.
+    fn triangle_bounds(
+        &self,
+        cloth: &SelfContactCloth,
+        (span, find_walkers): (ContactPush, u32),
+        dispatch: Dispatch,
+        steps: &mut Vec<Step>,
+    ) {
         let t = &self.tree;
-        if find_walkers {
-            steps.push(empty_dispatch(self.walk_args));
-        }
-        let push = SelfPassPush { from: span.from, to: span.to, find_walkers: find_walkers as u32, _pad: 0 };
+        let push = SelfPassPush { from: span.from, to: span.to, find_walkers, _pad: 0 };
         steps.push(Step::run_with(
             "self: triangle boxes",
             &CLOTH_TRIANGLE_BOUNDS,
@@ -326,9 +336,10 @@ impl SelfContactBuffers {
                 self.strays.id(),
                 self.walkers.id(),
                 self.walk_args.id(),
+                self.features_found.id(),
             ],
             bytemuck::cast(push),
-            Dispatch::Threads(t.leaves),
+            dispatch,
         ));
     }
 
@@ -345,6 +356,8 @@ impl SelfContactBuffers {
         steps: &mut Vec<Step>,
     ) {
         let t = &self.tree;
+        // No collider has listed a possibly sharp triangle yet.
+        steps.push(empty_dispatch(self.features_found));
         steps.push(Step::run_with(
             "self: cloth bounds",
             &SELF_SCENE_BOUNDS,
@@ -464,7 +477,7 @@ impl SelfContactBuffers {
     /// A pass, after the collider's response of the substep it ends: refit to the triangles
     /// swept since the last pass; `features` (the colliders' vertices and edges against the
     /// cloth: vertex corrections into the pass's sums, edge pushes applied at once and the tree
-    /// refit again); then the pairs, and the mean of all corrections applied (which records the
+    /// refit again, in a frame whose colliders listed a possibly sharp triangle); then the pairs, and the mean of all corrections applied (which records the
     /// next pass's start). The pairs sweep the pushes with the rest of the pass's motion, so a
     /// push through a layer of cloth is a crossing they undo.
     pub fn substep_steps(
@@ -476,7 +489,16 @@ impl SelfContactBuffers {
     ) {
         let t = &self.tree;
         let span = substep_span(from, to + 1, substeps);
-        self.triangle_bounds(cloth, span, lists && features.is_empty(), steps);
+        if lists {
+            steps.push(empty_dispatch(self.walk_args));
+        }
+        // With features, the walkers are found after their pushes when those can move particles.
+        let find = match (lists, features.is_empty()) {
+            (false, _) => 0,
+            (true, true) => FIND_WALKERS,
+            (true, false) => FIND_WALKERS_UNLESS_FEATURES,
+        };
+        self.triangle_bounds(cloth, (span, find), Dispatch::Threads(t.leaves), steps);
         steps.extend(t.refit_sorted_steps());
         steps.push(Step::fill(self.delta, 0));
         steps.push(Step::fill(self.velocity_changes, 0));
@@ -491,8 +513,11 @@ impl SelfContactBuffers {
                 vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.pushes.id()],
                 Dispatch::Threads(self.particles),
             ));
-            self.triangle_bounds(cloth, span, lists, steps);
-            steps.extend(t.refit_sorted_steps());
+            // The pushes move particles only when a collider listed a possibly sharp triangle
+            // this frame: then the boxes and the walkers after them, and the tree refit to them.
+            let find = if lists { FIND_WALKERS } else { 0 };
+            self.triangle_bounds(cloth, (span, find), Dispatch::Indirect(self.features_found), steps);
+            steps.extend(t.refit_sorted_again_steps(self.features_found));
         }
         if lists {
             self.listed_and_walked(cloth, steps);
