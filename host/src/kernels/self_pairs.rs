@@ -8,8 +8,8 @@ use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::PairResponse;
 use drape_kernels::self_contact::self_triangle_contact_at;
 use drape_kernels::self_pairs::{
-    LIST_OVERFLOWED, WALK_THREADS, cloth_triangle_bounds_at, count_full_list, escaped_at,
-    list_self_pairs_at, finds_walkers, listed_self_pairs_at, note_escape, note_pair_motion, triangle_start_at, walk_self_pairs_at,
+    LIST_OVERFLOWED, WALK_THREADS, cloth_triangle_bounds_at, count_full_list, escaped_at, finds_walkers,
+    list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion, triangle_start_at, walk_self_pairs_at,
 };
 use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfPassPush};
 use glam::{UVec4, Vec4};

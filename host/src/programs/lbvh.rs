@@ -138,7 +138,12 @@ impl LbvhBuffers {
     }
 
     /// The refit of `aabbs` to `leaf_bounds` (its flags zeroed before).
-    fn refit_step(&self, label: &'static str, (leaf_bounds, aabbs): (Handle<Aabb>, Handle<Aabb>), dispatch: Dispatch) -> Step {
+    fn refit_step(
+        &self,
+        label: &'static str,
+        (leaf_bounds, aabbs): (Handle<Aabb>, Handle<Aabb>),
+        dispatch: Dispatch,
+    ) -> Step {
         Step::run(
             label,
             &REFIT,

@@ -24,7 +24,8 @@ use crate::kernels::self_pairs::{
 };
 use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
 use drape_kernels::self_pairs::{
-    ANCHOR_WORDS, FIND_WALKERS, FIND_WALKERS_UNLESS_FEATURES, LIST_ENTRY_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS};
+    ANCHOR_WORDS, FIND_WALKERS, FIND_WALKERS_UNLESS_FEATURES, LIST_ENTRY_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS,
+};
 use drape_types::{Aabb, BroadPhasePush, ColliderParams, ContactPush, DispatchArgs, Health, SelfPassPush, SimParams};
 use std::collections::{HashMap, HashSet};
 use glam::{UVec4, Vec4};
@@ -477,9 +478,10 @@ impl SelfContactBuffers {
     /// A pass, after the collider's response of the substep it ends: refit to the triangles
     /// swept since the last pass; `features` (the colliders' vertices and edges against the
     /// cloth: vertex corrections into the pass's sums, edge pushes applied at once and the tree
-    /// refit again, in a frame whose colliders listed a possibly sharp triangle); then the pairs, and the mean of all corrections applied (which records the
-    /// next pass's start). The pairs sweep the pushes with the rest of the pass's motion, so a
-    /// push through a layer of cloth is a crossing they undo.
+    /// refit again, in a frame whose colliders listed a possibly sharp triangle); then the
+    /// pairs, and the mean of all corrections applied (which records the next pass's start).
+    /// The pairs sweep the pushes with the rest of the pass's motion, so a push through a layer
+    /// of cloth is a crossing they undo.
     pub fn substep_steps(
         &self,
         cloth: &SelfContactCloth,
