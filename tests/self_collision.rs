@@ -168,7 +168,7 @@ impl PileGraph {
 fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
     use drape::cpu::CpuExecutor;
     use drape::programs::self_contact::{SELF_TREE_REBUILD_FRAMES, SelfContactBuffers};
-    use drape_types::{Aabb, BvhNode, Health};
+    use drape_types::Health;
 
     let (thickness, friction) = (0.005, 0.5);
     let (cloth, ground) = small_pile(Some(thickness));
@@ -202,7 +202,7 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
         };
         cpu.upload(own.v, &predicted).unwrap();
         let mut steps = vec![];
-        s.frame_start_steps(&own, substeps, (true, rebuild), &mut steps);
+        s.frame_start_steps(&own, (substeps, substeps), (true, rebuild), &mut steps);
         cpu.run(&steps).unwrap();
         assert_lists_equal_brute_force(&cpu, &s, (t, n), (&owned, thickness), frame);
         // The tree walk of every triangle over the tree refit to the pass (the pass's boxes:
@@ -239,31 +239,129 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
                 walked += u64::from(walks);
                 listed += u64::from(t - walks);
             }
-            let (walk, walk_friction) = tree_walk.get_or_insert_with(|| {
-                let tree_nodes: Vec<BvhNode> = cpu.read(s.tree.nodes, t as usize - 1).unwrap();
-                let aabbs: Vec<Aabb> = cpu.read(s.tree.aabbs, t as usize - 1).unwrap();
-                let leaf_bounds: Vec<Aabb> = cpu.read(s.tree.sorted_bounds, t as usize).unwrap();
-                let sorted: Vec<glam::UVec4> = cpu.read(s.sorted, t as usize).unwrap();
-                let (mut walk, mut walk_friction) = (vec![0u32; words], vec![0u32; words]);
-                for leaf in 0..t {
-                    let tree = (tree_nodes.as_slice(), aabbs.as_slice(), leaf_bounds.as_slice(), sorted.as_slice());
-                    let out = PairResponse {
-                        thickness,
-                        friction,
-                        v: &v,
-                        delta: &mut walk,
-                        velocity_changes: &mut walk_friction,
-                    };
-                    assert!(!self_triangle_contact_at(leaf, &c, tree, &owned, (&x, &before), out), "stack overflow");
-                }
-                (walk, walk_friction)
-            });
+            let (walk, walk_friction) =
+                tree_walk.get_or_insert_with(|| tree_walk_corrections(&cpu, &s, &c, &owned, (&x, &before, &v)));
             assert_eq!(&found, walk, "frame {frame}, features {features:?}: corrections");
             assert_eq!(&found_friction, walk_friction, "frame {frame}, features {features:?}: friction");
         }
     }
     println!("exact prediction {exact_prediction}: triangle-passes {listed} from lists, {walked} walked");
     (listed, walked)
+}
+
+/// Every triangle's pairs in a pass from `before` to `x` (velocities `v`) by the tree walk of
+/// every triangle, over the tree as the pass left it (refit to the pass's boxes): the summed
+/// corrections and friction.
+fn tree_walk_corrections(
+    cpu: &drape::cpu::CpuExecutor,
+    s: &drape::programs::self_contact::SelfContactBuffers,
+    c: &drape_types::ColliderParams,
+    owned: &[u32],
+    (x, before, v): (&[Vec4], &[Vec4], &[Vec4]),
+) -> (Vec<u32>, Vec<u32>) {
+    use drape_types::{Aabb, BvhNode};
+    let (t, words) = (c.leaf_count as usize, 4 * x.len());
+    let tree_nodes: Vec<BvhNode> = cpu.read(s.tree.nodes, t - 1).unwrap();
+    let aabbs: Vec<Aabb> = cpu.read(s.tree.aabbs, t - 1).unwrap();
+    let leaf_bounds: Vec<Aabb> = cpu.read(s.tree.sorted_bounds, t).unwrap();
+    let sorted: Vec<glam::UVec4> = cpu.read(s.sorted, t).unwrap();
+    let (mut walk, mut walk_friction) = (vec![0u32; words], vec![0u32; words]);
+    for leaf in 0..c.leaf_count {
+        let tree = (tree_nodes.as_slice(), aabbs.as_slice(), leaf_bounds.as_slice(), sorted.as_slice());
+        let out = PairResponse {
+            thickness: c.thickness,
+            friction: c.friction,
+            v,
+            delta: &mut walk,
+            velocity_changes: &mut walk_friction,
+        };
+        assert!(!self_triangle_contact_at(leaf, c, tree, owned, (x, before), out), "stack overflow");
+    }
+    (walk, walk_friction)
+}
+
+/// Lists built again within a frame (`SelfContactBuffers::window_start_steps`) find the pairs
+/// the tree walk finds, as the frame's do: over the small pile, two consecutive solver frames
+/// make the two windows of one frame of twice the substeps. The frame's start anchors the
+/// particles over the first window; one pass spans it; the lists are built again from where the
+/// cloth is then, over the second window (each particle's frame start kept for the fail-safe);
+/// one pass spans that. Each pass's corrections and friction equal the tree walk's word for
+/// word, and both windows' lists equal the bound's choice without the tree.
+#[test]
+fn lists_built_within_a_frame_find_the_pairs_the_tree_walk_finds() {
+    use drape::cpu::CpuExecutor;
+    use drape::programs::self_contact::{SELF_TREE_REBUILD_FRAMES, SelfContactBuffers};
+    use drape_kernels::self_failsafe::frame_start_of;
+    use drape_kernels::self_pairs::ANCHOR_WORDS;
+    use drape_types::Health;
+
+    let (thickness, friction) = (0.005, 0.5);
+    let (cloth, ground) = small_pile(Some(thickness));
+    let owned = owned_primitives(&cloth.triangles);
+    let settings = SimSettings::default();
+    let model = Model::single(&cloth, std::slice::from_ref(&ground), settings).unwrap();
+    let mut sim = CpuSolver::new(&model).unwrap();
+    let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
+    let gravity = Vec4::new(0.0, -9.81, 0.0, 0.0);
+    let PileGraph { resources, own, s, params, substeps } = PileGraph::new(&cloth, settings.frame_dt, gravity);
+    let c = SelfContactBuffers::params(t, thickness, friction);
+    let words = 4 * n as usize;
+    let (mut listed, mut walked) = (0u64, 0u64);
+    let mut cpu = CpuExecutor::new(&resources);
+    let state = |sim: &CpuSolver| (sim.positions(CLOTH).unwrap(), sim.velocities(CLOTH).unwrap());
+    for frame in 1..=30u32 {
+        let (x0, v0) = state(&sim);
+        sim.step().unwrap();
+        let (x1, v1) = state(&sim);
+        sim.step().unwrap();
+        let (x2, v2) = state(&sim);
+        let rebuild = (frame - 1) % SELF_TREE_REBUILD_FRAMES == 0;
+        cpu.upload(own.params, &[params]).unwrap();
+        cpu.upload(own.indices, cloth.triangles.as_flattened()).unwrap();
+        cpu.upload(s.owned, &owned).unwrap();
+        cpu.upload(s.tree.collider, &[c]).unwrap();
+        cpu.upload(own.health, &[Health::default()]).unwrap();
+        cpu.upload(own.x, &x0).unwrap();
+        cpu.upload(own.v, &v0).unwrap();
+        let mut steps = vec![];
+        s.frame_start_steps(&own, (substeps, 2 * substeps), (true, rebuild), &mut steps);
+        cpu.run(&steps).unwrap();
+        assert_lists_equal_brute_force(&cpu, &s, (t, n), (&owned, thickness), frame);
+        for (window, (before, x, v)) in [(&x0, &x1, &v1), (&x1, &x2, &v2)].into_iter().enumerate() {
+            let from = window as u32 * substeps;
+            if window == 1 {
+                // The second window starts where the first one's solver frame ended.
+                cpu.upload(own.x, before).unwrap();
+                cpu.upload(own.v, &v1).unwrap();
+                let mut steps = vec![];
+                s.window_start_steps(&own, (substeps, 2 * substeps), &mut steps);
+                cpu.run(&steps).unwrap();
+                assert_lists_equal_brute_force(&cpu, &s, (t, n), (&owned, thickness), frame);
+                let anchors: Vec<Vec4> = cpu.read(s.anchors, (ANCHOR_WORDS * n) as usize).unwrap();
+                for i in 0..n {
+                    assert_eq!(frame_start_of(&anchors, i), x0[i as usize].truncate(), "frame {frame}: start of {i}");
+                }
+            }
+            cpu.upload(own.x, x).unwrap();
+            cpu.upload(own.v, v).unwrap();
+            cpu.upload(s.start, before).unwrap();
+            cpu.upload(own.health, &[Health::default()]).unwrap();
+            let mut steps = vec![];
+            let span = (from, from + substeps - 1, 2 * substeps);
+            s.windowed_substep_steps(&own, (span, (from, substeps), true), vec![], &mut steps);
+            cpu.run(&steps).unwrap();
+            let (found, found_friction) =
+                (cpu.read(s.delta, words).unwrap(), cpu.read(s.velocity_changes, words).unwrap());
+            let health: Health = cpu.read(own.health, 1).unwrap()[0];
+            let walks = health.self_walks + health.self_full_lists;
+            (walked, listed) = (walked + u64::from(walks), listed + u64::from(t - walks));
+            let (walk, walk_friction) = tree_walk_corrections(&cpu, &s, &c, &owned, (x, before, v));
+            assert_eq!(found, walk, "frame {frame}, window {window}: corrections");
+            assert_eq!(found_friction, walk_friction, "frame {frame}, window {window}: friction");
+        }
+    }
+    println!("windows: triangle-passes {listed} from lists, {walked} walked");
+    assert!(listed > 0 && walked > listed / 20, "both paths must run ({listed} listed, {walked} walked)");
 }
 
 /// Every leaf's list (the frame's tree over start boxes and motion boxes, walked with the
@@ -1007,7 +1105,7 @@ fn the_layers_friction_changes_at_run_time() {
 #[test]
 fn the_failsafe_check_through_the_tree_finds_what_brute_force_finds() {
     use drape_kernels::self_failsafe::{Found, Walkers, check_frame_at, check_frame_brute_force_at};
-    use drape_kernels::self_pairs::ANCHOR_WORDS;
+    use drape_kernels::self_pairs::{ANCHOR_WORDS, FRAME_START_WORD};
 
     let (cloth, ground) = small_pile(Some(0.005));
     let model = Model::single(&cloth, std::slice::from_ref(&ground), SimSettings::default()).unwrap();
@@ -1025,7 +1123,7 @@ fn the_failsafe_check_through_the_tree_finds_what_brute_force_finds() {
         }
         let mut anchors = vec![Vec4::ZERO; ANCHOR_WORDS as usize * n];
         for (i, p) in before.iter().enumerate() {
-            anchors[ANCHOR_WORDS as usize * i] = p.truncate().extend(0.0);
+            anchors[(ANCHOR_WORDS * i as u32 + FRAME_START_WORD) as usize] = p.truncate().extend(0.0);
         }
         let (params, tree, sorted) = swept_tree(&cloth, &before, &x);
         let (mut walked, mut brute) = (vec![0u32; n], vec![0u32; n]);
@@ -1071,7 +1169,7 @@ fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
     let gravity = Vec4::new(0.0, -9.81, 0.0, 0.0);
     let PileGraph { resources, own, s, params, substeps } = PileGraph::new(&cloth, settings.frame_dt, gravity);
     let mut steps = vec![];
-    s.frame_start_steps(&own, substeps, (true, true), &mut steps);
+    s.frame_start_steps(&own, (substeps, substeps), (true, true), &mut steps);
     let start_steps = steps;
     let mut steps = vec![];
     s.failsafe.frame_end_steps((&s, &own), true, &[], &mut steps);

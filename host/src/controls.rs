@@ -109,6 +109,8 @@ pub(crate) struct ClothControl {
     /// The shortest height of the cloth's triangles at the start: whether pair lists pay at
     /// the thickness (`self_contact::lists_pay`).
     shortest_height: f32,
+    /// The cloth's triangles (what its walked share is of).
+    triangles: u32,
     pub motion: ClothMotion,
     params_dirty: bool,
     /// The self-collision's thickness or friction changed since the GPU last had them.
@@ -166,7 +168,9 @@ fn plan_of(settings: &SimSettings, c: &ClothControl) -> FramePlan {
     // the passes its last frame's motion asks for.
     let passes = (!c.motion.self_contact).then_some(c.motion.self_passes);
     let plan = settings.plan(&c.params, &c.stability, c.motion.asleep, passes);
-    FramePlan { self_lists: c.self_lists(), self_rebuild: c.self_tree.rebuild, ..plan }
+    let self_lists = c.self_lists();
+    let self_windows = if self_lists && c.motion.list_windows && settings.self_list_windows { 2 } else { 1 };
+    FramePlan { self_lists, self_windows, self_rebuild: c.self_tree.rebuild, ..plan }
 }
 
 fn invalid(name: &'static str, problem: String) -> Error {
@@ -187,13 +191,14 @@ fn non_negative(name: &'static str, values: &[f32]) -> Result<()> {
 /// What a cloth starts with: its resolved parameters, its stability bound's choice and inputs,
 /// and its self-collision thickness and friction between its layers (`None`: off) with its
 /// triangles' shortest height.
-pub(crate) type ClothStart = (SimParams, Stability, BoundInputs, Option<(f32, f32)>, f32);
+/// The last element: the cloth's triangles' shortest height and their count.
+pub(crate) type ClothStart = (SimParams, Stability, BoundInputs, Option<(f32, f32)>, (f32, u32));
 
 impl Controls {
     pub fn new(cloths: Vec<ClothStart>, settings: SimSettings, colliders: Vec<ColliderStart>) -> Self {
         let cloths = cloths
             .into_iter()
-            .map(|(params, stability, bound, self_collision, shortest_height)| ClothControl {
+            .map(|(params, stability, bound, self_collision, (shortest_height, triangles))| ClothControl {
                 params,
                 stability,
                 base_stability: stability,
@@ -201,6 +206,7 @@ impl Controls {
                 self_collision: self_collision.map(|(thickness, _)| thickness),
                 self_friction: self_collision.map_or(0.0, |(_, friction)| friction),
                 shortest_height,
+                triangles,
                 motion: ClothMotion::new(),
                 params_dirty: false,
                 self_dirty: false,
@@ -320,11 +326,19 @@ impl Controls {
                      crossing its rounds could not undo by parts); it lost the frame's motion"
                 );
             }
-            let self_contact = c.motion.self_contact;
+            let (self_contact, windows) = (c.motion.self_contact, c.motion.list_windows);
             let pairs_listed = c.self_lists();
-            c.motion.observe(health, (substep, c.stability.substeps), sleep, pairs_listed);
-            // Its passes follow whether it touches itself.
-            self.replan |= c.self_collision.is_some() && c.motion.self_contact != self_contact;
+            // The share of the frame's triangle-passes that walked the tree (with lists): the
+            // escaped triangles' and the full lists' (which walk at every pass).
+            let passes = plan_of(&self.settings, c).self_passes.max(1);
+            let walked = pairs_listed.then(|| {
+                let walks = health.self_walks as f32 + health.self_full_lists as f32 * passes as f32;
+                walks / (c.triangles.max(1) as f32 * passes as f32)
+            });
+            c.motion.observe(health, (substep, c.stability.substeps), sleep, (pairs_listed, walked, passes));
+            // Its passes follow whether it touches itself; its lists' windows, how much walked.
+            self.replan |= c.self_collision.is_some()
+                && (c.motion.self_contact != self_contact || c.motion.list_windows != windows);
         }
     }
 

@@ -196,7 +196,8 @@ fn run(args: &Args) -> drape::Result<()> {
         .with_contact_substeps(args.contact_substeps == OnOff::On)
         .with_sleep((args.sleep > 0.0).then(|| drape::Sleep { speed: args.sleep, ..drape::Sleep::default() }))
         .with_tile_sleep(args.tile_sleep == OnOff::On)
-        .with_self_failsafe(args.self_failsafe == OnOff::On);
+        .with_self_failsafe(args.self_failsafe == OnOff::On)
+        .with_self_list_windows(args.self_list_windows == OnOff::On);
     let search = match (args.brute_force, args.search) {
         (true, _) | (_, SearchArg::BruteForce) => ContactSearch::BruteForce,
         (_, SearchArg::Lists) => ContactSearch::CandidateLists,

@@ -40,6 +40,14 @@ pub const LOWER_AFTER: u32 = 30;
 /// (pile, pile 48, garment, swing, bunny, dragon, icosphere).
 pub const MIN_SELF_PASSES: u32 = 2;
 
+/// The fewest passes a frame with its lists built twice runs (`ClothMotion::list_windows`):
+/// each list build costs about two passes' walks of every triangle.
+pub const WINDOW_PASSES: u32 = 4;
+/// The share of a frame's triangle-passes that walked the tree above which its next frames
+/// build their lists twice, and below which they stop (`ClothMotion::list_windows`).
+pub const WINDOWS_ON: f32 = 0.2;
+pub const WINDOWS_OFF: f32 = 0.05;
+
 /// When a still cloth sleeps.
 #[derive(Copy, Clone, Debug, PartialEq)]
 pub struct Sleep {
@@ -102,6 +110,12 @@ pub struct ClothMotion {
     /// next runs a self-collision pass every substep, since each pass is also an iteration of
     /// the contacts (a settled, stiff pile crossed itself with 5 passes in 18 substeps).
     pub(crate) self_contact: bool,
+    /// The frame's self-collision lists are built twice, the second time after the pass
+    /// halfway through it (`FramePlan::self_windows`): on once the triangles that walked the
+    /// tree (they left the region their lists predicted) reach `WINDOWS_ON` of the
+    /// triangle-passes in a frame of at least `WINDOW_PASSES` passes, off once they fall under
+    /// `WINDOWS_OFF` (the windows themselves lower it) or the passes do.
+    pub(crate) list_windows: bool,
     /// Where the sleeping cloth lies (its particles' box), when the solver could read it: a
     /// collider moving outside it (grown by the contact reach) does not wake the cloth.
     pub(crate) resting_bounds: Option<(Vec3, Vec3)>,
@@ -194,11 +208,21 @@ impl ClothMotion {
         health: &Health,
         (substep, substeps): (f32, u32),
         sleep: Option<Sleep>,
-        pairs_listed: bool,
+        (pairs_listed, walked, passes): (bool, Option<f32>, u32),
     ) {
         if self.asleep {
             return; // a sleeping frame ran nothing; its health is the last awake frame's
         }
+        self.list_windows = match walked {
+            Some(share) if passes >= WINDOW_PASSES => {
+                if self.list_windows {
+                    share >= WINDOWS_OFF
+                } else {
+                    share >= WINDOWS_ON
+                }
+            }
+            _ => false,
+        };
         self.last_speed = max_speed(health);
         self.feature_push = f32::from_bits(health.collider_feature_push_bits);
         self.substeps_run = substeps;
@@ -326,21 +350,21 @@ mod tests {
     #[test]
     fn fast_motion_raises_substeps_at_once_and_lowers_them_slowly() {
         let mut m = ClothMotion::new();
-        m.observe(&health(2.9), (H, 10), None, false);
+        m.observe(&health(2.9), (H, 10), None, (false, None, 10));
         // 2.9 m/s over 1/60 s is 48 mm: ten 5 mm substeps.
         assert_eq!(
             m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None),
             Change { substeps: true, sleep: false }
         );
         assert_eq!(m.contact_substeps, 10);
-        m.observe(&health(0.1), (H, 10), None, false);
+        m.observe(&health(0.1), (H, 10), None, (false, None, 10));
         for _ in 1..LOWER_AFTER {
             assert!(!m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None).substeps);
         }
         assert!(m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None).substeps);
         assert_eq!(m.contact_substeps, 1);
         // Without contact, motion needs nothing.
-        m.observe(&health(100.0), (H, 10), None, false);
+        m.observe(&health(100.0), (H, 10), None, (false, None, 10));
         m.plan_frame(Proximity::default(), (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 1);
     }
@@ -357,15 +381,15 @@ mod tests {
         let mut h = health(20.0);
         h.self_pair_motion_bits = 0.038f32.to_bits();
         h.self_pair_approach_bits = 0.018f32.to_bits();
-        m.observe(&h, (H, 10), None, true);
+        m.observe(&h, (H, 10), None, (true, None, 10));
         m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 4);
         // Touching itself (a correction in the frame): the whole 38 mm, eight substeps.
-        m.observe(&Health { self_contacts: 1, ..h }, (H, 10), None, true);
+        m.observe(&Health { self_contacts: 1, ..h }, (H, 10), None, (true, None, 10));
         m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 8);
         // Without lists: the fastest particle, 20 m/s over 1/60 s (333 mm), stopped at 20.
-        m.observe(&h, (H, 10), None, false);
+        m.observe(&h, (H, 10), None, (false, None, 10));
         m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 20);
         // A sphere collider's contact is not limited: 67 substeps.
@@ -387,17 +411,17 @@ mod tests {
         };
         let mut m = ClothMotion::new();
         // Pairs closing 40 mm over the frame: eight 5 mm passes, and as many substeps.
-        m.observe(&closing(0.04), (H, 10), None, true);
+        m.observe(&closing(0.04), (H, 10), None, (true, None, 10));
         let change = m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
         assert!(change.substeps, "{change:?}");
         assert_eq!((m.contact_substeps, m.self_passes), (8, 8));
         // Then 10 mm: two passes at once; the substeps stay.
-        m.observe(&closing(0.01), (H, 10), None, true);
+        m.observe(&closing(0.01), (H, 10), None, (true, None, 10));
         let change = m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
         assert!(!change.substeps, "{change:?}");
         assert_eq!((m.contact_substeps, m.self_passes), (8, 2));
         // Then 60 mm: twelve at once, both.
-        m.observe(&closing(0.06), (H, 10), None, true);
+        m.observe(&closing(0.06), (H, 10), None, (true, None, 10));
         let change = m.plan_frame(self_only, (0.0, false), 1.0 / 60.0, None);
         assert!(change.substeps, "{change:?}");
         assert_eq!((m.contact_substeps, m.self_passes), (12, 12));
@@ -412,22 +436,22 @@ mod tests {
         let pushed = |push: f32| Health { collider_feature_push_bits: push.to_bits(), ..health(0.1) };
         let mut m = ClothMotion::new();
         // A push of 2.25 thicknesses at 10 substeps: 15 keep it within one.
-        m.observe(&pushed(2.25), (H, 10), None, true);
+        m.observe(&pushed(2.25), (H, 10), None, (true, None, 10));
         assert!(m.plan_frame(features, (0.0, false), 1.0 / 60.0, None).substeps);
         assert_eq!(m.contact_substeps, 15);
         // 25 thicknesses at 10 substeps would take 50: stopped at the limit.
-        m.observe(&pushed(25.0), (H, 10), None, true);
+        m.observe(&pushed(25.0), (H, 10), None, (true, None, 10));
         m.plan_frame(features, (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 40);
         // Within the thickness at 40 substeps (0.64): 32 keep it, once enough frames needed fewer.
-        m.observe(&pushed(0.64), (H, 40), None, true);
+        m.observe(&pushed(0.64), (H, 40), None, (true, None, 10));
         for _ in 0..LOWER_AFTER {
             m.plan_frame(features, (0.0, false), 1.0 / 60.0, None);
         }
         assert_eq!(m.contact_substeps, 32);
         // Without collider features tested, the push asks for nothing.
         let mut m = ClothMotion::new();
-        m.observe(&pushed(25.0), (H, 10), None, true);
+        m.observe(&pushed(25.0), (H, 10), None, (true, None, 10));
         m.plan_frame(Proximity::default(), (0.0, false), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 1);
     }
@@ -446,7 +470,7 @@ mod tests {
     #[test]
     fn a_moving_collider_raises_substeps_for_its_features_up_to_their_limit() {
         let mut m = ClothMotion::new();
-        m.observe(&health(0.1), (H, 10), None, true);
+        m.observe(&health(0.1), (H, 10), None, (true, None, 10));
         m.plan_frame(feature_contact(0.0), (2.8, true), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 1);
         assert!(m.plan_frame(feature_contact(2.8), (2.8, true), 1.0 / 60.0, None).substeps);
@@ -463,12 +487,12 @@ mod tests {
         let sleep = Some(Sleep { speed: 0.01, frames: 3 });
         let mut m = ClothMotion::new();
         for _ in 0..3 {
-            m.observe(&health(0.001), (H, 10), sleep, false);
+            m.observe(&health(0.001), (H, 10), sleep, (false, None, 10));
             assert!(!m.plan_frame(Proximity::default(), (0.0, false), 1.0 / 60.0, sleep).sleep || m.asleep);
         }
         assert!(m.asleep);
         // A sleeping frame's (stale) health does not count.
-        m.observe(&health(5.0), (H, 10), sleep, false);
+        m.observe(&health(5.0), (H, 10), sleep, (false, None, 10));
         assert!(m.asleep);
         assert_eq!(
             m.plan_frame(Proximity::default(), (0.2, true), 1.0 / 60.0, sleep),
@@ -476,8 +500,27 @@ mod tests {
         );
         assert!(!m.asleep);
         // One fast frame restarts the count.
-        m.observe(&health(0.5), (H, 10), sleep, false);
+        m.observe(&health(0.5), (H, 10), sleep, (false, None, 10));
         m.plan_frame(Proximity::default(), (0.0, false), 1.0 / 60.0, sleep);
         assert!(!m.asleep);
+    }
+
+    /// Lists are built twice a frame once a fifth of a frame's triangle-passes walked the tree
+    /// (in a frame of at least `WINDOW_PASSES` passes), and once a frame until under a
+    /// twentieth walk, or the passes fall below it, or the frame ran no lists.
+    #[test]
+    fn list_windows_follow_the_walked_share_with_hysteresis() {
+        let mut m = ClothMotion::new();
+        let frame = |m: &mut ClothMotion, walked: Option<f32>, passes: u32| {
+            m.observe(&health(1.0), (H, 10), None, (walked.is_some(), walked, passes));
+            m.list_windows
+        };
+        assert!(!frame(&mut m, Some(0.19), 10));
+        assert!(!frame(&mut m, Some(0.5), WINDOW_PASSES - 1), "too few passes to split");
+        assert!(frame(&mut m, Some(WINDOWS_ON), WINDOW_PASSES));
+        assert!(frame(&mut m, Some(0.06), 10), "on until under WINDOWS_OFF");
+        assert!(!frame(&mut m, Some(0.049), 10));
+        assert!(frame(&mut m, Some(0.3), 10));
+        assert!(!frame(&mut m, None, 10), "a frame without lists");
     }
 }

@@ -53,7 +53,8 @@ impl SolverProgram {
             let (params, stability) = settings.resolve_params(&cloth.params, bound)?;
             let self_collision = cloth.self_collision.map(|thickness| (thickness, cloth.self_friction));
             let height = crate::programs::self_contact::shortest_height(&cloth.positions, &cloth.triangles);
-            resolved.push((params, stability, bound.clone(), self_collision, height));
+            let triangles = cloth.triangles.len() as u32;
+            resolved.push((params, stability, bound.clone(), self_collision, (height, triangles)));
         }
         let mut resources = Resources::new();
         let bytes = |data: &[glam::Vec4]| bytemuck::cast_slice::<_, u8>(data).to_vec();
@@ -182,6 +183,18 @@ impl SolverProgram {
     /// Every collider's refit (what a frame that deforms colliders may add).
     pub fn refit_steps(&self) -> Vec<Step> {
         self.colliders.iter().flat_map(|c| c.leaves.kind().refit_steps()).collect()
+    }
+
+    /// Each self-colliding cloth's lists built again within a frame (what a frame whose lists
+    /// have windows adds: `FramePlan::self_windows`).
+    pub fn self_window_steps(&self) -> Vec<Step> {
+        let mut steps = Vec::new();
+        for cloth in &self.cloths {
+            if let Some(s) = &cloth.self_contact {
+                s.window_start_steps(&cloth.self_contact_cloth(), (1, 1), &mut steps);
+            }
+        }
+        steps
     }
 
     /// Each cloth's status buffers in the order a frame's status is laid out: its health, then

@@ -57,6 +57,10 @@ pub struct SimSettings {
     /// not at the frame's start), and puts their particles back where the frame started
     /// (`drape_kernels::self_failsafe`); no effect on a cloth without self-collision.
     pub self_failsafe: bool,
+    /// A fast self-colliding cloth's pair lists are built again halfway through a frame
+    /// (`motion::ClothMotion::list_windows`): the same pairs, fewer of its triangles walking the
+    /// tree; off, once per frame.
+    pub self_list_windows: bool,
 }
 
 impl Default for SimSettings {
@@ -73,6 +77,7 @@ impl Default for SimSettings {
             sleep: Some(Sleep::default()),
             tile_sleep: true,
             self_failsafe: true,
+            self_list_windows: true,
         }
     }
 }
@@ -133,6 +138,11 @@ impl SimSettings {
     /// particles back).
     pub fn with_self_failsafe(mut self, on: bool) -> Self {
         self.self_failsafe = on;
+        self
+    }
+    /// Whether a fast self-colliding cloth's pair lists are built again within a frame.
+    pub fn with_self_list_windows(mut self, on: bool) -> Self {
+        self.self_list_windows = on;
         self
     }
     /// The sleep policy of a cloth's tiles (`None`: they do not sleep).
@@ -230,6 +240,7 @@ impl SimSettings {
             asleep,
             self_passes,
             self_lists: false,
+            self_windows: 1,
             self_rebuild: true,
             self_failsafe: self.self_failsafe,
         }

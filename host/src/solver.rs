@@ -92,7 +92,7 @@ impl Solver {
         } else {
             Some(engine.record(&program.build_steps(), true)?.submit()?)
         };
-        let bindings = engine.bind(&[&program.frame, &program.refit_steps()])?;
+        let bindings = engine.bind(&[&program.frame, &program.refit_steps(), &program.self_window_steps()])?;
         let frame_commands = engine.encode(&bindings, &program.frame)?;
         let settings = controls.settings;
         let frame = RecordedFrame::new(ctx, bindings, &frame_commands, settings.timestamps)?;

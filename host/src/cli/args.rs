@@ -147,6 +147,12 @@ pub(crate) struct Args {
     /// through itself or a spike through the cloth (off: the passes alone, for comparison).
     #[arg(long, value_enum, default_value = "on")]
     pub(crate) self_failsafe: OnOff,
+    /// With `--self-collision on`, build the pair lists of a cloth that outruns them again
+    /// halfway through a frame (once a fifth of a frame's triangles walked the tree, having left
+    /// the regions the lists predicted): the same pairs, fewer walks (off: once per frame, for
+    /// comparison).
+    #[arg(long, value_enum, default_value = "on")]
+    pub(crate) self_list_windows: OnOff,
     /// Raise automatic substeps so no particle moves more than the contact thickness per
     /// substep (from the last frame's fastest particle and the colliders' motion; for
     /// self-collision, from its fastest pair of primitives that may touch, to at most twice the

@@ -19,7 +19,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 50] = [
+pub const ALL: [&Kernel; 51] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::NORMALS_AND_HEALTH,
@@ -27,6 +27,7 @@ pub const ALL: [&Kernel; 50] = [
     &normals::CHECK_HEALTH,
     &normals::CHECK_HEALTH_SPRINGS,
     &self_contact::SELF_SCENE_BOUNDS,
+    &self_pairs::ANCHOR_WINDOW,
     &self_pairs::CLOTH_TRIANGLE_STARTS,
     &self_pairs::CLOTH_TRIANGLE_BOUNDS,
     &self_contact::GATHER_CLOTH_TRIANGLES,

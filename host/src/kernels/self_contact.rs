@@ -13,7 +13,7 @@ use drape_kernels::self_contact::{
 };
 use drape_kernels::self_pairs::anchor_particles;
 use drape_types::{
-    Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, ContactPush, DispatchArgs, Health, SimParams,
+    Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, DispatchArgs, Health, SelfAnchorPush, SimParams,
 };
 use glam::{UVec4, Vec4};
 
@@ -27,10 +27,10 @@ const fn spec(entry: &'static str, bindings: &'static [BindingSpec], workgroup_s
     KernelSpec { entry, bindings, push_constant_size: 0, workgroup_size }
 }
 
-/// One workgroup: every particle's anchor for the frame (`self_pairs::anchor_at`), their
-/// bounds (at their starts and predicted ends) grown by the thickness as the tree's Morton box;
-/// and the positions copied to where the frame's first pass sweeps from. Push constants:
-/// `BroadPhasePush` (the frame's substeps).
+/// One workgroup: every particle's anchor for the frame's first window (`self_pairs::anchor_at`),
+/// their bounds (at their starts and predicted ends over the frame) grown by the thickness as the
+/// tree's Morton box; and the positions copied to where the frame's first pass sweeps from. Push
+/// constants: `SelfAnchorPush` (the window's substeps and the frame's).
 pub static SELF_SCENE_BOUNDS: Kernel = Kernel {
     spec: KernelSpec {
         entry: "self_contact::self_scene_bounds",
@@ -43,7 +43,7 @@ pub static SELF_SCENE_BOUNDS: Kernel = Kernel {
             write("start"),
             write("anchors"),
         ],
-        push_constant_size: size_of::<BroadPhasePush>() as u32,
+        push_constant_size: size_of::<SelfAnchorPush>() as u32,
         workgroup_size: SCENE_THREADS,
     },
     cpu: scene_cpu,
@@ -131,19 +131,19 @@ pub static APPLY_COLLIDER_PUSHES: Kernel = Kernel {
 
 /// The lanes' bounds reduced (min/max is exact in any order), as the kernel does.
 fn scene_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
-    let push: BroadPhasePush = d.push_as();
+    let push: SelfAnchorPush = d.push_as();
     let [params, x, v, indices, self_params, start, anchors] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = self_params.first()?;
     let triangles = c.leaf_count;
-    let frame = frame_of(&p, &c, &push);
+    let spans = (frame_of(&p, &c, push.window_substeps), frame_of(&p, &c, push.frame_substeps));
     for lane in 0..SCENE_THREADS {
         copy_start(x.slice(), start.slice_mut(), p.particle_count, lane, SCENE_THREADS);
     }
     let (x, v, anchors) = (x.slice::<Vec4>(), v.slice::<Vec4>(), anchors.slice_mut::<Vec4>());
     let bounds = (0..SCENE_THREADS)
         .map(|lane| {
-            let mut own = anchor_particles((x, v), frame, anchors, p.particle_count, (lane, SCENE_THREADS));
+            let mut own = anchor_particles((x, v), spans, anchors, p.particle_count, (lane, SCENE_THREADS));
             own.max.w = longest_edge2(x, indices.slice(), triangles, lane, SCENE_THREADS);
             own
         })

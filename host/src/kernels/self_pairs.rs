@@ -6,12 +6,16 @@ use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::PairResponse;
+use drape_kernels::self_contact::frame_of;
 use drape_kernels::self_contact::self_triangle_contact_at;
 use drape_kernels::self_pairs::{
-    LIST_OVERFLOWED, WALK_THREADS, cloth_triangle_bounds_at, count_full_list, escaped_at, finds_walkers,
-    list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion, triangle_start_at, walk_self_pairs_at,
+    LIST_OVERFLOWED, WALK_THREADS, anchor_window_at, cloth_triangle_bounds_at, count_full_list, escaped_at,
+    finds_walkers, list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion, triangle_start_at,
+    walk_self_pairs_at,
 };
-use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfPassPush};
+use drape_types::{
+    Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
+};
 use glam::{UVec4, Vec4};
 
 const fn read(name: &'static str) -> BindingSpec {
@@ -19,6 +23,31 @@ const fn read(name: &'static str) -> BindingSpec {
 }
 const fn write(name: &'static str) -> BindingSpec {
     BindingSpec::write(name)
+}
+
+/// Each particle's prediction over a window of the frame that starts now (its frame start
+/// stays); push constants: `SelfAnchorPush` (the window's substeps).
+pub static ANCHOR_WINDOW: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pairs::anchor_window",
+        bindings: &[read("params"), read("self_params"), read("x"), read("v"), write("anchors")],
+        push_constant_size: size_of::<SelfAnchorPush>() as u32,
+        workgroup_size: WORKGROUP_SIZE,
+    },
+    cpu: window_cpu,
+};
+
+fn window_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: SelfAnchorPush = d.push_as();
+    let threads = d.invocations();
+    let [params, self_params, x, v, anchors] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let frame = frame_of(&p, &self_params.first::<ColliderParams>()?, push.window_substeps);
+    let (x, v, anchors) = (x.slice::<Vec4>(), v.slice::<Vec4>(), anchors.slice_mut::<Vec4>());
+    for i in 0..threads.min(p.particle_count) {
+        anchor_window_at(i, (x, v), frame, anchors);
+    }
+    Ok(())
 }
 
 /// Each triangle's box at the frame's start, its corners grown by their slops (the frame's
@@ -78,7 +107,7 @@ pub static LIST_SELF_PAIRS: Kernel = Kernel {
             write("counts"),
             write("health"),
         ],
-        push_constant_size: 0,
+        push_constant_size: size_of::<SelfListPush>() as u32,
         workgroup_size: CONTACT_THREADS,
     },
     cpu: lists_cpu,
@@ -212,9 +241,22 @@ fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 }
 
 fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: SelfListPush = d.push_as();
     let threads = d.invocations();
-    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, anchors, motion_aabbs, leaf_motions, lists, counts, health] =
-        d.bindings()?;
+    let [
+        self_params,
+        nodes,
+        aabbs,
+        leaf_bounds,
+        sorted,
+        owned,
+        anchors,
+        motion_aabbs,
+        leaf_motions,
+        lists,
+        counts,
+        health,
+    ] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let (owned, anchors) = (owned.slice::<u32>(), anchors.slice::<Vec4>());
@@ -224,7 +266,7 @@ fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     for leaf in 0..threads.min(c.leaf_count) {
         let (_, motion) = list_self_pairs_at(leaf, &c, tree, motions, owned, anchors, (&mut *lists, &mut *counts));
         count_full_list(leaf, counts, health);
-        note_pair_motion(motion, health);
+        note_pair_motion(motion.per_frame(push.to_frame), health);
     }
     Ok(())
 }
@@ -270,7 +312,8 @@ fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn walk_all_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, x, x_prev, v, delta, velocity_changes] = d.bindings()?;
+    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, x, x_prev, v, delta, velocity_changes] =
+        d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let owned = owned.slice::<u32>();

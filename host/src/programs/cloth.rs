@@ -2,7 +2,7 @@
 //! vertex normals and the blow-up check.
 
 use super::contact::{CONTACT_LABEL, ColliderBuffers, ContactBuffers, EULER_UPDATE_CONTACT_LABEL, RK4_UPDATE_CONTACT_LABEL};
-use super::self_contact::{SelfContactBuffers, SelfContactCloth, pass_due};
+use super::self_contact::{SelfContactBuffers, SelfContactCloth, pass_due, window_ends};
 use super::tiles::TileBuffers;
 use crate::cloth::{Cloth, ClothTopology};
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
@@ -90,7 +90,7 @@ impl ClothBuffers {
     }
 
     /// What the self-collision passes bind of this cloth.
-    fn self_contact_cloth(&self) -> SelfContactCloth {
+    pub fn self_contact_cloth(&self) -> SelfContactCloth {
         SelfContactCloth { params: self.params, x: self.x, v: self.v, indices: self.indices, health: self.health }
     }
 
@@ -180,6 +180,10 @@ pub struct FramePlan {
     /// Self-collision tests the frame's pair lists (`self_contact::lists_pay`), or walks the
     /// tree for every triangle at every pass.
     pub self_lists: bool,
+    /// The frame's self-collision lists are built this many times: at its start and again
+    /// after the pass that ends each window (`self_contact::window_ends`), each predicting over
+    /// its window (1: the whole frame).
+    pub self_windows: u32,
     /// The frame builds the self-collision tree anew (else it refits the last one:
     /// `self_contact::SELF_TREE_REBUILD_FRAMES`).
     pub self_rebuild: bool,
@@ -210,9 +214,12 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
         steps.push(Step::fill(contact.status, 0));
         contact.frame_start_steps(cloth, collider, plan.substeps, &mut steps);
     }
+    // The substeps whose passes end the self-collision lists' windows (the last: the frame's).
+    let window_ends = window_ends(plan.substeps, plan.self_passes, if plan.self_lists { plan.self_windows } else { 1 });
+    let mut window = (0, window_ends.first().map_or(plan.substeps, |end| end + 1));
     if let Some(s) = &cloth.self_contact {
         let tree = (plan.self_lists, plan.self_rebuild);
-        s.frame_start_steps(&cloth.self_contact_cloth(), plan.substeps, tree, &mut steps);
+        s.frame_start_steps(&cloth.self_contact_cloth(), (window.1, plan.substeps), tree, &mut steps);
         for (index, (collider, _)) in colliders.iter().enumerate() {
             s.sharp_feature_steps(collider, index, &mut steps);
         }
@@ -252,8 +259,14 @@ pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&Collide
                 .enumerate()
                 .filter_map(|(index, (collider, _))| s.collider_feature_step(&own, (collider, index), span))
                 .collect();
-            s.substep_steps(&own, (span, plan.self_lists), features, &mut steps);
+            s.windowed_substep_steps(&own, (span, window, plan.self_lists), features, &mut steps);
             pass_from = substep + 1;
+            // A window ends here and another follows: its lists, from where the cloth is now.
+            if window_ends.contains(&substep) && substep + 1 < plan.substeps {
+                let next_end = window_ends.iter().find(|&&end| end > substep).map_or(plan.substeps, |end| end + 1);
+                window = (substep + 1, next_end - (substep + 1));
+                s.window_start_steps(&own, (window.1, plan.substeps), &mut steps);
+            }
         }
         // A skipped pass is listed once, not once per substep.
         if colliders.is_empty() && substep == 0 {

@@ -19,14 +19,16 @@ use crate::kernels::self_contact::{
 };
 use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
 use crate::kernels::self_pairs::{
-    CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, SELF_TRIANGLE_CONTACT,
+    ANCHOR_WINDOW, CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, SELF_TRIANGLE_CONTACT,
     WALK_SELF_PAIRS,
 };
 use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
 use drape_kernels::self_pairs::{
     ANCHOR_WORDS, FIND_WALKERS, FIND_WALKERS_UNLESS_FEATURES, LIST_ENTRY_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS,
 };
-use drape_types::{Aabb, BroadPhasePush, ColliderParams, ContactPush, DispatchArgs, Health, SelfPassPush, SimParams};
+use drape_types::{
+    Aabb, ColliderParams, ContactPush, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
+};
 use std::collections::{HashMap, HashSet};
 use glam::{UVec4, Vec4};
 
@@ -226,6 +228,15 @@ pub fn pass_due(substep: u32, substeps: u32, passes: u32) -> bool {
     done(substep + 1) > done(substep)
 }
 
+/// The substeps whose passes end the windows of a frame of `substeps` substeps, `passes`
+/// passes and `windows` list builds (`FramePlan::self_windows`): the windows split the passes
+/// as evenly as they can, the last ending with the frame; a window holds at least one pass.
+pub fn window_ends(substeps: u32, passes: u32, windows: u32) -> Vec<u32> {
+    let due: Vec<u32> = (0..substeps).filter(|&s| pass_due(s, substeps, passes)).collect();
+    let windows = (windows.max(1) as usize).min(due.len().max(1));
+    (1..=windows).filter_map(|w| due.get((w * due.len()).div_ceil(windows).checked_sub(1)?).copied()).collect()
+}
+
 impl SelfContactBuffers {
     pub fn declare(resources: &mut Resources, name: &str, particles: u32, triangles: u32) -> Self {
         let name = format!("{name} self-collision");
@@ -352,7 +363,7 @@ impl SelfContactBuffers {
     pub fn frame_start_steps(
         &self,
         cloth: &SelfContactCloth,
-        substeps: u32,
+        (horizon, substeps): (u32, u32),
         (lists, rebuild): (bool, bool),
         steps: &mut Vec<Step>,
     ) {
@@ -371,7 +382,7 @@ impl SelfContactBuffers {
                 self.start.id(),
                 self.anchors.id(),
             ],
-            bytemuck::cast(BroadPhasePush { substeps, _pad: [0; 3] }),
+            bytemuck::cast(SelfAnchorPush { window_substeps: horizon, frame_substeps: substeps, _pad: [0; 2] }),
             Dispatch::Workgroups(1),
         ));
         let starts = Step::run(
@@ -380,7 +391,23 @@ impl SelfContactBuffers {
             vec![t.collider.id(), self.anchors.id(), cloth.indices.id(), t.bounds.id()],
             Dispatch::Threads(t.leaves),
         );
-        let gather = Step::run(
+        let gather = self.gather_step(cloth);
+        // A rebuilt tree's leaves are in a new order: the gather follows the build. A refit
+        // keeps the order: the start boxes go to the leaves they had.
+        if rebuild {
+            steps.extend(t.build_around(starts, gather));
+        } else {
+            steps.extend(t.refit_around(starts, gather));
+        }
+        if lists {
+            self.list_steps(cloth, (horizon, substeps), steps);
+        }
+    }
+
+    /// The triangles' corners in the tree's order, their sorted leaves and motion boxes.
+    fn gather_step(&self, cloth: &SelfContactCloth) -> Step {
+        let t = &self.tree;
+        Step::run(
             "self: gather triangles",
             &GATHER_CLOTH_TRIANGLES,
             vec![
@@ -393,19 +420,39 @@ impl SelfContactBuffers {
                 self.leaf_motions.id(),
             ],
             Dispatch::Threads(t.leaves),
+        )
+    }
+
+    /// After the pass that ends a window of the frame (`window_ends`), the lists again for the
+    /// next window, of `horizon` of the frame's `substeps` substeps: each particle's prediction
+    /// from where it is now (its frame start stays: the fail-safe's), the tree refit to the
+    /// triangles' start boxes, the triangles' corners and motion boxes, and the lists.
+    pub fn window_start_steps(&self, cloth: &SelfContactCloth, (horizon, substeps): (u32, u32), steps: &mut Vec<Step>) {
+        let t = &self.tree;
+        steps.push(Step::run_with(
+            "self: window anchors",
+            &ANCHOR_WINDOW,
+            vec![cloth.params.id(), t.collider.id(), cloth.x.id(), cloth.v.id(), self.anchors.id()],
+            bytemuck::cast(SelfAnchorPush { window_substeps: horizon, frame_substeps: substeps, _pad: [0; 2] }),
+            Dispatch::Threads(self.particles),
+        ));
+        let starts = Step::run(
+            "self: triangle start boxes",
+            &CLOTH_TRIANGLE_STARTS,
+            vec![t.collider.id(), self.anchors.id(), cloth.indices.id(), t.bounds.id()],
+            Dispatch::Threads(t.leaves),
         );
-        // A rebuilt tree's leaves are in a new order: the gather follows the build. A refit
-        // keeps the order: the start boxes go to the leaves they had.
-        if rebuild {
-            steps.extend(t.build_around(starts, gather));
-        } else {
-            steps.extend(t.refit_around(starts, gather));
-        }
-        if !lists {
-            return;
-        }
+        steps.extend(t.refit_around(starts, self.gather_step(cloth)));
+        self.list_steps(cloth, (horizon, substeps), steps);
+    }
+
+    /// The motion boxes refit over the tree and each triangle's list, over `horizon` of the
+    /// frame's `substeps` substeps (the pairs' measured motion scaled to the frame).
+    fn list_steps(&self, cloth: &SelfContactCloth, (horizon, substeps): (u32, u32), steps: &mut Vec<Step>) {
+        let t = &self.tree;
         steps.extend(t.refit_other_steps("self: refit motions", self.leaf_motions, self.motion_aabbs));
-        steps.push(Step::run(
+        let to_frame = substeps as f32 / horizon.max(1) as f32;
+        steps.push(Step::run_with(
             "self: pair lists",
             &LIST_SELF_PAIRS,
             vec![
@@ -422,6 +469,7 @@ impl SelfContactBuffers {
                 self.counts.id(),
                 cloth.health.id(),
             ],
+            bytemuck::cast(SelfListPush { to_frame, _pad: [0; 3] }),
             Dispatch::Threads(t.leaves),
         ));
     }
@@ -489,8 +537,22 @@ impl SelfContactBuffers {
         features: Vec<Step>,
         steps: &mut Vec<Step>,
     ) {
+        self.windowed_substep_steps(cloth, ((from, to, substeps), (0, substeps), lists), features, steps);
+    }
+
+    /// `substep_steps` in the window of the frame that starts at substep `window_from` and spans
+    /// `window` substeps: which triangles left their regions is measured against the window's
+    /// lists' predictions.
+    pub fn windowed_substep_steps(
+        &self,
+        cloth: &SelfContactCloth,
+        ((from, to, substeps), (window_from, window), lists): ((u32, u32, u32), (u32, u32), bool),
+        features: Vec<Step>,
+        steps: &mut Vec<Step>,
+    ) {
         let t = &self.tree;
-        let span = substep_span(from, to + 1, substeps);
+        debug_assert!(window_from <= from && to < window_from + window && window_from + window <= substeps);
+        let span = substep_span(from - window_from, to + 1 - window_from, window);
         if lists {
             steps.push(empty_dispatch(self.walk_args));
         }
@@ -623,7 +685,7 @@ impl SelfContactBuffers {
 
 #[cfg(test)]
 mod tests {
-    use super::{collider_features, pass_due, passes_for};
+    use super::{collider_features, pass_due, passes_for, window_ends};
     use drape_kernels::self_contact::NO_NEIGHBOUR;
     use glam::UVec4;
 
@@ -653,6 +715,36 @@ mod tests {
     /// spread so no two are further apart than the even spacing rounded up; the plan's count
     /// (`SimSettings::plan`) is the fewest passes, at least the need, whose gaps are at most 3/2
     /// of `substeps / needed` substeps.
+    /// A frame's windows end at passes, the last with the frame; each holds at least one pass
+    /// and their pass counts differ by at most one; one window is the whole frame.
+    #[test]
+    fn windows_split_the_passes_evenly_and_end_with_the_frame() {
+        for substeps in 1..30 {
+            for passes in 1..=substeps {
+                let due: Vec<u32> = (0..substeps).filter(|&s| pass_due(s, substeps, passes)).collect();
+                assert_eq!(window_ends(substeps, passes, 1), vec![substeps - 1]);
+                for windows in 2..5 {
+                    let ends = window_ends(substeps, passes, windows);
+                    let case = format!("{substeps} substeps, {passes} passes, {windows} windows: {ends:?}");
+                    assert_eq!(ends.len(), (windows as usize).min(due.len()), "{case}");
+                    assert_eq!(ends.last(), Some(&(substeps - 1)), "{case}");
+                    assert!(ends.iter().all(|end| due.contains(end)) && ends.is_sorted(), "{case}");
+                    let mut from = 0;
+                    let held: Vec<usize> = ends
+                        .iter()
+                        .map(|&end| {
+                            let held = due.iter().filter(|&&s| s >= from && s <= end).count();
+                            from = end + 1;
+                            held
+                        })
+                        .collect();
+                    let (least, most) = (held.iter().min().unwrap(), held.iter().max().unwrap());
+                    assert!(*least >= 1 && most - least <= 1, "{case}: {held:?}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn passes_are_spread_evenly_and_end_the_frame() {
         for substeps in 1..40 {

@@ -49,7 +49,7 @@ use crate::self_pairs::{anchor_particles, triangle_motion_at};
 use crate::tiles::wake_particle;
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
-    Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, ContactPush, DispatchArgs, Health, SimParams,
+    Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, DispatchArgs, Health, SelfAnchorPush, SimParams,
 };
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
@@ -73,18 +73,18 @@ pub fn copy_start(x: &[Vec4], start: &mut [Vec4], count: u32, lane: u32, stride:
     }
 }
 
-/// The frame's anchors (`self_pairs::anchor_at`) for a frame of `substeps` substeps: its
-/// length, the gravity and the thickness.
+/// What anchors (`self_pairs::anchor_at`) predicting over `substeps` substeps take: that
+/// time, the gravity and the thickness.
 #[inline]
-pub fn frame_of(params: &SimParams, self_params: &ColliderParams, push: &BroadPhasePush) -> (f32, Vec3, f32) {
-    (push.substeps as f32 * params.substep, params.gravity.xyz(), self_params.thickness)
+pub fn frame_of(params: &SimParams, self_params: &ColliderParams, substeps: u32) -> (f32, Vec3, f32) {
+    (substeps as f32 * params.substep, params.gravity.xyz(), self_params.thickness)
 }
 
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(256)))]
 pub fn self_scene_bounds(
     #[spirv(local_invocation_id)] lid: UVec3,
-    #[spirv(push_constant)] push: &BroadPhasePush,
+    #[spirv(push_constant)] push: &SelfAnchorPush,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &[Vec4],
@@ -97,9 +97,10 @@ pub fn self_scene_bounds(
 ) {
     let lane = lid.x;
     copy_start(x, start, params.particle_count, lane, SCENE_THREADS);
-    let frame = frame_of(params, self_params, push);
+    let window = frame_of(params, self_params, push.window_substeps);
+    let frame = frame_of(params, self_params, push.frame_substeps);
     let lanes = (lane, SCENE_THREADS);
-    let mut own = anchor_particles((x, v), frame, anchors, params.particle_count, lanes);
+    let mut own = anchor_particles((x, v), (window, frame), anchors, params.particle_count, lanes);
     // The longest edge rides in the box's w (reduced by the same max).
     own.max.w = longest_edge2(x, indices, self_params.leaf_count, lane, SCENE_THREADS);
     let bounds = reduce_bounds(lane, own, lows, highs);

@@ -45,7 +45,9 @@ use crate::atomics;
 use crate::lbvh::PairWalk;
 use crate::pose::to_world;
 use crate::self_contact::{LeafVisitor, walk_in_batches, walk_overlapping, within};
-use crate::self_pairs::{ANCHOR_WORDS, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, escaped_at, may_touch};
+use crate::self_pairs::{
+    ANCHOR_WORDS, FRAME_START_WORD, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, escaped_at, may_touch,
+};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BvhNode, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health, SelfPassPush, SimParams,
@@ -68,10 +70,10 @@ pub const ROLLBACK_ROUNDS: u32 = 6;
 /// back.
 pub const FAILSAFE_COUNTER_WORDS: u32 = 2 * ROLLBACK_ROUNDS;
 
-/// Where particle `i` started the frame: its anchor's position.
+/// Where particle `i` started the frame (its anchor's `FRAME_START_WORD`).
 #[inline]
 pub fn frame_start_of(anchors: &[Vec4], i: u32) -> Vec3 {
-    anchors[(ANCHOR_WORDS * i) as usize].xyz()
+    anchors[(ANCHOR_WORDS * i + FRAME_START_WORD) as usize].xyz()
 }
 
 /// A triangle at the frame's end: its particles (xyz; the triangle in w) and where its corners

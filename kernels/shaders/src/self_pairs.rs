@@ -17,6 +17,14 @@
 //!   first, and gives the walk's result: a primitive pair left out of a list stays apart by more
 //!   than the thickness over the whole frame while its corners stay within their slops.
 //!
+//! A frame's lists may also be built again after a pass (`anchor_window_at`, the host's
+//! `window_start_steps`): each particle is anchored from where it is then over the rest of the
+//! window, the tree (its topology and Morton box the frame's) refit to the new start boxes, and
+//! the passes' spans measured in the window. A fast cloth leaves its predicted region within a
+//! frame (half the bunny's drape walked the tree in each pass); from halfway its prediction is
+//! twice as close. The pairs found stay the tree walk's, so the results are those of lists
+//! built once (the bunny's 60 frames equal bit for bit).
+//!
 //! The bound: a corner's position is within its slop of its predicted path at every pass's
 //! ends (checked) and so in between (both move linearly within a pass); a point of a face or an
 //! edge is a weighted mean of its corners, so it is within the largest of their slops of its
@@ -27,10 +35,12 @@ use crate::atomics;
 use crate::lbvh::{PairBoxes, PairWalk, WALK_BATCH};
 use crate::self_contact::{
     Corners, LeafVisitor, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights,
-    longest_side2, pair_mask, self_triangle_contact_at, triangle_pair, walk_in_batches,
+    frame_of, longest_side2, pair_mask, self_triangle_contact_at, triangle_pair, walk_in_batches,
 };
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfPassPush};
+use drape_types::{
+    Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
+};
 use spirv_std::spirv;
 
 /// Pairs of triangles one triangle's list holds at most (`LIST_ENTRY_WORDS` each).
@@ -50,58 +60,52 @@ pub const SLOP_MOTION: f32 = 0.05;
 const REACH_MARGIN: f32 = 1.01;
 const REACH_ABSOLUTE: f32 = 1e-5;
 
-/// Words per particle of the anchors (`anchor_at`).
-pub const ANCHOR_WORDS: u32 = 3;
+/// Words per particle of the anchors (`anchor_at`): the prediction (words 0-2, which a window's
+/// re-anchoring rewrites, `anchor_window_at`) and where the particle started the frame
+/// (`FRAME_START_WORD`, the fail-safe's start).
+pub const ANCHOR_WORDS: u32 = 4;
+/// The anchors' word holding where the particle started the frame (xyz).
+pub const FRAME_START_WORD: u32 = 3;
 
 /// Particle `i`'s anchor for a frame of `frame_time` seconds (words `ANCHOR_WORDS * i..` of
 /// `anchors`): its position and slop, its velocity's motion over the frame and gravity's: its
 /// predicted path is `start + motion t + fall t^2` at fraction t of the frame.
 #[inline]
-pub fn anchor_at(
-    i: u32,
-    (x, v): (&[Vec4], &[Vec4]),
-    (frame_time, gravity, thickness): (f32, Vec3, f32),
-    anchors: &mut [Vec4],
-) {
-    let i = i as usize;
-    let motion = v[i].xyz() * frame_time;
-    let slop = SLOP_THICKNESS * thickness + SLOP_MOTION * motion.length();
-    // Gravity's share of the motion: the same for every particle, so it parts no pair.
-    let fall = gravity * (0.5 * frame_time * frame_time);
-    let base = ANCHOR_WORDS as usize * i;
-    anchors[base] = x[i].xyz().extend(slop);
-    anchors[base + 1] = motion.extend(0.0);
-    anchors[base + 2] = fall.extend(0.0);
+pub fn anchor_at(i: u32, (x, v): (&[Vec4], &[Vec4]), frame: (f32, Vec3, f32), anchors: &mut [Vec4]) {
+    anchor_window_at(i, (x, v), frame, anchors);
+    anchors[(ANCHOR_WORDS * i + FRAME_START_WORD) as usize] = x[i as usize];
 }
 
-/// Anchors of particles `lane, lane + stride, ...` (`anchor_at`), and their bounds at their
-/// starts and predicted ends (the Morton box of the frame's tree; each lane reads only the
-/// anchors it wrote).
+/// Particle `i`'s prediction over a window of `frame_time` seconds from where it is now (words
+/// 0-2 of its anchor, as `anchor_at`; its frame start stays).
+#[inline]
+pub fn anchor_window_at(i: u32, (x, v): (&[Vec4], &[Vec4]), window: (f32, Vec3, f32), anchors: &mut [Vec4]) {
+    let anchor = Anchor::predict(i, (x, v), window);
+    let base = (ANCHOR_WORDS * i) as usize;
+    anchors[base] = anchor.start.extend(anchor.slop);
+    anchors[base + 1] = anchor.motion.extend(0.0);
+    anchors[base + 2] = anchor.fall.extend(0.0);
+}
+
+/// Anchors of particles `lane, lane + stride, ...` over `window` (`anchor_at`), and their
+/// bounds at their starts and at their predicted ends over the whole `frame` (the Morton box
+/// of the frame's tree: the same whichever window the anchors span).
 pub fn anchor_particles(
     (x, v): (&[Vec4], &[Vec4]),
-    frame: (f32, Vec3, f32),
+    (window, frame): ((f32, Vec3, f32), (f32, Vec3, f32)),
     anchors: &mut [Vec4],
     count: u32,
     (lane, stride): (u32, u32),
 ) -> Aabb {
-    let mut i = lane;
-    while i < count {
-        anchor_at(i, (x, v), frame, anchors);
-        i += stride;
-    }
-    anchor_bounds(anchors, count, lane, stride)
-}
-
-/// Bounds of particles `lane, lane + stride, ...` at their anchors and at their predicted ends.
-pub fn anchor_bounds(anchors: &[Vec4], count: u32, lane: u32, stride: u32) -> Aabb {
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
     let mut i = lane;
     while i < count {
-        let anchor = Anchor::load(i, anchors);
-        let end = anchor.at(1.0);
-        lo = lo.min(anchor.start).min(end);
-        hi = hi.max(anchor.start).max(end);
+        anchor_at(i, (x, v), window, anchors);
+        let whole = Anchor::predict(i, (x, v), frame);
+        let end = whole.at(1.0);
+        lo = lo.min(whole.start).min(end);
+        hi = hi.max(whole.start).max(end);
         i += stride;
     }
     Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
@@ -117,6 +121,17 @@ struct Anchor {
 }
 
 impl Anchor {
+    /// Particle `i`'s prediction over `frame_time` seconds from where it is now.
+    #[inline]
+    fn predict(i: u32, (x, v): (&[Vec4], &[Vec4]), (frame_time, gravity, thickness): (f32, Vec3, f32)) -> Self {
+        let i = i as usize;
+        let motion = v[i].xyz() * frame_time;
+        let slop = SLOP_THICKNESS * thickness + SLOP_MOTION * motion.length();
+        // Gravity's share of the motion: the same for every particle, so it parts no pair.
+        let fall = gravity * (0.5 * frame_time * frame_time);
+        Anchor { start: x[i].xyz(), motion, fall, slop }
+    }
+
     #[inline]
     fn load(i: u32, anchors: &[Vec4]) -> Self {
         let base = (ANCHOR_WORDS * i) as usize;
@@ -411,6 +426,12 @@ pub struct PairMotion {
 }
 
 impl PairMotion {
+    /// The motion over a window scaled to the frame (`SelfListPush::to_frame`).
+    #[inline]
+    pub fn per_frame(self, to_frame: f32) -> PairMotion {
+        PairMotion { motion: self.motion * to_frame, approach: self.approach * to_frame }
+    }
+
     #[inline]
     fn max(self, other: PairMotion) -> PairMotion {
         PairMotion { motion: self.motion.max(other.motion), approach: self.approach.max(other.approach) }
@@ -744,6 +765,24 @@ pub fn listed_self_pairs_at(
     }
 }
 
+/// Each particle's prediction over the window that starts now, of `push.substeps` substeps
+/// (`anchor_window_at`; its frame start stays): a frame's lists built again after a pass.
+#[spirv(compute(threads(256)))]
+pub fn anchor_window(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &SelfAnchorPush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] anchors: &mut [Vec4],
+) {
+    if id.x >= params.particle_count {
+        return;
+    }
+    anchor_window_at(id.x, (x, v), frame_of(params, self_params, push.window_substeps), anchors);
+}
+
 /// Each triangle's box at the frame's start with its corners' slops (what the frame's tree is
 /// built over).
 #[spirv(compute(threads(256)))]
@@ -807,6 +846,7 @@ pub fn add_walker(leaf: u32, walkers: &mut [u32], walk_args: &mut DispatchArgs) 
 #[spirv(compute(threads(64)))]
 pub fn list_self_pairs(
     #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &SelfListPush,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
@@ -827,7 +867,7 @@ pub fn list_self_pairs(
     let motions = (motion_aabbs, leaf_motions);
     let (_, motion) = list_self_pairs_at(id.x, self_params, tree, motions, owned, anchors, (lists, counts));
     count_full_list(id.x, counts, health);
-    note_pair_motion(motion, health);
+    note_pair_motion(motion.per_frame(push.to_frame), health);
 }
 
 #[allow(clippy::too_many_arguments)]

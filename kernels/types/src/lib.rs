@@ -257,6 +257,17 @@ pub struct SelfPassPush {
     pub _pad: u32,
 }
 
+/// Push constants of a self-collision list build (`drape_kernels::self_pairs`): what scales the
+/// motion its window measures to the frame (the frame's substeps over the window's; 1 for lists
+/// over the whole frame).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct SelfListPush {
+    pub to_frame: f32,
+    pub _pad: [u32; 3],
+}
+
 /// Push constants of a round of self-collision's fail-safe (`drape_kernels::self_failsafe`):
 /// which round, its flags (`drape_kernels::self_failsafe::LAST_ROUND`, `WITH_LISTS`), and the
 /// workgroups of the next round's boxes and check, and of its roll-back (dispatched only when
@@ -298,6 +309,19 @@ pub struct BroadPhasePush {
     /// Substeps in the frame (the frame lasts `substeps` x `SimParams::substep`).
     pub substeps: u32,
     pub _pad: [u32; 3],
+}
+
+/// Push constants of a self-colliding cloth's anchors (`drape_kernels::self_pairs::anchor_at`):
+/// the substeps their predictions span (the frame's, or a window's of it when its lists are
+/// built again within the frame) and the frame's substeps (the tree's Morton box spans the
+/// frame whatever the window, so the tree does not depend on how the frame is split).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct SelfAnchorPush {
+    pub window_substeps: u32,
+    pub frame_substeps: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Leaves a particle's candidate list holds at most (the broad phase's output per particle).
@@ -444,7 +468,9 @@ const _: () = assert!(core::mem::size_of::<RigidPose>() == 32);
 const _: () = assert!(core::mem::size_of::<ColliderPose>() == 64);
 const _: () = assert!(core::mem::size_of::<ContactPush>() == 16);
 const _: () = assert!(core::mem::size_of::<SelfPassPush>() == 16);
+const _: () = assert!(core::mem::size_of::<SelfListPush>() == 16);
 const _: () = assert!(core::mem::size_of::<BroadPhasePush>() == 16);
+const _: () = assert!(core::mem::size_of::<SelfAnchorPush>() == 16);
 const _: () = assert!(core::mem::size_of::<ContactQuery>() == 48);
 const _: () = assert!(core::mem::size_of::<SurfacePush>() == 128);
 const _: () = assert!(core::mem::size_of::<CollisionStatus>() == 32);
