@@ -81,10 +81,8 @@ fn params_over_boxes(boxes: &[Aabb], thickness: f32, friction: f32) -> Result<Co
             problem: format!("must be finite and >= 0, got {thickness}"),
         });
     }
-    let (lo, hi) = boxes
-        .iter()
-        .map(aabb_centre)
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| (lo.min(c), hi.max(c)));
+    let (lo, hi) =
+        boxes.iter().map(aabb_centre).fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| (lo.min(c), hi.max(c)));
     Ok(ColliderParams {
         leaf_count: boxes.len() as u32,
         thickness,

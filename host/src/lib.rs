@@ -42,6 +42,22 @@ macro_rules! internal_modules {
 }
 
 internal_modules!(cpu, gpu, graph, kernels, lbvh, programs, reference);
+// rustfmt does not look inside macros: these declarations, compiled never, lead `cargo fmt` to
+// the modules `internal_modules!` declares (it had left them unformatted).
+#[cfg(any())]
+mod cpu;
+#[cfg(any())]
+mod gpu;
+#[cfg(any())]
+mod graph;
+#[cfg(any())]
+mod kernels;
+#[cfg(any())]
+mod lbvh;
+#[cfg(any())]
+mod programs;
+#[cfg(any())]
+mod reference;
 
 pub mod cloth;
 pub mod cloth_mesh;

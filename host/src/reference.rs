@@ -237,7 +237,10 @@ pub fn energy(cloth: &Cloth, x: &[glam::Vec4], v: &[glam::Vec4]) -> f64 {
 /// Eigenvalues of the symmetric `n x n` matrix `a` (row-major) by cyclic Jacobi rotations.
 fn symmetric_eigenvalues(mut a: Vec<f64>, n: usize) -> Vec<f64> {
     for _sweep in 0..100 {
-        let off: f64 = (0..n).flat_map(|r| (0..n).filter(move |&c| c != r).map(move |c| (r, c))).map(|(r, c)| a[r * n + c].powi(2)).sum();
+        let off: f64 = (0..n)
+            .flat_map(|r| (0..n).filter(move |&c| c != r).map(move |c| (r, c)))
+            .map(|(r, c)| a[r * n + c].powi(2))
+            .sum();
         let scale: f64 = (0..n).map(|i| a[i * n + i].powi(2)).sum::<f64>().max(f64::MIN_POSITIVE);
         if off <= 1e-24 * scale {
             break;

@@ -360,7 +360,8 @@ impl RecordedFrame {
             }
             let info = self.ctx.info();
             let mask = if info.timestamp_valid_bits >= 64 { u64::MAX } else { (1u64 << info.timestamp_valid_bits) - 1 };
-            let micros = |from: u64, to: u64| (to.wrapping_sub(from) & mask) as f64 * info.timestamp_period_ns as f64 / 1000.0;
+            let micros =
+                |from: u64, to: u64| (to.wrapping_sub(from) & mask) as f64 * info.timestamp_period_ns as f64 / 1000.0;
             for (i, pass) in passes.iter_mut().enumerate() {
                 pass.micros = Some(micros(stamps[2 * i], stamps[2 * i + 1]));
             }

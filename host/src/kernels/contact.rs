@@ -5,12 +5,12 @@
 
 use crate::graph::{BindingSpec, HostBuffer, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::candidates::{broad_phase_at, detect_candidates_particle, frame_motion};
-use drape_kernels::integrate::{ClothForces, GridSprings, SpringList};
-use drape_kernels::update_contact::update_and_contact_particle;
 use drape_kernels::contact::{
     CONTACT_THREADS, CULL_THREADS, LeafKind, aabbs_overlap, detect_at, detect_brute_force_at, record_cull, respond_at,
     root_aabb, substep_motion, swept_bounds,
 };
+use drape_kernels::integrate::{ClothForces, GridSprings, SpringList};
+use drape_kernels::update_contact::update_and_contact_particle;
 use drape_types::{
     Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery,
     DispatchArgs, ParticleSprings, SimParams, Spring,
@@ -213,7 +213,18 @@ where
     let (x, x_prev, v) = (x.slice_mut::<Vec4>(), x_prev.slice::<Vec4>(), v.slice_mut::<Vec4>());
     let (contacts, status) = (contacts.slice_mut::<Contact>(), status.first_mut::<CollisionStatus>()?);
     for i in 0..threads.min(p.particle_count) {
-        detect_candidates_particle::<K>(i, &push, &p, &c, &pose, tree, lists, (&mut *x, x_prev, &mut *v), contacts, status);
+        detect_candidates_particle::<K>(
+            i,
+            &push,
+            &p,
+            &c,
+            &pose,
+            tree,
+            lists,
+            (&mut *x, x_prev, &mut *v),
+            contacts,
+            status,
+        );
     }
     Ok(())
 }
@@ -258,8 +269,27 @@ fn update_contact_each<K: LeafKind, F: ClothForces>(
 where
     K::Leaf: bytemuck::Pod,
 {
-    let [params, x, v, x_in, v_in, x_out, v_out, acc_x, acc_v, x_prev, collider, pose, nodes, aabbs, leaves, queries, candidates, contacts, status] =
-        buffers;
+    let [
+        params,
+        x,
+        v,
+        x_in,
+        v_in,
+        x_out,
+        v_out,
+        acc_x,
+        acc_v,
+        x_prev,
+        collider,
+        pose,
+        nodes,
+        aabbs,
+        leaves,
+        queries,
+        candidates,
+        contacts,
+        status,
+    ] = buffers;
     let p: SimParams = params.first()?;
     let c: ColliderParams = collider.first()?;
     let pose: ColliderPose = pose.first()?;

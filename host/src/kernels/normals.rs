@@ -104,7 +104,8 @@ fn mesh_normals_and_health_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let p: SimParams = params.first()?;
     let (x, v, x_prev) = (x.slice::<Vec4>(), v.slice::<Vec4>(), x_prev.slice::<Vec4>());
     let (particles, springs) = (particles.slice::<ParticleSprings>(), springs.slice::<Spring>());
-    let (offsets, vertex_triangles, indices) = (offsets.slice::<u32>(), vertex_triangles.slice::<u32>(), indices.slice::<u32>());
+    let (offsets, vertex_triangles, indices) =
+        (offsets.slice::<u32>(), vertex_triangles.slice::<u32>(), indices.slice::<u32>());
     let (normals, health) = (normals.slice_mut::<Vec4>(), health.first_mut::<Health>()?);
     for i in 0..threads.min(p.particle_count) {
         normals[i as usize] = mesh_vertex_normal_at(i, x, offsets, vertex_triangles, indices).extend(0.0);

@@ -8,8 +8,8 @@ use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::contact::substep_motion;
 use drape_kernels::self_contact::{
-    PairResponse, SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, collider_feature_contact_at, copy_start,
-    count_self_contact, frame_of, gather_cloth_triangle, longest_edge2, write_scene,
+    PairResponse, SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, collider_feature_contact_at,
+    copy_start, count_self_contact, frame_of, gather_cloth_triangle, longest_edge2, write_scene,
 };
 use drape_kernels::self_pairs::anchor_particles;
 use drape_types::{
@@ -242,7 +242,17 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
             delta: &mut *delta,
             velocity_changes: &mut *velocity_changes,
         };
-        collider_feature_contact_at(t, mine, mesh, &motion, &c, tree, owned, (x, x_prev), (out, &mut *pushes, &mut *health));
+        collider_feature_contact_at(
+            t,
+            mine,
+            mesh,
+            &motion,
+            &c,
+            tree,
+            owned,
+            (x, x_prev),
+            (out, &mut *pushes, &mut *health),
+        );
     }
     Ok(())
 }

@@ -6,8 +6,8 @@
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::self_failsafe::{
-    CHECK_THREADS, Found, WITH_LISTS, Walkers, check_collider_triangle_at, check_frame_at, frame_box_at, note_everything,
-    roll_back_at,
+    CHECK_THREADS, Found, WITH_LISTS, Walkers, check_collider_triangle_at, check_frame_at, frame_box_at,
+    note_everything, roll_back_at,
 };
 use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health};
 use glam::{UVec4, Vec4};
@@ -124,21 +124,8 @@ fn boxes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 fn check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let push: FailsafePush = d.push_as();
     let threads = d.invocations();
-    let [
-        self_params,
-        nodes,
-        aabbs,
-        leaf_bounds,
-        sorted,
-        x,
-        anchors,
-        escaped,
-        strays,
-        lists,
-        counts,
-        flags,
-        counters,
-    ] = d.bindings()?;
+    let [self_params, nodes, aabbs, leaf_bounds, sorted, x, anchors, escaped, strays, lists, counts, flags, counters] =
+        d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let (x, anchors) = (x.slice::<Vec4>(), anchors.slice::<Vec4>());
@@ -205,7 +192,8 @@ fn roll_back_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let p: drape_types::SimParams = params.first()?;
     let (x, v, anchors) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>(), anchors.slice::<Vec4>());
     let (flags, counters) = (flags.slice_mut::<u32>(), counters.slice_mut::<u32>());
-    let (next_check, next_rollback) = (next_check.first_mut::<DispatchArgs>()?, next_rollback.first_mut::<DispatchArgs>()?);
+    let (next_check, next_rollback) =
+        (next_check.first_mut::<DispatchArgs>()?, next_rollback.first_mut::<DispatchArgs>()?);
     let health = health.first_mut::<Health>()?;
     if threads > 0 {
         note_everything(&push, counters, health);
@@ -216,7 +204,6 @@ fn roll_back_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     }
     Ok(())
 }
-
 
 #[cfg(test)]
 mod tests {

@@ -1,7 +1,9 @@
 //! One frame of a cloth: per substep the integration stages (and the contact, if any), then the
 //! vertex normals and the blow-up check.
 
-use super::contact::{CONTACT_LABEL, ColliderBuffers, ContactBuffers, EULER_UPDATE_CONTACT_LABEL, RK4_UPDATE_CONTACT_LABEL};
+use super::contact::{
+    CONTACT_LABEL, ColliderBuffers, ContactBuffers, EULER_UPDATE_CONTACT_LABEL, RK4_UPDATE_CONTACT_LABEL,
+};
 use super::self_contact::{SelfContactBuffers, SelfContactCloth, pass_due, window_ends};
 use super::tiles::TileBuffers;
 use crate::cloth::{Cloth, ClothTopology};
@@ -59,7 +61,8 @@ impl ClothBuffers {
                 particles: resources.device(format!("{name}: particle springs"), particles),
                 springs: resources.device(format!("{name}: springs"), s.springs.len().max(1) as u32),
                 vertex_triangle_offsets: resources.device(format!("{name}: vertex triangle offsets"), particles + 1),
-                vertex_triangles: resources.device(format!("{name}: vertex triangles"), s.vertex_triangles.len().max(1) as u32),
+                vertex_triangles: resources
+                    .device(format!("{name}: vertex triangles"), s.vertex_triangles.len().max(1) as u32),
             }),
         };
         let mut vec4s = |what: &str| resources.device::<Vec4>(format!("{name}: {what}"), particles);
@@ -96,7 +99,11 @@ impl ClothBuffers {
 
     /// What every integration stage binds first (`kernels::integrate`): the state, the stage's
     /// `input` and `output`, the sums and the substep's start.
-    pub fn stage_bindings(&self, input: (Handle<Vec4>, Handle<Vec4>), output: (Handle<Vec4>, Handle<Vec4>)) -> Vec<BufferId> {
+    pub fn stage_bindings(
+        &self,
+        input: (Handle<Vec4>, Handle<Vec4>),
+        output: (Handle<Vec4>, Handle<Vec4>),
+    ) -> Vec<BufferId> {
         vec![
             self.params.id(),
             self.x.id(),
@@ -199,7 +206,11 @@ pub const ASLEEP_LABEL: &str = "cloth asleep (all passes)";
 
 /// The steps of one frame of `cloth`, colliding with each of `colliders` (with the contact
 /// buffers of that pair) after every substep.
-pub fn frame_steps(plan: FramePlan, cloth: &ClothBuffers, colliders: &[(&ColliderBuffers, &ContactBuffers)]) -> Vec<Step> {
+pub fn frame_steps(
+    plan: FramePlan,
+    cloth: &ClothBuffers,
+    colliders: &[(&ColliderBuffers, &ContactBuffers)],
+) -> Vec<Step> {
     if plan.asleep {
         return vec![Step::Skip { label: ASLEEP_LABEL }];
     }

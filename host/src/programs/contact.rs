@@ -99,7 +99,6 @@ impl ColliderLeaves {
     pub fn leaves(&self) -> u32 {
         self.kind().tree().leaves
     }
-
 }
 
 /// The push constants of work spanning substeps `first..end` of a frame of `substeps`: the
@@ -175,7 +174,13 @@ impl ContactBuffers {
 
     /// What runs once at the start of a frame of `substeps` substeps of `cloth` against
     /// `collider`, before its substeps: the broad phase in `ContactMode::Lists`.
-    pub fn frame_start_steps(&self, cloth: &ClothBuffers, collider: &ColliderBuffers, substeps: u32, out: &mut Vec<Step>) {
+    pub fn frame_start_steps(
+        &self,
+        cloth: &ClothBuffers,
+        collider: &ColliderBuffers,
+        substeps: u32,
+        out: &mut Vec<Step>,
+    ) {
         let Search::Lists(lists) = &self.search else { return };
         let (leaves, tree) = (collider.leaves.kind(), collider.tree());
         let push: [u32; 4] = bytemuck::cast(BroadPhasePush { substeps, _pad: [0; 3] });

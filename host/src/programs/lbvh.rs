@@ -130,7 +130,13 @@ impl LbvhBuffers {
         self.push_refit_of("refit", self.sorted_bounds, self.aabbs, steps);
     }
 
-    fn push_refit_of(&self, label: &'static str, leaf_bounds: Handle<Aabb>, aabbs: Handle<Aabb>, steps: &mut Vec<Step>) {
+    fn push_refit_of(
+        &self,
+        label: &'static str,
+        leaf_bounds: Handle<Aabb>,
+        aabbs: Handle<Aabb>,
+        steps: &mut Vec<Step>,
+    ) {
         steps.push(Step::fill(self.flags, 0));
         // The refit writes xyz words only; zero the w words too.
         steps.push(Step::fill(aabbs, 0));
@@ -147,14 +153,7 @@ impl LbvhBuffers {
         Step::run(
             label,
             &REFIT,
-            vec![
-                self.collider.id(),
-                self.nodes.id(),
-                self.parents.id(),
-                leaf_bounds.id(),
-                self.flags.id(),
-                aabbs.id(),
-            ],
+            vec![self.collider.id(), self.nodes.id(), self.parents.id(), leaf_bounds.id(), self.flags.id(), aabbs.id()],
             dispatch,
         )
     }

@@ -17,11 +17,11 @@ use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_contact::{
     APPLY_COLLIDER_PUSHES, APPLY_SELF_CONTACT, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
 };
-use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
 use crate::kernels::self_pairs::{
-    ANCHOR_WINDOW, CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, SELF_TRIANGLE_CONTACT,
-    WALK_SELF_PAIRS,
+    ANCHOR_WINDOW, CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS,
+    SELF_TRIANGLE_CONTACT, WALK_SELF_PAIRS,
 };
+use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
 use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
 use drape_kernels::self_pairs::{
     ANCHOR_WORDS, FIND_WALKERS, FIND_WALKERS_UNLESS_FEATURES, LIST_ENTRY_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS,
@@ -29,8 +29,8 @@ use drape_kernels::self_pairs::{
 use drape_types::{
     Aabb, ColliderParams, ContactPush, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
 };
-use std::collections::{HashMap, HashSet};
 use glam::{UVec4, Vec4};
+use std::collections::{HashMap, HashSet};
 
 /// The buffers of one cloth's self-collision.
 pub struct SelfContactBuffers {

@@ -6,10 +6,10 @@
 //! the first run only when the one before put a particle back (indirect dispatches the
 //! roll-back writes).
 
+use super::contact::{ColliderBuffers, ColliderLeaves};
 use super::empty_dispatch;
 use super::self_contact::{SelfContactBuffers, SelfContactCloth};
 use crate::graph::{Dispatch, Handle, Resources, Step};
-use super::contact::{ColliderBuffers, ColliderLeaves};
 use crate::kernels::self_failsafe::{FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_COLLIDER_CHECK, FAILSAFE_ROLL_BACK};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::self_failsafe::{CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, WITH_LISTS};

@@ -5,7 +5,10 @@
 use super::contact::ContactLeaves;
 use super::lbvh::LbvhBuffers;
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
-use crate::kernels::spheres::{BROAD_PHASE_SPHERES, DETECT_SPHERES_CANDIDATES, DETECT_SPHERES, DETECT_SPHERES_BRUTE_FORCE, UPDATE_CONTACT_SPHERES, UPDATE_CONTACT_SPHERES_SPRINGS, GATHER_SPHERES, SPHERE_BOUNDS};
+use crate::kernels::spheres::{
+    BROAD_PHASE_SPHERES, DETECT_SPHERES, DETECT_SPHERES_BRUTE_FORCE, DETECT_SPHERES_CANDIDATES, GATHER_SPHERES,
+    SPHERE_BOUNDS, UPDATE_CONTACT_SPHERES, UPDATE_CONTACT_SPHERES_SPRINGS,
+};
 use glam::Vec4;
 
 /// A sphere collider's buffers: its spheres (input and tree order) and its LBVH.

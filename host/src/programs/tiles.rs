@@ -285,7 +285,13 @@ mod tests {
     /// moving near it, wakes it and restarts its count; a far collider does not.
     #[test]
     fn a_tile_sleeps_when_it_and_its_neighbours_stay_still_and_wakes_when_they_move() {
-        let p = TileParams { particle_count: 128, tile_count: 2, still_frames: 3, still_motion: 1e-3, ..Default::default() };
+        let p = TileParams {
+            particle_count: 128,
+            tile_count: 2,
+            still_frames: 3,
+            still_motion: 1e-3,
+            ..Default::default()
+        };
         let (offsets, neighbours) = ([0u32, 1, 2], [1u32, 0]);
         let bounds = [Aabb { min: Vec4::ZERO, max: Vec4::ONE }; 2];
         let mut frames = [0u32; 2];
@@ -359,10 +365,12 @@ mod tests {
         assert!(in_file_order.chunks(64).map(extent).fold(0.0f32, f32::max) > 0.9, "the file's order is scrambled");
 
         let patch = crate::ClothMesh::grid(8, 8, 0.3);
-        let vertices = patch.vertices.iter().copied().chain(patch.vertices.iter().map(|v| *v + Vec3::Y * 2.0)).collect();
+        let vertices =
+            patch.vertices.iter().copied().chain(patch.vertices.iter().map(|v| *v + Vec3::Y * 2.0)).collect();
         let triangles =
             patch.triangles.iter().copied().chain(patch.triangles.iter().map(|t| t.map(|i| i + 64))).collect();
-        let two = crate::ClothBuilder::from_mesh(crate::ClothMesh::from_parts(vertices, triangles).unwrap()).build().unwrap();
+        let two =
+            crate::ClothBuilder::from_mesh(crate::ClothMesh::from_parts(vertices, triangles).unwrap()).build().unwrap();
         let tiles = TilePartition::of(&two);
         for t in 0..tiles.tile_count() as usize {
             let members = &tiles.members[tiles.offsets[t] as usize..tiles.offsets[t + 1] as usize];
