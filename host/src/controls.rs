@@ -336,6 +336,14 @@ impl Controls {
                 walks / (c.triangles.max(1) as f32 * passes as f32)
             });
             c.motion.observe(health, (substep, c.stability.substeps), sleep, (pairs_listed, walked, passes));
+            if c.motion.list_windows != windows && self.settings.self_list_windows {
+                log::debug!(
+                    "cloth {index}: self-collision lists built {} a frame ({:.1} % of the last frame's triangle-passes \
+                     walked the tree)",
+                    if c.motion.list_windows { "twice" } else { "once" },
+                    100.0 * walked.unwrap_or(0.0)
+                );
+            }
             // Its passes follow whether it touches itself; its lists' windows, how much walked.
             self.replan |= c.self_collision.is_some()
                 && (c.motion.self_contact != self_contact || c.motion.list_windows != windows);
