@@ -163,6 +163,19 @@ impl PileGraph {
     }
 }
 
+/// The small pile with self-collision at `thickness`, as the CPU solver steps it (the frames the
+/// sub-graph is run over), its triangles' owned primitives, and its self-collision sub-graph
+/// under `gravity` (`PileGraph`).
+fn stepped_small_pile(thickness: f32, gravity: Vec4) -> (drape::Cloth, Vec<u32>, CpuSolver, PileGraph) {
+    let (cloth, ground) = small_pile(Some(thickness));
+    let owned = owned_primitives(&cloth.triangles);
+    let settings = SimSettings::default();
+    let model = Model::single(&cloth, std::slice::from_ref(&ground), settings).unwrap();
+    let sim = CpuSolver::new(&model).unwrap();
+    let graph = PileGraph::new(&cloth, settings.frame_dt, gravity);
+    (cloth, owned, sim, graph)
+}
+
 /// Over 60 frames of the small pile: (triangle-passes from lists, walked); panics where the
 /// two searches differ.
 fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
@@ -171,14 +184,11 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
     use drape_types::Health;
 
     let (thickness, friction) = (0.005, 0.5);
-    let (cloth, ground) = small_pile(Some(thickness));
-    let owned = owned_primitives(&cloth.triangles);
-    let settings = SimSettings::default();
-    let model = Model::single(&cloth, std::slice::from_ref(&ground), settings).unwrap();
-    let mut sim = CpuSolver::new(&model).unwrap();
-    let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
     let gravity = if exact_prediction { Vec4::ZERO } else { Vec4::new(0.0, -9.81, 0.0, 0.0) };
-    let PileGraph { resources, own, s, params, substeps } = PileGraph::new(&cloth, settings.frame_dt, gravity);
+    let (cloth, owned, mut sim, graph) = stepped_small_pile(thickness, gravity);
+    let PileGraph { resources, own, s, params, substeps } = graph;
+    let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
+    let frame_dt = SimSettings::default().frame_dt;
     let (mut listed, mut walked) = (0u64, 0u64);
     // One executor for all frames: the tree is built every SELF_TREE_REBUILD_FRAMES frames and
     // refit over the frame's start boxes in between, as a solver does.
@@ -196,7 +206,7 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
         // The frame's start: anchors from the positions and velocities there, lists.
         cpu.upload(own.x, &before).unwrap();
         let predicted: Vec<Vec4> = if exact_prediction {
-            x.iter().zip(&before).map(|(now, then)| (*now - *then) * (1.0 / settings.frame_dt)).collect()
+            x.iter().zip(&before).map(|(now, then)| (*now - *then) * (1.0 / frame_dt)).collect()
         } else {
             v_before
         };
@@ -296,14 +306,9 @@ fn lists_built_within_a_frame_find_the_pairs_the_tree_walk_finds() {
     use drape_types::Health;
 
     let (thickness, friction) = (0.005, 0.5);
-    let (cloth, ground) = small_pile(Some(thickness));
-    let owned = owned_primitives(&cloth.triangles);
-    let settings = SimSettings::default();
-    let model = Model::single(&cloth, std::slice::from_ref(&ground), settings).unwrap();
-    let mut sim = CpuSolver::new(&model).unwrap();
+    let (cloth, owned, mut sim, graph) = stepped_small_pile(thickness, Vec4::new(0.0, -9.81, 0.0, 0.0));
+    let PileGraph { resources, own, s, params, substeps } = graph;
     let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
-    let gravity = Vec4::new(0.0, -9.81, 0.0, 0.0);
-    let PileGraph { resources, own, s, params, substeps } = PileGraph::new(&cloth, settings.frame_dt, gravity);
     let c = SelfContactBuffers::params(t, thickness, friction);
     let words = 4 * n as usize;
     let (mut listed, mut walked) = (0u64, 0u64);
@@ -1160,14 +1165,9 @@ fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
 
     let ctx = context();
     let thickness = 0.005;
-    let (cloth, ground) = small_pile(Some(thickness));
-    let owned = owned_primitives(&cloth.triangles);
-    let settings = SimSettings::default();
-    let model = Model::single(&cloth, std::slice::from_ref(&ground), settings).unwrap();
-    let mut sim = CpuSolver::new(&model).unwrap();
+    let (cloth, owned, mut sim, graph) = stepped_small_pile(thickness, Vec4::new(0.0, -9.81, 0.0, 0.0));
+    let PileGraph { resources, own, s, params, substeps } = graph;
     let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
-    let gravity = Vec4::new(0.0, -9.81, 0.0, 0.0);
-    let PileGraph { resources, own, s, params, substeps } = PileGraph::new(&cloth, settings.frame_dt, gravity);
     let mut steps = vec![];
     s.frame_start_steps(&own, (substeps, substeps), (true, true), &mut steps);
     let start_steps = steps;

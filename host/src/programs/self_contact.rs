@@ -385,12 +385,7 @@ impl SelfContactBuffers {
             bytemuck::cast(SelfAnchorPush { window_substeps: horizon, frame_substeps: substeps, _pad: [0; 2] }),
             Dispatch::Workgroups(1),
         ));
-        let starts = Step::run(
-            "self: triangle start boxes",
-            &CLOTH_TRIANGLE_STARTS,
-            vec![t.collider.id(), self.anchors.id(), cloth.indices.id(), t.bounds.id()],
-            Dispatch::Threads(t.leaves),
-        );
+        let starts = self.starts_step(cloth);
         let gather = self.gather_step(cloth);
         // A rebuilt tree's leaves are in a new order: the gather follows the build. A refit
         // keeps the order: the start boxes go to the leaves they had.
@@ -402,6 +397,18 @@ impl SelfContactBuffers {
         if lists {
             self.list_steps(cloth, (horizon, substeps), steps);
         }
+    }
+
+    /// Each triangle's box at the start of the anchors' span, its corners grown by their slops
+    /// (what the tree is built or refit over).
+    fn starts_step(&self, cloth: &SelfContactCloth) -> Step {
+        let t = &self.tree;
+        Step::run(
+            "self: triangle start boxes",
+            &CLOTH_TRIANGLE_STARTS,
+            vec![t.collider.id(), self.anchors.id(), cloth.indices.id(), t.bounds.id()],
+            Dispatch::Threads(t.leaves),
+        )
     }
 
     /// The triangles' corners in the tree's order, their sorted leaves and motion boxes.
@@ -436,12 +443,7 @@ impl SelfContactBuffers {
             bytemuck::cast(SelfAnchorPush { window_substeps: horizon, frame_substeps: substeps, _pad: [0; 2] }),
             Dispatch::Threads(self.particles),
         ));
-        let starts = Step::run(
-            "self: triangle start boxes",
-            &CLOTH_TRIANGLE_STARTS,
-            vec![t.collider.id(), self.anchors.id(), cloth.indices.id(), t.bounds.id()],
-            Dispatch::Threads(t.leaves),
-        );
+        let starts = self.starts_step(cloth);
         steps.extend(t.refit_around(starts, self.gather_step(cloth)));
         self.list_steps(cloth, (horizon, substeps), steps);
     }
