@@ -10,7 +10,8 @@ use drape::metrics::intersections::count_intersections;
 use drape::programs::self_contact::owned_primitives;
 use drape::{ClothId, ClothMesh, Collider, CpuSolver, Model, SimSettings, Solver};
 use drape_kernels::self_contact::{
-    PairResponse, gather_cloth_triangle_at, self_triangle_contact_at, self_triangle_contact_brute_force_at,
+    EDGE_GROWTH2, PairResponse, gather_cloth_triangle_at, self_triangle_contact_at,
+    self_triangle_contact_brute_force_at, sharp_for,
 };
 use glam::{Vec3, Vec4};
 
@@ -853,6 +854,79 @@ fn a_ridge_does_not_cut_a_cloth_cell() {
     assert!(cut > 0, "the apex must cut the cells without edge contact (the scene must test it)");
     assert_eq!(draped, 0, "the apex cut the cloth with the collider's edges against its edges");
     assert!(drape > top, "the cloth must drape over the apex (highest particle {drape} m)");
+    assert_validation_clean(&ctx);
+}
+
+/// A thin rod finely tessellated (4 mm radius in 96 sides, longer than the cloth) lying on a
+/// platform, a 16 x 16 cloth falling onto them: each of its edges folds 3.75 degrees, too
+/// little for the fold test at the cloth's 5 cm cells, but the rod turns right round within a
+/// cell (`CURLED_BIT`), so its vertices and edges are tested. Particle contact alone lets it
+/// cut the cells (the cloth lies on the platform with the rod through it); with
+/// self-collision, and without the fail-safe (the passes alone), no edge of either crosses the
+/// other in any frame, and the cloth lies over the rod.
+#[test]
+fn a_thin_rod_does_not_cut_a_cloth_cell() {
+    let ctx = context();
+    let mut mesh = common::slab(Vec3::new(1.0, 0.1, 1.0));
+    mesh.vertices.iter_mut().for_each(|v| v.y += 0.05); // top at y = 0.1
+    let cloth_at = |self_collision: Option<f32>| {
+        drape::ClothBuilder::new(16, 16)
+            .size(0.8)
+            .transform(glam::Mat4::from_translation(Vec3::new(0.0, 0.28, 0.0)))
+            .self_collision(self_collision)
+            .build()
+            .unwrap()
+    };
+    let (radius, sides, long) = (0.004, 96u32, 0.6);
+    let (height, top) = (0.1 + radius, 0.1 + 2.0 * radius);
+    let first = mesh.vertices.len() as u32;
+    for z in [-long, long] {
+        for i in 0..sides {
+            let a = std::f32::consts::TAU * i as f32 / sides as f32;
+            mesh.vertices.push(Vec3::new(radius * a.cos(), height + radius * a.sin(), z));
+        }
+    }
+    for i in 0..sides {
+        let j = (i + 1) % sides;
+        mesh.triangles.push([first + i, first + sides + j, first + j]);
+        mesh.triangles.push([first + i, first + sides + i, first + sides + j]);
+    }
+    // The fold test alone would leave every edge of the rod out for this cloth.
+    let cloth = cloth_at(Some(0.005));
+    let longest2 = cloth
+        .triangles
+        .iter()
+        .flat_map(|t| {
+            let [a, b, c] = t.map(|i| cloth.positions[i as usize].truncate());
+            [a.distance_squared(b), b.distance_squared(c), c.distance_squared(a)]
+        })
+        .fold(0.0, f32::max);
+    let rod_fold = 1.0 - (std::f32::consts::TAU / sides as f32).cos();
+    assert!(
+        !sharp_for(rod_fold, longest2 * EDGE_GROWTH2, 0.005),
+        "the rod's folds {rod_fold} must be under the fold test's"
+    );
+    let run = |cloth: &drape::Cloth| {
+        let collider = Collider::mesh(&mesh, 0.005).with_friction(0.5);
+        let settings = SimSettings::default().with_timestamps(false).with_self_failsafe(false);
+        let model = Model::single(cloth, std::slice::from_ref(&collider), settings).unwrap();
+        let mut sim = Solver::new(&ctx, &model).unwrap();
+        let mut worst = 0;
+        for _ in 0..90 {
+            sim.step().unwrap();
+            let x = sim.positions(CLOTH).unwrap();
+            let found = count_intersections(&x, &cloth.triangles, (&mesh.vertices, &mesh.triangles));
+            worst = worst.max(found.collider_edges_through_cloth + found.cloth_edges_through_collider);
+        }
+        let highest = sim.positions(CLOTH).unwrap().iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max);
+        (worst, highest)
+    };
+    let (cut, flat) = run(&cloth_at(None));
+    let (draped, drape) = run(&cloth);
+    println!("rod: without self-collision {cut} crossings, cloth up to {flat} m; with: {draped}, up to {drape} m");
+    assert!(cut > 0, "the rod must cut the cells with particle contact alone (the scene must test it)");
+    assert_eq!(draped, 0, "the rod cut the cloth with its vertices and edges tested");
+    assert!(drape > top, "the cloth must lie over the rod (highest particle {drape} m, the rod's top {top} m)");
     assert_validation_clean(&ctx);
 }
 

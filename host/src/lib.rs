@@ -62,6 +62,7 @@ mod reference;
 pub mod cloth;
 pub mod cloth_mesh;
 pub mod collider;
+mod collider_curl;
 mod controls;
 mod cpu_solver;
 pub mod error;

@@ -96,6 +96,7 @@ impl SolverProgram {
         }
         let mut colliders = Vec::new();
         let mut starts = Vec::new();
+        let curl_radius = crate::collider_curl::curl_radius(model.cloths());
         for (i, c) in model.colliders().iter().enumerate() {
             let params = c.params()?;
             let name = numbered("collider", i);
@@ -116,7 +117,10 @@ impl SolverProgram {
             };
             let mut b = ColliderBuffers::declare(&mut resources, &name, leaves);
             if let ColliderShape::Triangles { triangles, .. } = &c.shape {
-                let features = crate::programs::self_contact::collider_features(triangles);
+                let mut features = crate::programs::self_contact::collider_features(triangles);
+                if let (Some(radius), ColliderShape::Triangles { vertices, .. }) = (curl_radius, &c.shape) {
+                    crate::collider_curl::mark_curled(&mut features, vertices, triangles, radius);
+                }
                 let handle = resources.device(format!("{name}: features"), features.len() as u32);
                 initial.push((handle.id(), bytemuck::cast_slice::<_, u8>(&features).to_vec()));
                 b.features = Some((handle, features.len() as u32));

@@ -121,4 +121,24 @@ mod tests {
         assert!(sharp_total > 0 && listed_total < triangles_total / 2, "{listed_total} of {triangles_total} listed");
         println!("listed {listed_total}, sharp in a pass {sharp_total}, of {triangles_total} triangle-thresholds");
     }
+
+    /// A triangle marked curled (`CURLED_BIT`) is listed however flat its folds, unless it owns
+    /// no vertex or edge to test; unmarked, the same triangle of a large sphere is not.
+    #[test]
+    fn a_curled_triangle_is_listed_whatever_its_folds() {
+        use drape_kernels::self_contact::CURLED_BIT;
+        let mesh = Mesh::icosphere(0.5, 4);
+        let features = collider_features(&mesh.triangles);
+        let local: Vec<Vec4> = mesh.vertices.iter().map(|v| v.extend(0.0)).collect();
+        let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+        let mesh = (&local[..], &local[..], &indices[..]);
+        let (longest2, thickness) = (0.02f32 * 0.02, 0.005);
+        let owning = features.iter().position(|f| f.w != 0).expect("a triangle owning a feature");
+        let plain = features[owning];
+        assert!(!may_be_sharp(owning as u32, plain, mesh, longest2, thickness), "a smooth sphere's triangle");
+        let curled = UVec4 { w: plain.w | CURLED_BIT, ..plain };
+        assert!(may_be_sharp(owning as u32, curled, mesh, longest2, thickness), "curled");
+        let owning_nothing = UVec4 { w: CURLED_BIT, ..plain };
+        assert!(!may_be_sharp(owning as u32, owning_nothing, mesh, longest2, thickness), "curled, owning nothing");
+    }
 }

@@ -723,6 +723,16 @@ pub fn edge_pair_correction(
 /// pairs are searched from one triangle.
 pub const VERTEX_OWNED_BIT: u32 = 8;
 
+/// The bits of a collider triangle's owned edges and corners in its `features` word (w).
+pub const OWNED_FEATURE_BITS: u32 = 0b111_111;
+
+/// Set in a collider triangle's `features` word (w) where the surface within half the
+/// self-colliding cloths' longest edge wraps round (a rod, a wire, a thin rim: the host's
+/// `collider_curl`): a cloth cell draped over it hangs on both sides, so each of the vertices
+/// and edges it owns is tested against the cloth whatever its fold (`sharp_for`), as if folded
+/// shut.
+pub const CURLED_BIT: u32 = 64;
+
 /// `x`, `y` or `z` for `k` = 0, 1 or 2 (a branch, not an indexed private array: those are
 /// slow on llvmpipe).
 #[inline]
@@ -1245,7 +1255,7 @@ pub fn collider_feature_contact_at(
     (out, pushes, health): (PairResponse, &mut [u32], &mut Health),
 ) -> bool {
     let thickness = out.thickness;
-    let owned = feature.w;
+    let owned = feature.w & OWNED_FEATURE_BITS;
     if owned == 0 {
         return false;
     }
@@ -1263,13 +1273,18 @@ pub fn collider_feature_contact_at(
     if !meets_cloth(aabbs, leaves, (lo, hi)) {
         return false; // away from the whole cloth (the tree's root): no folds to measure
     }
-    // The folds at the pass's end (a deforming collider's change).
+    // The folds at the pass's end (a deforming collider's change); folded shut where the
+    // surface wraps round (`CURLED_BIT`).
     let mesh = (vertices, previous);
-    let folds = Vec3::new(
-        edge_fold((0, feature.x), corners, mesh, motion),
-        edge_fold((1, feature.y), corners, mesh, motion),
-        edge_fold((2, feature.z), corners, mesh, motion),
-    );
+    let folds = if feature.w & CURLED_BIT != 0 {
+        Vec3::splat(2.0)
+    } else {
+        Vec3::new(
+            edge_fold((0, feature.x), corners, mesh, motion),
+            edge_fold((1, feature.y), corners, mesh, motion),
+            edge_fold((2, feature.z), corners, mesh, motion),
+        )
+    };
     let vertex_folds = vertex_folds(folds);
     // The features sharp enough for the cloth's longest edge (at the frame's start, grown by
     // `EDGE_GROWTH2`); none (most of a smooth body): nothing this triangle could test.

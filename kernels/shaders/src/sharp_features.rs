@@ -16,7 +16,7 @@
 use crate::WORKGROUP_SIZE;
 use crate::atomics;
 use crate::contact::CONTACT_THREADS;
-use crate::self_contact::{NO_NEIGHBOUR, fold, grown_longest_edge2, sharp_features};
+use crate::self_contact::{CURLED_BIT, NO_NEIGHBOUR, OWNED_FEATURE_BITS, fold, grown_longest_edge2, sharp_features};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{ColliderParams, DispatchArgs};
 use spirv_std::spirv;
@@ -44,7 +44,8 @@ fn local_fold(k: usize, corners: [Vec3; 3], across: u32, vertices: &[Vec4]) -> f
 
 /// Whether collider triangle `triangle` (`feature`: its neighbours' apexes and owned bits, as
 /// `collider_feature_contact_at` takes) may have a feature sharp for a cloth whose longest
-/// squared edge at the frame's start is `longest2` at `thickness`, in some pass of the frame.
+/// squared edge at the frame's start is `longest2` at `thickness`, in some pass of the frame
+/// (always where the surface wraps round it: `CURLED_BIT`).
 #[inline]
 pub fn may_be_sharp(
     triangle: u32,
@@ -53,9 +54,12 @@ pub fn may_be_sharp(
     longest2: f32,
     thickness: f32,
 ) -> bool {
-    let owned = feature.w;
+    let owned = feature.w & OWNED_FEATURE_BITS;
     if owned == 0 {
         return false;
+    }
+    if feature.w & CURLED_BIT != 0 {
+        return true;
     }
     let i = 3 * triangle as usize;
     let ids = [indices[i], indices[i + 1], indices[i + 2]];
