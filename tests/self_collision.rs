@@ -541,10 +541,26 @@ fn crossings_over_90_frames(
     (worst, highest)
 }
 
+/// A 1 m platform, its top at y = 0.1.
+fn platform() -> drape::Mesh {
+    let mut mesh = common::slab(Vec3::new(1.0, 0.1, 1.0));
+    mesh.vertices.iter_mut().for_each(|v| v.y += 0.05);
+    mesh
+}
+
+/// A 16 x 16 cloth of 0.8 m, 0.18 m above `platform`'s top.
+fn cloth_over_platform(self_collision: Option<f32>) -> drape::Cloth {
+    drape::ClothBuilder::new(16, 16)
+        .size(0.8)
+        .transform(glam::Mat4::from_translation(Vec3::new(0.0, 0.28, 0.0)))
+        .self_collision(self_collision)
+        .build()
+        .unwrap()
+}
+
 /// A 1 m platform (top at y = 0.1) with a thin spike at its middle, its tip at (0, top, 0).
 fn platform_with_spike() -> (drape::Mesh, f32) {
-    let mut mesh = common::slab(Vec3::new(1.0, 0.1, 1.0));
-    mesh.vertices.iter_mut().for_each(|v| v.y += 0.05); // top at y = 0.1
+    let mut mesh = platform();
     let (h, top, base) = (0.01, 0.25, 0.1);
     let first = mesh.vertices.len() as u32;
     mesh.vertices.extend([
@@ -811,18 +827,9 @@ fn a_spinning_star_s_knife_edges_do_not_cut_the_cloth() {
 #[test]
 fn a_ridge_does_not_cut_a_cloth_cell() {
     let ctx = context();
-    let mut mesh = common::slab(Vec3::new(1.0, 0.1, 1.0));
-    mesh.vertices.iter_mut().for_each(|v| v.y += 0.05); // top at y = 0.1
-    let cloth_at = |self_collision: Option<f32>| {
-        drape::ClothBuilder::new(16, 16)
-            .size(0.8)
-            .transform(glam::Mat4::from_translation(Vec3::new(0.0, 0.28, 0.0)))
-            .self_collision(self_collision)
-            .build()
-            .unwrap()
-    };
+    let mut mesh = platform();
     // The apex halfway between the two particle columns nearest x = 0.
-    let mut columns: Vec<f32> = cloth_at(None).positions.iter().map(|p| p.x).collect();
+    let mut columns: Vec<f32> = cloth_over_platform(None).positions.iter().map(|p| p.x).collect();
     columns.sort_by(f32::total_cmp);
     columns.dedup();
     let nearest = columns.iter().copied().min_by(|a, b| a.abs().total_cmp(&b.abs())).unwrap();
@@ -845,7 +852,7 @@ fn a_ridge_does_not_cut_a_cloth_cell() {
     ]);
     let ridge = [[0, 2, 5], [0, 5, 3], [1, 4, 5], [1, 5, 2], [0, 1, 2], [3, 5, 4], [0, 3, 4], [0, 4, 1]];
     mesh.triangles.extend(ridge.iter().map(|t| t.map(|i| i + first)));
-    let run = |self_collision: Option<f32>| crossings_over_90_frames(&ctx, &mesh, &cloth_at(self_collision));
+    let run = |self_collision: Option<f32>| crossings_over_90_frames(&ctx, &mesh, &cloth_over_platform(self_collision));
     let (cut, flat) = run(None);
     let (draped, drape) = run(Some(0.005));
     println!(
@@ -867,16 +874,7 @@ fn a_ridge_does_not_cut_a_cloth_cell() {
 #[test]
 fn a_thin_rod_does_not_cut_a_cloth_cell() {
     let ctx = context();
-    let mut mesh = common::slab(Vec3::new(1.0, 0.1, 1.0));
-    mesh.vertices.iter_mut().for_each(|v| v.y += 0.05); // top at y = 0.1
-    let cloth_at = |self_collision: Option<f32>| {
-        drape::ClothBuilder::new(16, 16)
-            .size(0.8)
-            .transform(glam::Mat4::from_translation(Vec3::new(0.0, 0.28, 0.0)))
-            .self_collision(self_collision)
-            .build()
-            .unwrap()
-    };
+    let mut mesh = platform();
     let (radius, sides, long) = (0.004, 96u32, 0.6);
     let (height, top) = (0.1 + radius, 0.1 + 2.0 * radius);
     let first = mesh.vertices.len() as u32;
@@ -892,15 +890,8 @@ fn a_thin_rod_does_not_cut_a_cloth_cell() {
         mesh.triangles.push([first + i, first + sides + i, first + sides + j]);
     }
     // The fold test alone would leave every edge of the rod out for this cloth.
-    let cloth = cloth_at(Some(0.005));
-    let longest2 = cloth
-        .triangles
-        .iter()
-        .flat_map(|t| {
-            let [a, b, c] = t.map(|i| cloth.positions[i as usize].truncate());
-            [a.distance_squared(b), b.distance_squared(c), c.distance_squared(a)]
-        })
-        .fold(0.0, f32::max);
+    let cloth = cloth_over_platform(Some(0.005));
+    let longest2 = cloth.longest_edge2();
     let rod_fold = 1.0 - (std::f32::consts::TAU / sides as f32).cos();
     assert!(
         !sharp_for(rod_fold, longest2 * EDGE_GROWTH2, 0.005),
@@ -921,7 +912,7 @@ fn a_thin_rod_does_not_cut_a_cloth_cell() {
         let highest = sim.positions(CLOTH).unwrap().iter().map(|p| p.y).fold(f32::NEG_INFINITY, f32::max);
         (worst, highest)
     };
-    let (cut, flat) = run(&cloth_at(None));
+    let (cut, flat) = run(&cloth_over_platform(None));
     let (draped, drape) = run(&cloth);
     println!("rod: without self-collision {cut} crossings, cloth up to {flat} m; with: {draped}, up to {drape} m");
     assert!(cut > 0, "the rod must cut the cells with particle contact alone (the scene must test it)");

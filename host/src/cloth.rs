@@ -449,6 +449,17 @@ impl Cloth {
         self.triangles.clone()
     }
 
+    /// The squared length of the cloth's longest triangle edge, at its positions.
+    pub fn longest_edge2(&self) -> f32 {
+        self.triangles
+            .iter()
+            .flat_map(|t| {
+                let [a, b, c] = t.map(|i| self.positions[i as usize].truncate());
+                [a.distance_squared(b), b.distance_squared(c), c.distance_squared(a)]
+            })
+            .fold(0.0, f32::max)
+    }
+
     /// Each structural spring once: (i, j, rest length), for stretch measurements.
     pub fn structural_springs(&self) -> Vec<(u32, u32, f32)> {
         match &self.topology {

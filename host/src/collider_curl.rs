@@ -31,17 +31,7 @@ pub fn curl_radius(cloths: &[Cloth]) -> Option<f32> {
     cloths
         .iter()
         .filter(|cloth| cloth.self_collision.is_some())
-        .map(|cloth| {
-            let longest2 = cloth
-                .triangles
-                .iter()
-                .flat_map(|t| {
-                    let [a, b, c] = t.map(|i| cloth.positions[i as usize].truncate());
-                    [a.distance_squared(b), b.distance_squared(c), c.distance_squared(a)]
-                })
-                .fold(0.0, f32::max);
-            0.5 * (longest2 * EDGE_GROWTH2).sqrt()
-        })
+        .map(|cloth| 0.5 * (cloth.longest_edge2() * EDGE_GROWTH2).sqrt())
         .reduce(f32::max)
 }
 
