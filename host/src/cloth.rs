@@ -453,9 +453,9 @@ impl Cloth {
     pub fn longest_edge2(&self) -> f32 {
         self.triangles
             .iter()
-            .flat_map(|t| {
+            .map(|t| {
                 let [a, b, c] = t.map(|i| self.positions[i as usize].truncate());
-                [a.distance_squared(b), b.distance_squared(c), c.distance_squared(a)]
+                drape_kernels::self_contact::longest_side2(a, b, c)
             })
             .fold(0.0, f32::max)
     }

@@ -20,9 +20,9 @@
 //! listed every frame anyway, `drape_kernels::sharp_features::may_be_sharp`).
 
 use crate::cloth::Cloth;
+use crate::programs::self_contact::{edge_key, edge_sides};
 use drape_kernels::self_contact::{CURLED_BIT, EDGE_GROWTH2};
 use glam::{UVec4, Vec3};
-use std::collections::HashMap;
 
 /// The radius a collider's curl is measured over for `cloths`: half the longest edge, at rest,
 /// of those that collide with themselves (grown as the passes grow the cloth's longest edge
@@ -95,20 +95,14 @@ struct Surface<'a> {
 
 impl<'a> Surface<'a> {
     fn new(vertices: &'a [Vec3], triangles: &'a [[u32; 3]]) -> Self {
-        let mut sides: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-        for (t, corners) in triangles.iter().enumerate() {
-            for k in 0..3 {
-                let (p, q) = (corners[k], corners[(k + 1) % 3]);
-                sides.entry((p.min(q), p.max(q))).or_default().push(t as u32);
-            }
-        }
+        let sides = edge_sides(triangles, |t, _| t as u32);
         let across = triangles
             .iter()
             .enumerate()
             .map(|(t, corners)| {
                 std::array::from_fn(|k| {
                     let (p, q) = (corners[k], corners[(k + 1) % 3]);
-                    match sides.get(&(p.min(q), p.max(q))).map(Vec::as_slice) {
+                    match sides.get(&edge_key(p, q)).map(Vec::as_slice) {
                         Some(&[a, b]) if a as usize == t => b,
                         Some(&[a, b]) if b as usize == t => a,
                         _ => OPEN,

@@ -116,9 +116,9 @@ impl SolverProgram {
                 }
             };
             let mut b = ColliderBuffers::declare(&mut resources, &name, leaves);
-            if let ColliderShape::Triangles { triangles, .. } = &c.shape {
+            if let ColliderShape::Triangles { vertices, triangles } = &c.shape {
                 let mut features = crate::programs::self_contact::collider_features(triangles);
-                if let (Some(radius), ColliderShape::Triangles { vertices, .. }) = (curl_radius, &c.shape) {
+                if let Some(radius) = curl_radius {
                     crate::collider_curl::mark_curled(&mut features, vertices, triangles, radius);
                 }
                 let handle = resources.device(format!("{name}: features"), features.len() as u32);

@@ -107,7 +107,7 @@ pub fn owned_primitives(triangles: &[[u32; 3]]) -> Vec<u32> {
         let mut bits = 0;
         for k in 0..3 {
             let (p, q) = (corners[k], corners[(k + 1) % 3]);
-            if seen_edges.insert((p.min(q), p.max(q))) {
+            if seen_edges.insert(edge_key(p, q)) {
                 bits |= 1 << k;
             }
             if seen_corners.insert(corners[k]) {
@@ -119,18 +119,29 @@ pub fn owned_primitives(triangles: &[[u32; 3]]) -> Vec<u32> {
     owned
 }
 
+/// Each undirected edge of `triangles` (`edge_key`) with what `side(t, k)` gives for each
+/// triangle t whose edge k (from corner k to k + 1) it is: the sides a surface meets at it.
+pub fn edge_sides<T>(triangles: &[[u32; 3]], side: impl Fn(usize, usize) -> T) -> HashMap<(u32, u32), Vec<T>> {
+    let mut sides: HashMap<(u32, u32), Vec<T>> = HashMap::new();
+    for (t, corners) in triangles.iter().enumerate() {
+        for k in 0..3 {
+            sides.entry(edge_key(corners[k], corners[(k + 1) % 3])).or_default().push(side(t, k));
+        }
+    }
+    sides
+}
+
+/// The key of the edge between particles or vertices `p` and `q`, either way round.
+pub fn edge_key(p: u32, q: u32) -> (u32, u32) {
+    (p.min(q), p.max(q))
+}
+
 /// Per collider triangle: the apex of its neighbour across each edge (xyz; `NO_NEIGHBOUR` at a
 /// boundary or an edge shared by more than two triangles) and the vertices and edges it owns
 /// (w, as `owned_primitives`): what the collider's features are tested with, each edge pushing
 /// only where the surface folds enough at it (`drape_kernels::self_contact::sharp_for`).
 pub fn collider_features(triangles: &[[u32; 3]]) -> Vec<UVec4> {
-    let mut sides: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-    for corners in triangles {
-        for k in 0..3 {
-            let (p, q) = (corners[k], corners[(k + 1) % 3]);
-            sides.entry((p.min(q), p.max(q))).or_default().push(corners[(k + 2) % 3]);
-        }
-    }
+    let sides = edge_sides(triangles, |t, k| triangles[t][(k + 2) % 3]);
     let owned = owned_primitives(triangles);
     triangles
         .iter()
@@ -138,7 +149,7 @@ pub fn collider_features(triangles: &[[u32; 3]]) -> Vec<UVec4> {
         .map(|(corners, bits)| {
             let across = |k: usize| {
                 let (p, q, apex) = (corners[k], corners[(k + 1) % 3], corners[(k + 2) % 3]);
-                match sides.get(&(p.min(q), p.max(q))).map(Vec::as_slice) {
+                match sides.get(&edge_key(p, q)).map(Vec::as_slice) {
                     Some(&[a, b]) if a == apex => b,
                     Some(&[a, b]) if b == apex => a,
                     _ => NO_NEIGHBOUR,

@@ -1229,7 +1229,7 @@ fn edge_fold(
     motion: &SubstepMotion,
 ) -> f32 {
     if across == NO_NEIGHBOUR {
-        return 2.0;
+        return FOLDED_SHUT;
     }
     let o = across as usize;
     let far = collider_point(previous[o].xyz(), vertices[o].xyz(), motion).1;
@@ -1277,7 +1277,7 @@ pub fn collider_feature_contact_at(
     // surface wraps round (`CURLED_BIT`).
     let mesh = (vertices, previous);
     let folds = if feature.w & CURLED_BIT != 0 {
-        Vec3::splat(2.0)
+        Vec3::splat(FOLDED_SHUT)
     } else {
         Vec3::new(
             edge_fold((0, feature.x), corners, mesh, motion),
@@ -1478,6 +1478,10 @@ pub const COLLIDER_PUSH_LIMIT: f32 = 1.0;
 /// non-manifold edge): always sharp (`fold`).
 pub const NO_NEIGHBOUR: u32 = u32::MAX;
 
+/// The `fold` of an edge folded shut, its two half-planes on one side (also a boundary's, a
+/// degenerate triangle's, a surface that wraps round's: `CURLED_BIT`): always sharp.
+pub const FOLDED_SHUT: f32 = 2.0;
+
 /// How far from flat the surface folds at the edge from `a` to `b` of the triangle with apex
 /// `apex`, whose neighbour across it has apex `across`: 1 + cos of the angle between the two
 /// half-planes (0 flat, 1 at a right angle, 2 folded shut); convex and concave alike, so no
@@ -1488,7 +1492,7 @@ pub fn fold(a: Vec3, b: Vec3, apex: Vec3, across: Vec3) -> f32 {
     let edge = b - a;
     let length2 = edge.length_squared();
     if length2 <= 0.0 {
-        return 2.0;
+        return FOLDED_SHUT;
     }
     let off_edge = |p: Vec3| {
         let r = p - a;
@@ -1497,7 +1501,7 @@ pub fn fold(a: Vec3, b: Vec3, apex: Vec3, across: Vec3) -> f32 {
     let (u, w) = (off_edge(apex), off_edge(across));
     let norms = (u.length_squared() * w.length_squared()).sqrt();
     if norms <= 0.0 {
-        return 2.0;
+        return FOLDED_SHUT;
     }
     1.0 + u.dot(w) * (1.0 / norms)
 }
@@ -1515,7 +1519,7 @@ pub fn fold(a: Vec3, b: Vec3, apex: Vec3, across: Vec3) -> f32 {
 /// frames. An edge folded shut (a boundary, a fin, a degenerate triangle: 2) always counts.
 #[inline]
 pub fn sharp_for(fold: f32, cloth_length2: f32, thickness: f32) -> bool {
-    fold >= 2.0 || fold * cloth_length2 >= 2.0 * thickness * thickness
+    fold >= FOLDED_SHUT || fold * cloth_length2 >= 2.0 * thickness * thickness
 }
 
 /// A collider triangle's folds at its corners from those at its edges (`folds`, edge k from

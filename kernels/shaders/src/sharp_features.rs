@@ -16,7 +16,9 @@
 use crate::WORKGROUP_SIZE;
 use crate::atomics;
 use crate::contact::CONTACT_THREADS;
-use crate::self_contact::{CURLED_BIT, NO_NEIGHBOUR, OWNED_FEATURE_BITS, fold, grown_longest_edge2, sharp_features};
+use crate::self_contact::{
+    CURLED_BIT, FOLDED_SHUT, NO_NEIGHBOUR, OWNED_FEATURE_BITS, fold, grown_longest_edge2, sharp_features,
+};
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{ColliderParams, DispatchArgs};
 use spirv_std::spirv;
@@ -37,7 +39,7 @@ fn deforms(i: u32, (vertices, previous): (&[Vec4], &[Vec4])) -> bool {
 #[inline]
 fn local_fold(k: usize, corners: [Vec3; 3], across: u32, vertices: &[Vec4]) -> f32 {
     if across == NO_NEIGHBOUR {
-        return 2.0;
+        return FOLDED_SHUT;
     }
     fold(corners[k], corners[(k + 1) % 3], corners[(k + 2) % 3], vertices[across as usize].xyz())
 }
