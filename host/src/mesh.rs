@@ -24,6 +24,10 @@ const MEMORY: &str = "<memory>";
 const MAX_ICOSPHERE_SUBDIVISIONS: u32 = 8;
 
 /// Segment counts above this are clamped so a torus stays below ~8.4 M triangles.
+/// The most segments `Mesh::rounded_box` takes for a quarter round.
+const MAX_ROUNDED_SEGMENTS: u32 = 512;
+/// The most squares `Mesh::rounded_box` takes across a flat face.
+const MAX_ROUNDED_FLAT: u32 = 4096;
 const MAX_TORUS_SEGMENTS: u32 = 2048;
 
 impl Mesh {
@@ -192,6 +196,66 @@ impl Mesh {
                 let (a, b, c, d) = (index(i, j), index(i, j + 1), index(i + 1, j + 1), index(i + 1, j));
                 triangles.push([a, b, c]);
                 triangles.push([a, c, d]);
+            }
+        }
+        Mesh { vertices, triangles }
+    }
+
+    /// A box of half extents `half` around the origin whose edges and corners are rounded with
+    /// `radius` (outside `half`: the box is `half + radius` across each half), each quarter
+    /// round in `segments` steps of equal angle (rounded up to even, clamped to 2..=512), the
+    /// flat faces in squares of at most `flat_step` (clamped to at least a thousandth of the box;
+    /// at most 4096 of them a side). Closed, counter-clockwise seen from outside: a table's or
+    /// a step's rounded edges, a crease finer than a cloth's cells.
+    pub fn rounded_box(half: Vec3, radius: f32, segments: u32, flat_step: f32) -> Mesh {
+        let half = half.max(Vec3::ZERO);
+        let radius = radius.max(0.0);
+        let quarter = segments.clamp(2, MAX_ROUNDED_SEGMENTS).div_ceil(2);
+        // Along an axis of half extent h: the rounds' tangents (a cube face's coordinates
+        // mapped to equal angles, `outward`) and the flat part between them.
+        let axis = |h: f32| {
+            let step = flat_step.max(1e-3 * half.max_element().max(radius)).max(f32::MIN_POSITIVE);
+            let flat = ((2.0 * h / step).ceil() as u32).clamp(1, MAX_ROUNDED_FLAT);
+            let round = |j: u32| h + radius * (std::f32::consts::FRAC_PI_4 * j as f32 / quarter as f32).tan();
+            let mut at: Vec<f32> = (1..=quarter).rev().map(|j| -round(j)).collect();
+            at.extend((0..=flat).map(|i| -h + 2.0 * h * i as f32 / flat as f32));
+            at.extend((1..=quarter).map(round));
+            at.dedup();
+            at
+        };
+        let coords = [axis(half.x), axis(half.y), axis(half.z)];
+        // A point of the cube of half extent half + radius, out to the rounded surface: the
+        // nearest point of the inner box, then `radius` along the way to the point.
+        let outward = |g: Vec3| {
+            let inner = g.clamp(-half, half);
+            (g - inner).try_normalize().map_or(g, |d| inner + d * radius)
+        };
+        let mut index = std::collections::HashMap::new();
+        let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
+        for normal_axis in 0..3 {
+            let (u, v) = ((normal_axis + 1) % 3, (normal_axis + 2) % 3);
+            for sign in [-1.0f32, 1.0] {
+                let mut vertex = |i: usize, j: usize| {
+                    let mut cell = [0usize; 3];
+                    (cell[u], cell[v]) = (i, j);
+                    cell[normal_axis] = if sign < 0.0 { 0 } else { coords[normal_axis].len() - 1 };
+                    *index.entry(cell).or_insert_with(|| {
+                        let g = Vec3::new(coords[0][cell[0]], coords[1][cell[1]], coords[2][cell[2]]);
+                        vertices.push(outward(g));
+                        vertices.len() as u32 - 1
+                    })
+                };
+                for i in 0..coords[u].len() - 1 {
+                    for j in 0..coords[v].len() - 1 {
+                        let [a, b, c, d] = [vertex(i, j), vertex(i + 1, j), vertex(i + 1, j + 1), vertex(i, j + 1)];
+                        // (u, v, normal) is right-handed: counter-clockwise in (u, v) faces +normal.
+                        if sign > 0.0 {
+                            triangles.extend([[a, b, c], [a, c, d]]);
+                        } else {
+                            triangles.extend([[a, c, b], [a, d, c]]);
+                        }
+                    }
+                }
             }
         }
         Mesh { vertices, triangles }
