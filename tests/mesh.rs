@@ -100,6 +100,31 @@ fn torus_is_closed_outward_and_has_the_right_tube() {
 }
 
 #[test]
+fn rounded_box_is_closed_outward_and_round_at_its_edges() {
+    let (half, radius) = (Vec3::new(0.3, 0.1, 0.2), 0.02f32);
+    let mesh = Mesh::rounded_box(half, radius, 8, 0.05);
+    assert_closed_and_oriented(&mesh);
+    // Every vertex lies `radius` from the inner box.
+    for v in &mesh.vertices {
+        let off = (v.abs() - half).max(Vec3::ZERO).length();
+        assert!((off - radius).abs() < 1e-5, "vertex {v} is {off} from the inner box");
+    }
+    let (min, max) = mesh.bounds();
+    assert!((max - (half + radius)).abs().max_element() < 1e-6 && (min + max).abs().max_element() < 1e-6);
+    // Box + slabs + quarter cylinders + eighth spheres (Steiner), less the flats' chords.
+    let (h, r) = (half.as_dvec3(), radius as f64);
+    let exact = 8.0 * h.x * h.y * h.z
+        + 2.0 * r * 4.0 * (h.x * h.y + h.y * h.z + h.z * h.x)
+        + std::f64::consts::PI * r * r * 2.0 * (h.x + h.y + h.z)
+        + 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+    let volume = signed_volume(&mesh);
+    assert!(volume > 0.0 && volume < exact && volume > exact * 0.999, "{volume} vs {exact}");
+    // Flat in one axis (a plate with rounded rims) and without rounding (a box) stay closed.
+    assert_closed_and_oriented(&Mesh::rounded_box(Vec3::new(0.3, 0.0, 0.2), radius, 4, 0.1));
+    assert_closed_and_oriented(&Mesh::rounded_box(half, 0.0, 4, 0.1));
+}
+
+#[test]
 fn transform_bounds_and_scene_placement() {
     let sphere = Mesh::icosphere(1.0, 2);
     let mirrored = sphere.transformed(Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
