@@ -948,6 +948,36 @@ fn a_thin_rod_does_not_cut_a_cloth_cell() {
     assert_validation_clean(&ctx);
 }
 
+/// A step 0.1 m high whose edges are rounded in 6 mm over 16 steps a quarter (each folds 5.6
+/// degrees, too little for the fold test at the cloth's 5 cm cells), its rim across the middle
+/// of a 16 x 16 cloth falling onto it: half the cloth lands on the step and half hangs over the
+/// rim, which turns a right angle within a cell (a ridge at the cloth's scale,
+/// `collider_crease`), so its vertices and edges are tested. Particle contact alone lets the
+/// rim cut the cells; with self-collision, and without the fail-safe (the passes alone), no
+/// edge of either crosses the other in any frame, and the cloth stays over the step.
+#[test]
+fn a_rounded_edge_does_not_cut_a_cloth_cell() {
+    let ctx = context();
+    let (half, round, segments) = (Vec3::new(0.3, 0.05 - 0.006, 0.6), 0.006, 16);
+    let step = drape::Mesh::rounded_box(half, round, segments, 0.05)
+        .transformed(glam::Mat4::from_translation(Vec3::new(-0.3 - 0.006, 0.05, 0.0)));
+    let cloth = cloth_over_platform(Some(0.005));
+    let fold = 1.0 - (std::f32::consts::FRAC_PI_2 / segments as f32).cos();
+    assert!(
+        !sharp_for(fold, cloth.longest_edge2() * EDGE_GROWTH2, 0.005),
+        "the rounds' folds {fold} must be under the fold test's"
+    );
+    let settings = SimSettings::default().with_self_failsafe(false);
+    let run = |cloth: &drape::Cloth| crossings_over_90_frames(&ctx, &step, cloth, settings);
+    let (cut, _) = run(&cloth_over_platform(None));
+    let (draped, highest) = run(&cloth);
+    println!("rounded step: without self-collision {cut} crossings; with: {draped}, cloth up to {highest} m");
+    assert!(cut > 0, "the rim must cut the cells with particle contact alone (the scene must test it)");
+    assert_eq!(draped, 0, "the rim cut the cloth with its vertices and edges tested");
+    assert!(highest > 0.1, "the cloth must stay over the step (highest particle {highest} m)");
+    assert_validation_clean(&ctx);
+}
+
 /// Self-collision runs as many passes per frame as the cloth's motion needs (its pairs closing
 /// about the thickness between two, at most 3/2 of it: `passes_for`; at least
 /// `MIN_SELF_PASSES`) while the cloth does not touch itself, and a pass every substep while it

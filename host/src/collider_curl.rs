@@ -20,7 +20,7 @@
 //! listed every frame anyway, `drape_kernels::sharp_features::may_be_sharp`).
 
 use crate::cloth::Cloth;
-use crate::programs::self_contact::{edge_key, edge_sides};
+use crate::collider_surface::{OPEN, Surface};
 use drape_kernels::self_contact::{CURLED_BIT, EDGE_GROWTH2};
 use glam::{UVec4, Vec3};
 
@@ -36,13 +36,16 @@ pub fn curl_radius(cloths: &[Cloth]) -> Option<f32> {
 }
 
 /// Sets `CURLED_BIT` in the `features` words (`programs::self_contact::collider_features`) of
-/// the triangles where the surface wraps round within `radius` (`curled_triangles`).
-pub fn mark_curled(features: &mut [UVec4], vertices: &[Vec3], triangles: &[[u32; 3]], radius: f32) {
-    for (feature, curls) in features.iter_mut().zip(curled_triangles(vertices, triangles, radius)) {
+/// the triangles where the surface wraps round within `radius` (`curled_triangles`); returns
+/// how many.
+pub fn mark_curled(features: &mut [UVec4], vertices: &[Vec3], triangles: &[[u32; 3]], radius: f32) -> usize {
+    let curled = curled_triangles(vertices, triangles, radius);
+    for (feature, &curls) in features.iter_mut().zip(&curled) {
         if curls {
             feature.w |= CURLED_BIT;
         }
     }
+    curled.iter().filter(|&&c| c).count()
 }
 
 /// Per triangle of `triangles` (over `vertices`), whether the surface within `radius` of its
@@ -70,9 +73,6 @@ pub fn curled_triangles(vertices: &[Vec3], triangles: &[[u32; 3]], radius: f32) 
     curled
 }
 
-/// Marks an edge shared by other than two triangles (a boundary, a fin).
-const OPEN: u32 = u32::MAX;
-
 /// A surface curls where its area-weighted normals sum to less than this fraction of its area:
 /// its area seen from the best side, against all of it (1 for a flat patch). A cylinder's patch
 /// spanning an angle 2a around it keeps sin(a) / a, under a half beyond a = 1.9 rad: within 2
@@ -80,70 +80,6 @@ const OPEN: u32 = u32::MAX;
 /// standard scene's cloth edge (1.9 cm), 15 of the bunny's 69451 triangles sum under a half
 /// and 11332 of the dragon's 202520 (its claws, horns and teeth).
 const NET_SIDE: f32 = 0.5;
-
-/// A mesh's triangles with what the walks over it read.
-struct Surface<'a> {
-    vertices: &'a [Vec3],
-    triangles: &'a [[u32; 3]],
-    /// The triangle across each edge, or `OPEN`.
-    across: Vec<[u32; 3]>,
-    /// Each triangle's normal scaled by twice its area.
-    normals: Vec<Vec3>,
-    /// Each triangle's centroid and the distance from it to its farthest corner.
-    centroids: Vec<(Vec3, f32)>,
-}
-
-impl<'a> Surface<'a> {
-    fn new(vertices: &'a [Vec3], triangles: &'a [[u32; 3]]) -> Self {
-        let sides = edge_sides(triangles, |t, _| t as u32);
-        let across = triangles
-            .iter()
-            .enumerate()
-            .map(|(t, corners)| {
-                std::array::from_fn(|k| {
-                    let (p, q) = (corners[k], corners[(k + 1) % 3]);
-                    match sides.get(&edge_key(p, q)).map(Vec::as_slice) {
-                        Some(&[a, b]) if a as usize == t => b,
-                        Some(&[a, b]) if b as usize == t => a,
-                        _ => OPEN,
-                    }
-                })
-            })
-            .collect();
-        let normals = triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| vertices[i as usize]);
-                (b - a).cross(c - a)
-            })
-            .collect();
-        let centroids = triangles
-            .iter()
-            .map(|t| {
-                let corners = t.map(|i| vertices[i as usize]);
-                let centroid = (corners[0] + corners[1] + corners[2]) * (1.0 / 3.0);
-                (centroid, corners.iter().map(|c| c.distance(centroid)).fold(0.0, f32::max))
-            })
-            .collect();
-        Surface { vertices, triangles, across, normals, centroids }
-    }
-
-    /// Whether triangle `u` comes within `radius` of the centroid of triangle `t`: at once
-    /// where `u`'s own centroid does, or where its bounding sphere cannot; else exactly.
-    fn near_centroid(&self, t: usize, u: usize, radius: f32) -> bool {
-        let (from, _) = self.centroids[t];
-        let (centroid, reach) = self.centroids[u];
-        let apart = from.distance(centroid);
-        if apart < radius {
-            return true;
-        }
-        if apart - reach >= radius {
-            return false;
-        }
-        let [a, b, c] = self.triangles[u].map(|i| self.vertices[i as usize]);
-        from.distance(drape_kernels::self_contact::closest_with_weights(from, a, b, c).0) < radius
-    }
-}
 
 /// The most triangles one triangle's measure takes in: on a mesh much finer than the cloth
 /// (its triangles a few millimetres, the radius centimetres) the patch is cut to the triangles
