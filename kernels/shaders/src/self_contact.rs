@@ -726,11 +726,11 @@ pub const VERTEX_OWNED_BIT: u32 = 8;
 /// The bits of a collider triangle's owned edges and corners in its `features` word (w).
 pub const OWNED_FEATURE_BITS: u32 = 0b111_111;
 
-/// Set in a collider triangle's `features` word (w) where the surface within half the
-/// self-colliding cloths' longest edge wraps round (a rod, a wire, a thin rim: the host's
-/// `collider_curl`): a cloth cell draped over it hangs on both sides, so each of the vertices
-/// and edges it owns is tested against the cloth whatever its fold (`sharp_for`), as if folded
-/// shut.
+/// Set in a collider triangle's `features` word (w) where, within half the self-colliding
+/// cloths' longest edge, the surface wraps round (a rod, a wire, a thin rim: the host's
+/// `collider_curl`) or turns over many small folds into a ridge a cell sags onto (a rounded
+/// edge: `collider_crease`): each of the vertices and edges it owns is tested against the cloth
+/// whatever its fold (`sharp_for`), as if folded shut.
 pub const CURLED_BIT: u32 = 64;
 
 /// `x`, `y` or `z` for `k` = 0, 1 or 2 (a branch, not an indexed private array: those are
@@ -1274,7 +1274,7 @@ pub fn collider_feature_contact_at(
         return false; // away from the whole cloth (the tree's root): no folds to measure
     }
     // The folds at the pass's end (a deforming collider's change); folded shut where the
-    // surface wraps round (`CURLED_BIT`).
+    // surface wraps round or forms a ridge at the cloth's scale (`CURLED_BIT`).
     let mesh = (vertices, previous);
     let folds = if feature.w & CURLED_BIT != 0 {
         Vec3::splat(FOLDED_SHUT)
