@@ -86,6 +86,8 @@ const NET_SIDE: f32 = 0.5;
 /// nearest by steps across edges (a disc of about 9 rings), so the measure costs at most this
 /// many visits a triangle: an icosphere of 1.3 M triangles (0.93 m across) at the standard
 /// scene's radius took 16 s, each patch about a thousand triangles, and takes 3.7 s (2 threads).
+/// A wire in more than about 100 sides does not wrap within it; `collider_crease`'s cut across
+/// its long edges turns back round it, which marks it.
 const PATCH_BUDGET: usize = 256;
 
 /// One thread's walk state, reused from triangle to triangle.
