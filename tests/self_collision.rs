@@ -916,6 +916,26 @@ fn a_thin_rod_s_frames_equal_their_cpu_twin() {
     assert_validation_clean(&ctx);
 }
 
+/// A collider whose edges fold by `fold`, under what the fold test asks of
+/// `cloth_over_platform`'s cells (asserted), under that cloth over 90 frames without the
+/// fail-safe (the passes alone, which it would otherwise hide by putting crossed cells back):
+/// the worst crossings and the highest particle (`crossings_over_90_frames`) with particle
+/// contact alone, then with self-collision at 5 mm.
+fn crossings_under_the_fold_test(
+    ctx: &std::sync::Arc<drape::Context>,
+    mesh: &drape::Mesh,
+    fold: f32,
+) -> ((usize, f32), (usize, f32)) {
+    let cloth = cloth_over_platform(Some(0.005));
+    assert!(
+        !sharp_for(fold, cloth.longest_edge2() * EDGE_GROWTH2, 0.005),
+        "the collider's folds {fold} must be under the fold test's"
+    );
+    let settings = SimSettings::default().with_self_failsafe(false);
+    let run = |cloth: &drape::Cloth| crossings_over_90_frames(ctx, mesh, cloth, settings);
+    (run(&cloth_over_platform(None)), run(&cloth))
+}
+
 /// A thin rod finely tessellated (4 mm radius in 96 sides, longer than the cloth) lying on a
 /// platform, a 16 x 16 cloth falling onto them: each of its edges folds 3.75 degrees, too
 /// little for the fold test at the cloth's 5 cm cells, but the rod turns right round within a
@@ -929,18 +949,8 @@ fn a_thin_rod_does_not_cut_a_cloth_cell() {
     let (mesh, top) = platform_with_rod();
     let sides = ROD_SIDES;
     // The fold test alone would leave every edge of the rod out for this cloth.
-    let cloth = cloth_over_platform(Some(0.005));
-    let longest2 = cloth.longest_edge2();
     let rod_fold = 1.0 - (std::f32::consts::TAU / sides as f32).cos();
-    assert!(
-        !sharp_for(rod_fold, longest2 * EDGE_GROWTH2, 0.005),
-        "the rod's folds {rod_fold} must be under the fold test's"
-    );
-    // The passes alone: without the fail-safe, which would put crossed cells back.
-    let settings = SimSettings::default().with_self_failsafe(false);
-    let run = |cloth: &drape::Cloth| crossings_over_90_frames(&ctx, &mesh, cloth, settings);
-    let (cut, flat) = run(&cloth_over_platform(None));
-    let (draped, drape) = run(&cloth);
+    let ((cut, flat), (draped, drape)) = crossings_under_the_fold_test(&ctx, &mesh, rod_fold);
     println!("rod: without self-collision {cut} crossings, cloth up to {flat} m; with: {draped}, up to {drape} m");
     assert!(cut > 0, "the rod must cut the cells with particle contact alone (the scene must test it)");
     assert_eq!(draped, 0, "the rod cut the cloth with its vertices and edges tested");
@@ -961,16 +971,8 @@ fn a_rounded_edge_does_not_cut_a_cloth_cell() {
     let (half, round, segments) = (Vec3::new(0.3, 0.05 - 0.006, 0.6), 0.006, 16);
     let step = drape::Mesh::rounded_box(half, round, segments, 0.05)
         .transformed(glam::Mat4::from_translation(Vec3::new(-0.3 - 0.006, 0.05, 0.0)));
-    let cloth = cloth_over_platform(Some(0.005));
     let fold = 1.0 - (std::f32::consts::FRAC_PI_2 / segments as f32).cos();
-    assert!(
-        !sharp_for(fold, cloth.longest_edge2() * EDGE_GROWTH2, 0.005),
-        "the rounds' folds {fold} must be under the fold test's"
-    );
-    let settings = SimSettings::default().with_self_failsafe(false);
-    let run = |cloth: &drape::Cloth| crossings_over_90_frames(&ctx, &step, cloth, settings);
-    let (cut, _) = run(&cloth_over_platform(None));
-    let (draped, highest) = run(&cloth);
+    let ((cut, _), (draped, highest)) = crossings_under_the_fold_test(&ctx, &step, fold);
     println!("rounded step: without self-collision {cut} crossings; with: {draped}, cloth up to {highest} m");
     assert!(cut > 0, "the rim must cut the cells with particle contact alone (the scene must test it)");
     assert_eq!(draped, 0, "the rim cut the cloth with its vertices and edges tested");

@@ -24,16 +24,17 @@
 //! (`set_collider_vertices`) keeps the marks of its first shape (its deforming triangles are
 //! listed every frame anyway, `drape_kernels::sharp_features::may_be_sharp`).
 
-use crate::collider_surface::{OPEN, Surface};
-use drape_kernels::self_contact::{CURLED_BIT, fold, sharp_for};
+use crate::collider_surface::{OPEN, Surface, mark_every_feature};
+use drape_kernels::self_contact::{fold, sharp_for};
 use glam::{UVec4, Vec3};
 
 /// How far below its tangent plane, in thicknesses, the cut across an edge must end on both
 /// sides for the edge to be a ridge: a cell lying over it, its corners at the thickness from
 /// the surface, sags onto it (the reach is already the longest cloth edge's, stretched). Half
 /// a thickness, as the fold test asks of one sharp fold, listed the bunny's curved regions
-/// too (16,260 of its 69,674 triangles against 3,762, the dragon's 79,241 against 35,819), and
-/// a box rounded in 8 steps of 11 degrees was not crossed with either.
+/// too (16,260 of its 69,674 triangles against 3,762, the dragon's 79,241 against 35,819, both
+/// before the fold test's own edges were left out), and a box rounded in 8 steps of 11 degrees
+/// was not crossed with either.
 const RIDGE_DROP: f32 = 1.0;
 
 /// The most triangles a cut crosses on each side: on a mesh much finer than the cloth it stops
@@ -56,13 +57,7 @@ pub fn mark_ridges(
     radius: f32,
     thickness: f32,
 ) -> usize {
-    let ridges = ridge_triangles(vertices, triangles, radius, thickness);
-    for (feature, &ridge) in features.iter_mut().zip(&ridges) {
-        if ridge {
-            feature.w |= CURLED_BIT;
-        }
-    }
-    ridges.iter().filter(|&&r| r).count()
+    mark_every_feature(features, &ridge_triangles(vertices, triangles, radius, thickness))
 }
 
 /// Per triangle of `triangles` (over `vertices`), whether one of its edges is a ridge at the
@@ -74,26 +69,22 @@ pub fn ridge_triangles(vertices: &[Vec3], triangles: &[[u32; 3]], radius: f32, t
     let surface = Surface::new(vertices, triangles);
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, 8);
     let chunk = triangles.len().div_ceil(threads).max(1);
-    let found: Vec<Vec<[u32; 2]>> = std::thread::scope(|scope| {
-        let walkers: Vec<_> = (0..threads)
-            .map(|c| {
-                let surface = &surface;
-                scope.spawn(move || {
-                    let mut ridges = Vec::new();
-                    for t in (c * chunk)..((c + 1) * chunk).min(triangles.len()) {
-                        for k in 0..3 {
-                            let u = surface.across[t][k];
-                            // Each edge once, from the earlier of its triangles.
-                            if u != OPEN && (u as usize) > t && is_ridge(surface, (t, k), radius, thickness) {
-                                ridges.push([t as u32, u]);
-                            }
+    let mut found = vec![Vec::new(); threads];
+    std::thread::scope(|scope| {
+        for (c, ridges) in found.iter_mut().enumerate() {
+            let surface = &surface;
+            scope.spawn(move || {
+                for t in (c * chunk)..((c + 1) * chunk).min(triangles.len()) {
+                    for k in 0..3 {
+                        let u = surface.across[t][k];
+                        // Each edge once, from the earlier of its triangles.
+                        if u != OPEN && (u as usize) > t && is_ridge(surface, (t, k), radius, thickness) {
+                            ridges.push([t as u32, u]);
                         }
                     }
-                    ridges
-                })
-            })
-            .collect();
-        walkers.into_iter().map(|w| w.join().unwrap_or_default()).collect()
+                }
+            });
+        }
     });
     let mut marked = vec![false; triangles.len()];
     for [t, u] in found.into_iter().flatten() {

@@ -20,8 +20,8 @@
 //! listed every frame anyway, `drape_kernels::sharp_features::may_be_sharp`).
 
 use crate::cloth::Cloth;
-use crate::collider_surface::{OPEN, Surface};
-use drape_kernels::self_contact::{CURLED_BIT, EDGE_GROWTH2};
+use crate::collider_surface::{OPEN, Surface, mark_every_feature};
+use drape_kernels::self_contact::EDGE_GROWTH2;
 use glam::{UVec4, Vec3};
 
 /// The radius a collider's curl is measured over for `cloths`: half the longest edge, at rest,
@@ -39,13 +39,7 @@ pub fn curl_radius(cloths: &[Cloth]) -> Option<f32> {
 /// the triangles where the surface wraps round within `radius` (`curled_triangles`); returns
 /// how many.
 pub fn mark_curled(features: &mut [UVec4], vertices: &[Vec3], triangles: &[[u32; 3]], radius: f32) -> usize {
-    let curled = curled_triangles(vertices, triangles, radius);
-    for (feature, &curls) in features.iter_mut().zip(&curled) {
-        if curls {
-            feature.w |= CURLED_BIT;
-        }
-    }
-    curled.iter().filter(|&&c| c).count()
+    mark_every_feature(features, &curled_triangles(vertices, triangles, radius))
 }
 
 /// Per triangle of `triangles` (over `vertices`), whether the surface within `radius` of its

@@ -3,7 +3,19 @@
 //! normal and centroid.
 
 use crate::programs::self_contact::{edge_key, edge_sides};
-use glam::Vec3;
+use drape_kernels::self_contact::CURLED_BIT;
+use glam::{UVec4, Vec3};
+
+/// Sets `CURLED_BIT` (every vertex and edge tested, as if folded shut) in the `features` words
+/// (`programs::self_contact::collider_features`) of the triangles `marked`; returns how many.
+pub(crate) fn mark_every_feature(features: &mut [UVec4], marked: &[bool]) -> usize {
+    let mut count = 0;
+    for (feature, _) in features.iter_mut().zip(marked).filter(|(_, m)| **m) {
+        feature.w |= CURLED_BIT;
+        count += 1;
+    }
+    count
+}
 
 /// Marks an edge shared by other than two triangles (a boundary, a fin).
 pub(crate) const OPEN: u32 = u32::MAX;
