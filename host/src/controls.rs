@@ -519,6 +519,11 @@ impl Controls {
             return Err(invalid("collider", format!("expected {count} {what}, got {}", data.len())));
         }
         c.deformed = Some(data);
+        // Its features' covers were measured on its first shape (`collider_cover`).
+        if c.params.cover_reach != 0.0 {
+            c.params.cover_reach = 0.0;
+            c.params_dirty = true;
+        }
         Ok(())
     }
 
@@ -932,8 +937,28 @@ impl SelfTreeSchedule {
 
 #[cfg(test)]
 mod tests {
-    use super::SelfTreeSchedule;
+    use super::{ColliderStart, Controls, SelfTreeSchedule};
+    use crate::model::ColliderId;
     use crate::programs::self_contact::SELF_TREE_REBUILD_FRAMES;
+    use crate::settings::SimSettings;
+    use drape_types::{ColliderParams, RigidPose};
+    use glam::{Vec3, Vec4};
+
+    /// A collider deformed at run time tests every feature of its curled triangles again: the
+    /// host measured the covers on its first shape (`collider_cover`), so its params go out
+    /// with no cover reach.
+    #[test]
+    fn deforming_a_collider_drops_its_covers() {
+        let params = ColliderParams { leaf_count: 1, thickness: 0.005, cover_reach: 0.00125, ..Default::default() };
+        let contents = vec![Vec4::ZERO, Vec4::X, Vec4::Y];
+        let start =
+            ColliderStart { params, pose: RigidPose::IDENTITY, deformable: "vertices", contents, swept_contact: true };
+        let mut controls = Controls::new(Vec::new(), SimSettings::default(), vec![start]);
+        assert!(!controls.colliders[0].params_dirty);
+        controls.set_collider_vertices(ColliderId(0), &[Vec3::ZERO, Vec3::X, Vec3::Z]).unwrap();
+        let c = &controls.colliders[0];
+        assert_eq!((c.params.cover_reach, c.params_dirty), (0.0, true));
+    }
 
     /// The first frame builds the tree (the constructor's plan already says so: no replan),
     /// the next `SELF_TREE_REBUILD_FRAMES - 1` refit it, then it is built again; the plan

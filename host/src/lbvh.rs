@@ -87,7 +87,7 @@ fn params_over_boxes(boxes: &[Aabb], thickness: f32, friction: f32) -> Result<Co
         leaf_count: boxes.len() as u32,
         thickness,
         friction,
-        _pad: 0,
+        cover_reach: 0.0,
         scene_min: lo.extend(0.0),
         scene_max: hi.extend(0.0),
     })

@@ -62,6 +62,7 @@ mod reference;
 pub mod cloth;
 pub mod cloth_mesh;
 pub mod collider;
+mod collider_cover;
 mod collider_crease;
 mod collider_curl;
 mod collider_surface;

@@ -98,7 +98,7 @@ impl SolverProgram {
         let mut starts = Vec::new();
         let curl_radius = crate::collider_curl::curl_radius(model.cloths());
         for (i, c) in model.colliders().iter().enumerate() {
-            let params = c.params()?;
+            let mut params = c.params()?;
             let name = numbered("collider", i);
             let leaves = match &c.shape {
                 ColliderShape::Spheres(spheres) => {
@@ -128,9 +128,16 @@ impl SolverProgram {
                         radius,
                         params.thickness,
                     );
+                    let reach = crate::collider_cover::COVER_SHARE * params.thickness;
+                    let (covered, tested) =
+                        crate::collider_cover::cover_curled_features(&mut features, vertices, triangles, reach);
+                    if covered > 0 {
+                        params.cover_reach = reach;
+                    }
                     log::debug!(
                         "{name}: {curled} of {} triangles wrap round within {radius} m, {ridges} lie on ridges at \
-                         that scale (their features always tested; measured in {:.0} ms)",
+                         that scale (their features always tested, but for {covered} of {tested} within {reach} m \
+                         of another; measured in {:.0} ms)",
                         triangles.len(),
                         started.elapsed().as_secs_f64() * 1e3
                     );

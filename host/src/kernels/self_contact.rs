@@ -9,7 +9,7 @@ use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::contact::substep_motion;
 use drape_kernels::self_contact::{
     PairResponse, SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, collider_feature_contact_at,
-    copy_start, count_self_contact, frame_of, gather_cloth_triangle, longest_edge2, write_scene,
+    copy_start, count_self_contact, frame_of, gather_cloth_triangle, longest_edge2, tested_features, write_scene,
 };
 use drape_kernels::self_pairs::anchor_particles;
 use drape_types::{
@@ -235,6 +235,7 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
     for i in 0..threads.min(listed) {
         let t = *sharp.get(i as usize).ok_or("the sharp features' count runs past their list")?;
         let mine = *features.get(t as usize).ok_or("a listed sharp feature is past the collider's triangles")?;
+        let mine = tested_features(mine, &collider);
         let out = PairResponse {
             thickness: collider.thickness,
             friction: collider.friction,

@@ -4,6 +4,7 @@
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
+use drape_kernels::self_contact::tested_features;
 use drape_kernels::sharp_features::{arm_second_refit, frame_threshold, list_sharp, may_be_sharp};
 use drape_types::{ColliderParams, DispatchArgs};
 use glam::{UVec4, Vec4};
@@ -32,13 +33,14 @@ fn list_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let [self_params, collider, vertices, previous, indices, features, sharp, sharp_args, features_found] =
         d.bindings()?;
     let self_params = self_params.first::<ColliderParams>()?;
-    let (longest2, thickness) = frame_threshold(&self_params, &collider.first()?);
+    let collider = collider.first::<ColliderParams>()?;
+    let (longest2, thickness) = frame_threshold(&self_params, &collider);
     let mesh = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
     let features = features.slice::<UVec4>();
     let (list, args) = (sharp.slice_mut::<u32>(), sharp_args.first_mut::<DispatchArgs>()?);
     let found = features_found.first_mut::<DispatchArgs>()?;
     for t in 0..threads.min(features.len() as u32) {
-        if may_be_sharp(t, features[t as usize], mesh, longest2, thickness) {
+        if may_be_sharp(t, tested_features(features[t as usize], &collider), mesh, longest2, thickness) {
             list_sharp(t, list, args);
             arm_second_refit(&self_params, found);
         }
@@ -140,5 +142,25 @@ mod tests {
         assert!(may_be_sharp(owning as u32, curled, mesh, longest2, thickness), "curled");
         let owning_nothing = UVec4 { w: CURLED_BIT, ..plain };
         assert!(!may_be_sharp(owning as u32, owning_nothing, mesh, longest2, thickness), "curled, owning nothing");
+    }
+
+    /// A curled triangle's covered features (`COVERED_SHIFT`) leave its tested ones while the
+    /// collider's covers hold (a reach within `COVER_LIMIT` of the thickness); with no reach (a
+    /// deformed collider), a thickness under twice the reach, or no `CURLED_BIT`, all stay.
+    #[test]
+    fn covered_features_are_skipped_only_while_the_covers_hold() {
+        use drape_kernels::self_contact::{COVERED_SHIFT, CURLED_BIT, OWNED_FEATURE_BITS, VERTEX_OWNED_BIT};
+        let owned = 0b011 | (VERTEX_OWNED_BIT << 1); // edges 0 and 1, corner 1
+        let covered = 0b010 | (VERTEX_OWNED_BIT << 1); // edge 1 and corner 1
+        let curled = UVec4::new(1, 2, 3, owned | CURLED_BIT | (covered << COVERED_SHIFT));
+        let collider =
+            |cover_reach: f32, thickness: f32| ColliderParams { thickness, cover_reach, ..Default::default() };
+        let tested = |feature: UVec4, c: ColliderParams| tested_features(feature, &c).w & OWNED_FEATURE_BITS;
+        assert_eq!(tested(curled, collider(0.00125, 0.005)), 0b001, "covers hold: only edge 0 is tested");
+        assert_eq!(tested_features(curled, &collider(0.00125, 0.005)).truncate(), curled.truncate(), "apexes kept");
+        assert_eq!(tested(curled, collider(0.0, 0.005)), owned, "no reach (deformed): all tested");
+        assert_eq!(tested(curled, collider(0.00125, 0.002)), owned, "thickness under twice the reach: all tested");
+        let unmarked = UVec4 { w: curled.w & !CURLED_BIT, ..curled };
+        assert_eq!(tested(unmarked, collider(0.00125, 0.005)), owned, "not curled: all tested");
     }
 }

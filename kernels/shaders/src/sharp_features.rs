@@ -18,6 +18,7 @@ use crate::atomics;
 use crate::contact::CONTACT_THREADS;
 use crate::self_contact::{
     CURLED_BIT, FOLDED_SHUT, NO_NEIGHBOUR, OWNED_FEATURE_BITS, fold, grown_longest_edge2, sharp_features,
+    tested_features,
 };
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{ColliderParams, DispatchArgs};
@@ -130,7 +131,7 @@ pub fn list_sharp_features(
     }
     let (longest2, thickness) = frame_threshold(self_params, collider);
     let mesh = (vertices, previous, indices);
-    if may_be_sharp(id.x, features[id.x as usize], mesh, longest2, thickness) {
+    if may_be_sharp(id.x, tested_features(features[id.x as usize], collider), mesh, longest2, thickness) {
         list_sharp(id.x, sharp, sharp_args);
         arm_second_refit(self_params, features_found);
     }
