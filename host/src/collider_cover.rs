@@ -1,6 +1,6 @@
 //! Which vertices and edges of a triangle collider's curled triangles (`CURLED_BIT`: every
 //! feature they own is tested against a self-colliding cloth at every pass) lie so near a kept
-//! one that testing them too changes nothing (`drape_kernels::self_contact::COVERED_SHIFT`).
+//! one that the passes may leave them out (`drape_kernels::self_contact::COVERED_SHIFT`).
 //!
 //! A wire tessellated finer than the thickness is curled all round: the 1024 side triangles of
 //! a rod of 3 mm radius in 512 sides each tested their 1.2 m edges at every pass, 650 ms of a
@@ -8,7 +8,9 @@
 //! (before the standard scene scales it to 2.3 mm).
 //!
 //! A vertex is covered by a kept vertex within `reach` of it: the cloth faces the kept one
-//! holds at the thickness stay the thickness less `reach` from it. An edge is covered by a
+//! holds at the thickness (at a pass's end) stay the thickness less `reach` from it; a face
+//! sweeping past it within a pass, which its own swept test would catch, passes within `reach`
+//! of the kept one, and the frame's fail-safe stands behind both. An edge is covered by a
 //! kept edge when each of its points lies within `reach` of it (the distance to a segment is
 //! convex along another, so it is enough that both of its ends do): the cloth edges the kept
 //! one holds at the thickness stay that far from it, and a cloth face can only reach an edge
@@ -29,9 +31,19 @@ use std::collections::HashMap;
 /// up to half).
 pub const COVER_SHARE: f32 = 0.25;
 
-/// The most grid cells a kept feature is entered in (a segment over a thousand times the
-/// cell's length): a longer one covers none (it is kept and tested all the same).
-const MOST_CELLS: usize = 1 << 15;
+/// The most samples along a kept feature (half a cell apart) the grid enters: a longer one
+/// covers none (it is kept and tested all the same).
+const MOST_SAMPLES: usize = 1 << 15;
+
+/// The most kept features a feature is compared with (those entered in the cell of its first
+/// end, in the order kept): where many long kept edges meet (a fine cone's tip) the cell holds
+/// them all. Past it, the feature is kept.
+const MOST_CANDIDATES: usize = 256;
+
+/// The most entries the grid holds (a few tens of megabytes): once full, features are kept
+/// without covering others. A mesh of long kept edges over a grid of cells sized to its many
+/// short ones would otherwise enter each of them in tens of thousands of cells.
+const MOST_ENTRIES: usize = 1 << 22;
 
 /// A curled triangle's owned vertex or edge: the triangle, its owned bit, its ends (a vertex's
 /// twice).
@@ -94,6 +106,8 @@ struct KeptGrid {
     cell: f32,
     reach: f32,
     cells: HashMap<IVec3, Vec<usize>>,
+    /// Entries it may still take (`MOST_ENTRIES`).
+    room: usize,
 }
 
 impl KeptGrid {
@@ -106,7 +120,9 @@ impl KeptGrid {
     fn enter(&mut self, index: usize, feature: &Feature) {
         let [a, b] = feature.ends;
         let steps = (a.distance(b) / (0.5 * self.cell)).ceil() as usize;
-        if steps > MOST_CELLS {
+        // Each sample's neighbourhood spans at most 3 cells a side (the cell is at least
+        // twice the reach).
+        if steps > MOST_SAMPLES || 27 * (steps + 1) > self.room {
             return;
         }
         // A point within `reach` of the segment is within `reach` + a quarter cell of a sample.
@@ -125,6 +141,7 @@ impl KeptGrid {
         }
         entered.sort_by_key(|c| (c.x, c.y, c.z));
         entered.dedup();
+        self.room -= entered.len();
         for c in entered {
             self.cells.entry(c).or_default().push(index);
         }
@@ -152,10 +169,11 @@ pub fn cover_curled_features(
     // Cells of twice the reach (a sample's neighbourhood spans at most 3 a side), or of the
     // median feature when longer (fewer cells for a mesh much coarser than the reach).
     let median = curled[curled.len() / 2].length();
-    let mut grid = KeptGrid { cell: (2.0 * reach).max(median), reach, cells: HashMap::new() };
+    let mut grid = KeptGrid { cell: (2.0 * reach).max(median), reach, cells: HashMap::new(), room: MOST_ENTRIES };
     let mut covered = 0;
     for (i, feature) in curled.iter().enumerate() {
-        let cover = grid.near(feature.ends[0]).iter().any(|&k| curled[k].covers(feature, reach));
+        let near = grid.near(feature.ends[0]);
+        let cover = near.iter().take(MOST_CANDIDATES).any(|&k| curled[k].covers(feature, reach));
         if cover {
             features[feature.triangle].w |= feature.bit << COVERED_SHIFT;
             covered += 1;

@@ -960,6 +960,37 @@ mod tests {
         assert_eq!((c.params.cover_reach, c.params_dirty), (0.0, true));
     }
 
+    /// A solver's program sets a triangle collider's cover reach (a quarter thickness) where
+    /// its curled features cover others (a wire of 512 sides under a self-colliding cloth),
+    /// and not where nothing measures them (the same cloth without self-collision).
+    #[test]
+    fn a_fine_wire_under_a_self_colliding_cloth_gets_its_covers() {
+        use crate::{ClothBuilder, Collider, Mesh, Model};
+        let (sides, radius, length) = (512u32, 0.003f32, 1.2f32);
+        let mut vertices = Vec::new();
+        for x in [-0.5 * length, 0.5 * length] {
+            for i in 0..sides {
+                let a = std::f32::consts::TAU * i as f32 / sides as f32;
+                vertices.push(Vec3::new(x, radius * a.cos(), radius * a.sin()));
+            }
+        }
+        let triangles: Vec<[u32; 3]> = (0..sides)
+            .flat_map(|i| {
+                let j = (i + 1) % sides;
+                [[i, j, sides + j], [i, sides + j, sides + i]]
+            })
+            .collect();
+        let wire = Collider::mesh(&Mesh::from_parts(vertices, triangles).unwrap(), 0.005);
+        let reach = |self_collision: Option<f32>| {
+            let cloth = ClothBuilder::new(16, 16).size(1.0).self_collision(self_collision).build().unwrap();
+            let model = Model::single(&cloth, std::slice::from_ref(&wire), SimSettings::default()).unwrap();
+            let (_, controls) = crate::program::SolverProgram::with_controls(&model).unwrap();
+            controls.colliders[0].params.cover_reach
+        };
+        assert_eq!(reach(Some(0.005)), crate::collider_cover::COVER_SHARE * 0.005);
+        assert_eq!(reach(None), 0.0);
+    }
+
     /// The first frame builds the tree (the constructor's plan already says so: no replan),
     /// the next `SELF_TREE_REBUILD_FRAMES - 1` refit it, then it is built again; the plan
     /// changes (a replan) exactly where build and refit alternate.

@@ -156,11 +156,36 @@ mod tests {
         let collider =
             |cover_reach: f32, thickness: f32| ColliderParams { thickness, cover_reach, ..Default::default() };
         let tested = |feature: UVec4, c: ColliderParams| tested_features(feature, &c).w & OWNED_FEATURE_BITS;
-        assert_eq!(tested(curled, collider(0.00125, 0.005)), 0b001, "covers hold: only edge 0 is tested");
-        assert_eq!(tested_features(curled, &collider(0.00125, 0.005)).truncate(), curled.truncate(), "apexes kept");
+        let holding = tested_features(curled, &collider(0.00125, 0.005));
+        assert_eq!(holding.w & OWNED_FEATURE_BITS, 0b001, "covers hold: only edge 0 is tested");
+        assert_eq!((holding.truncate(), holding.w & CURLED_BIT), (curled.truncate(), CURLED_BIT), "apexes, curl kept");
+        assert_eq!(tested(curled, collider(0.00125, 0.0025)), 0b001, "thickness twice the reach: covers hold");
         assert_eq!(tested(curled, collider(0.0, 0.005)), owned, "no reach (deformed): all tested");
         assert_eq!(tested(curled, collider(0.00125, 0.002)), owned, "thickness under twice the reach: all tested");
         let unmarked = UVec4 { w: curled.w & !CURLED_BIT, ..curled };
         assert_eq!(tested(unmarked, collider(0.00125, 0.005)), owned, "not curled: all tested");
+    }
+
+    /// The frame's list (`list_cpu`'s test: `may_be_sharp` of `tested_features`) leaves out a
+    /// curled triangle all of whose features are covered while the covers hold, and lists it
+    /// again once they do not.
+    #[test]
+    fn a_curled_triangle_whose_features_are_all_covered_is_not_listed() {
+        use drape_kernels::self_contact::{COVERED_SHIFT, CURLED_BIT, OWNED_FEATURE_BITS};
+        let mesh = Mesh::icosphere(0.5, 4);
+        let features = collider_features(&mesh.triangles);
+        let local: Vec<Vec4> = mesh.vertices.iter().map(|v| v.extend(0.0)).collect();
+        let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+        let mesh = (&local[..], &local[..], &indices[..]);
+        let (longest2, thickness) = (0.02f32 * 0.02, 0.005);
+        let owning = features.iter().position(|f| f.w != 0).expect("a triangle owning a feature");
+        let owned = features[owning].w & OWNED_FEATURE_BITS;
+        let covered = UVec4 { w: owned | CURLED_BIT | (owned << COVERED_SHIFT), ..features[owning] };
+        let listed = |reach: f32| {
+            let collider = ColliderParams { thickness, cover_reach: reach, ..Default::default() };
+            may_be_sharp(owning as u32, tested_features(covered, &collider), mesh, longest2, thickness)
+        };
+        assert!(!listed(0.25 * thickness), "all covered, covers holding: not listed");
+        assert!(listed(0.0), "covers dropped (deformed): listed");
     }
 }

@@ -735,11 +735,14 @@ pub const CURLED_BIT: u32 = 64;
 
 /// Bits `COVERED_SHIFT..` of a curled collider triangle's `features` word (laid out as its
 /// owned bits): the features it owns that lie within `ColliderParams::cover_reach` of a kept
-/// feature of a curled triangle, which is tested at every pass (the host's `collider_cover`). A
-/// cloth face or edge the kept feature holds at the thickness stays the thickness less that
-/// reach from the covered one, on the same side, so testing it too changes nothing; a wire of
-/// 512 sides lying under the cloth tested each of its 1024 side triangles' edges (1.2 m long)
-/// at every pass, 650 ms of a frame on lavapipe.
+/// feature of its kind of a curled triangle, which is tested at every pass (the host's
+/// `collider_cover`). A cloth face or edge the kept feature holds at the thickness at a pass's
+/// end stays the thickness less that reach from the covered one, on the same side. What the
+/// covered one's own test would add is its share of a particle's averaged corrections and its
+/// swept test of a face passing it within a pass (a vertex's): the kept one, that reach away,
+/// and the frame's fail-safe stand for those. A wire of 512 sides lying under the cloth tested
+/// each of its 1024 side triangles' edges (1.2 m long) at every pass, 650 ms of a frame on
+/// lavapipe.
 pub const COVERED_SHIFT: u32 = 7;
 
 /// The largest `ColliderParams::cover_reach`, in thicknesses, at which the covered features
