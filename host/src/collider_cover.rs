@@ -18,9 +18,11 @@
 //! right. Not a vertex by an edge: an edge is tested against cloth edges only, so a wire's end
 //! whose rim vertices were all covered by its long edges poked through cloth faces.
 //!
-//! Measured once, when a solver is built, on the mesh as given; the passes skip the covered
-//! features only while the collider keeps that shape and the thickness stays at least
-//! `reach / COVER_LIMIT` (`ColliderParams::cover_reach`).
+//! Measured once, when a solver is built, on the mesh as given. A collider deformed later
+//! (`set_collider_vertices`) has the reach grown by twice the farthest any vertex lies from
+//! that shape (the host's `ColliderControl::update_cover_reach`); the passes skip the covered
+//! features while the reach is at most `COVER_LIMIT` of the thickness
+//! (`ColliderParams::cover_reach`).
 
 use drape_kernels::self_contact::{COVERED_SHIFT, CURLED_BIT, OWNED_FEATURE_BITS, VERTEX_OWNED_BIT};
 use glam::{IVec3, UVec4, Vec3};

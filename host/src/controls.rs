@@ -91,6 +91,32 @@ struct ColliderControl {
     extent: Extent,
     /// Its contact needs no substep bound (`ColliderStart::swept_contact`).
     swept_contact: bool,
+    /// The shape its features' covers were measured on (`collider_cover`) and their reach
+    /// there; `None` without covers.
+    covers: Option<(Vec<Vec4>, f32)>,
+}
+
+impl ColliderControl {
+    /// Sets the covers' reach for the next frame (`ColliderParams::cover_reach`), which sweeps
+    /// from `current` to the `deformed` shape if any: the measured reach grown by twice the
+    /// farthest any vertex lies from the measured shape at either end (a covered feature's ends
+    /// and every point of its cover lie no farther, in between too), so a collider that
+    /// deforms a little keeps them; the passes drop them beyond `COVER_LIMIT` of the thickness.
+    fn update_cover_reach(&mut self) {
+        let Some((shape, measured)) = &self.covers else {
+            return;
+        };
+        let drift = |vertices: &[Vec4]| {
+            shape.iter().zip(vertices).map(|(a, b)| a.truncate().distance(b.truncate())).fold(0.0, f32::max)
+        };
+        let farthest = self.deformed.as_deref().map_or(0.0, drift).max(drift(&self.current));
+        let reach = measured + 2.0 * farthest;
+        let reach = if reach.is_finite() { reach } else { 0.0 };
+        if reach != self.params.cover_reach {
+            self.params.cover_reach = reach;
+            self.params_dirty = true;
+        }
+    }
 }
 
 /// One cloth's host-side values.
@@ -219,6 +245,7 @@ impl Controls {
         let colliders = colliders
             .into_iter()
             .map(|ColliderStart { params, pose, deformable, contents, swept_contact }| ColliderControl {
+                covers: (params.cover_reach > 0.0).then(|| (contents.clone(), params.cover_reach)),
                 params,
                 deformable: (deformable, contents.len() as u32),
                 extent: Extent::of(&contents),
@@ -519,11 +546,6 @@ impl Controls {
             return Err(invalid("collider", format!("expected {count} {what}, got {}", data.len())));
         }
         c.deformed = Some(data);
-        // Its features' covers were measured on its first shape (`collider_cover`).
-        if c.params.cover_reach != 0.0 {
-            c.params.cover_reach = 0.0;
-            c.params_dirty = true;
-        }
         Ok(())
     }
 
@@ -586,6 +608,7 @@ impl Controls {
             }
         }
         for (c, buffers) in self.colliders.iter_mut().zip(&program.colliders) {
+            c.update_cover_reach();
             if std::mem::take(&mut c.params_dirty) {
                 steps.push(Step::write(buffers.tree().collider, 0, &[c.params]));
             }
@@ -941,23 +964,49 @@ mod tests {
     use crate::model::ColliderId;
     use crate::programs::self_contact::SELF_TREE_REBUILD_FRAMES;
     use crate::settings::SimSettings;
+    use drape_kernels::self_contact::COVER_LIMIT;
     use drape_types::{ColliderParams, RigidPose};
     use glam::{Vec3, Vec4};
 
-    /// A collider deformed at run time tests every feature of its curled triangles again: the
-    /// host measured the covers on its first shape (`collider_cover`), so its params go out
-    /// with no cover reach.
+    /// A collider deformed at run time has its covers' reach grown by twice the farthest any
+    /// vertex moved from the shape they were measured on (`collider_cover`): unchanged for the
+    /// same vertices, grown for a small move, and past `COVER_LIMIT` of the thickness (where
+    /// the passes drop them) for a large one.
     #[test]
-    fn deforming_a_collider_drops_its_covers() {
+    fn deforming_a_collider_grows_its_covers_reach_by_twice_its_drift() {
         let params = ColliderParams { leaf_count: 1, thickness: 0.005, cover_reach: 0.00125, ..Default::default() };
         let contents = vec![Vec4::ZERO, Vec4::X, Vec4::Y];
         let start =
             ColliderStart { params, pose: RigidPose::IDENTITY, deformable: "vertices", contents, swept_contact: true };
         let mut controls = Controls::new(Vec::new(), SimSettings::default(), vec![start]);
         assert!(!controls.colliders[0].params_dirty);
+        // One frame: `begin_frame`'s update, then what the frame's deformation leaves (the
+        // shape the GPU holds after it).
+        let frame = |controls: &mut Controls, vertices: Option<&[Vec3]>| {
+            let c = &mut controls.colliders[0];
+            c.params_dirty = false;
+            if let Some(v) = vertices {
+                c.deformed = Some(v.iter().map(|p| p.extend(0.0)).collect());
+            }
+            c.update_cover_reach();
+            let seen = (c.params.cover_reach, c.params_dirty);
+            if let Some(data) = c.deformed.take() {
+                c.current = data;
+            }
+            seen
+        };
+        assert_eq!(frame(&mut controls, None), (0.00125, false), "standing");
+        assert_eq!(frame(&mut controls, Some(&[Vec3::ZERO, Vec3::X, Vec3::Y])), (0.00125, false), "the same shape");
+        let nudged = frame(&mut controls, Some(&[Vec3::ZERO, Vec3::X, Vec3::new(0.0, 1.0, 0.0001)]));
+        assert!((nudged.0 - 0.00145).abs() < 1e-7 && nudged.1, "moved 0.1 mm: {nudged:?}");
+        let bent = frame(&mut controls, Some(&[Vec3::ZERO, Vec3::X, Vec3::Z])).0;
+        assert!(bent > COVER_LIMIT * 0.005, "moved 1.4 m: reach {bent}");
+        // Back to the measured shape: the frame sweeps from the bent one, then it stands.
+        assert_eq!(frame(&mut controls, Some(&[Vec3::ZERO, Vec3::X, Vec3::Y])).0, bent, "sweeping back");
+        assert_eq!(frame(&mut controls, None), (0.00125, true), "standing on the measured shape again");
+        // Through the public setter: the deformation is noted, the reach follows at the frame.
         controls.set_collider_vertices(ColliderId(0), &[Vec3::ZERO, Vec3::X, Vec3::Z]).unwrap();
-        let c = &controls.colliders[0];
-        assert_eq!((c.params.cover_reach, c.params_dirty), (0.0, true));
+        assert!(frame(&mut controls, None).0 > COVER_LIMIT * 0.005);
     }
 
     /// A solver's program sets a triangle collider's cover reach (a quarter thickness) where

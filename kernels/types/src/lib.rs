@@ -193,9 +193,9 @@ pub struct ColliderParams {
     /// Coulomb friction coefficient of the contact (0 = the paper's frictionless response).
     pub friction: f32,
     /// A triangle collider's: how far each of its covered features (the host's
-    /// `collider_cover`) lies at most from a kept one, all of them always tested; the passes
-    /// skip the covered ones while this is at most `COVER_LIMIT` of the thickness (0: none
-    /// skipped, as once the collider deforms, since the covers were measured on its first shape).
+    /// `collider_cover`) lies at most from a kept one, all of them always tested (measured on
+    /// its first shape, grown by twice the farthest a vertex has since moved from it); the passes
+    /// skip the covered ones while this is at most `COVER_LIMIT` of the thickness (0: none).
     pub cover_reach: f32,
     /// Box that normalises leaf centres for Morton codes (the spheres' centre bounds).
     pub scene_min: Vec4,
