@@ -24,7 +24,9 @@
 //! features while the reach is at most `COVER_LIMIT` of the thickness
 //! (`ColliderParams::cover_reach`).
 
-use drape_kernels::self_contact::{COVERED_SHIFT, CURLED_BIT, OWNED_FEATURE_BITS, VERTEX_OWNED_BIT};
+use drape_kernels::self_contact::{
+    COVERED_SHIFT, CURLED_BIT, OWNED_FEATURE_BITS, VERTEX_OWNED_BIT, closest_between_segments,
+};
 use glam::{IVec3, UVec4, Vec3};
 use std::collections::HashMap;
 
@@ -68,10 +70,8 @@ impl Feature {
     /// The distance from `p` to the feature.
     fn distance_to(&self, p: Vec3) -> f32 {
         let [a, b] = self.ends;
-        let ab = b - a;
-        let along = ab.length_squared();
-        let t = if along > 0.0 { ((p - a).dot(ab) / along).clamp(0.0, 1.0) } else { 0.0 };
-        p.distance(a + ab * t)
+        let (_, t) = closest_between_segments(p, p, a, b);
+        p.distance(a + (b - a) * t)
     }
 
     /// Whether this feature covers `other` at `reach`: of the same kind, every point of
@@ -188,32 +188,41 @@ pub fn cover_curled_features(
 }
 
 #[cfg(test)]
+/// An open tube of `radius` round the x axis, `length` long, in `sides` sides and `rings`
+/// rings (as the rod under the cloth in the closing note's scene).
+pub(crate) fn tube(radius: f32, sides: u32, length: f32, rings: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut vertices = Vec::new();
+    for r in 0..rings {
+        let x = -0.5 * length + length * r as f32 / (rings - 1) as f32;
+        for i in 0..sides {
+            let a = std::f32::consts::TAU * i as f32 / sides as f32;
+            vertices.push(Vec3::new(x, radius * a.cos(), radius * a.sin()));
+        }
+    }
+    let mut triangles = Vec::new();
+    for r in 0..rings - 1 {
+        for i in 0..sides {
+            let j = (i + 1) % sides;
+            let (a, b, c, d) = (r * sides + i, r * sides + j, (r + 1) * sides + j, (r + 1) * sides + i);
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        }
+    }
+    (vertices, triangles)
+}
+
+#[cfg(test)]
 mod tests {
     use super::*;
     use crate::collider_surface::mark_every_feature;
     use crate::programs::self_contact::collider_features;
 
-    /// An open tube of `radius` round the x axis, `length` long, in `sides` sides and `rings`
-    /// rings (as the rod under the cloth in the closing note's scene).
-    fn tube(radius: f32, sides: u32, length: f32, rings: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-        let mut vertices = Vec::new();
-        for r in 0..rings {
-            let x = -0.5 * length + length * r as f32 / (rings - 1) as f32;
-            for i in 0..sides {
-                let a = std::f32::consts::TAU * i as f32 / sides as f32;
-                vertices.push(Vec3::new(x, radius * a.cos(), radius * a.sin()));
-            }
-        }
-        let mut triangles = Vec::new();
-        for r in 0..rings - 1 {
-            for i in 0..sides {
-                let j = (i + 1) % sides;
-                let (a, b, c, d) = (r * sides + i, r * sides + j, (r + 1) * sides + j, (r + 1) * sides + i);
-                triangles.push([a, b, c]);
-                triangles.push([a, c, d]);
-            }
-        }
-        (vertices, triangles)
+    /// A tube of 3 mm round in `sides` sides, 1.2 m long in 3 rings, all its triangles curled.
+    fn curled_tube(sides: u32) -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<UVec4>) {
+        let (vertices, triangles) = tube(0.003, sides, 1.2, 3);
+        let mut features = collider_features(&triangles);
+        mark_every_feature(&mut features, &vec![true; triangles.len()]);
+        (vertices, triangles, features)
     }
 
     /// Every curled feature's ends, and whether it was covered.
@@ -229,10 +238,7 @@ mod tests {
 
     #[test]
     fn a_wire_keeps_a_few_features_and_each_covered_one_lies_within_reach_of_a_kept_one() {
-        let (vertices, triangles) = tube(0.003, 512, 1.2, 3);
-        let mut features = collider_features(&triangles);
-        let all = vec![true; triangles.len()];
-        mark_every_feature(&mut features, &all);
+        let (vertices, triangles, mut features) = curled_tube(512);
         let reach = 0.25 * 0.005;
         let (covered, count) = cover_curled_features(&mut features, &vertices, &triangles, reach);
         let measured = features_of(&features, &vertices, &triangles);
@@ -260,10 +266,7 @@ mod tests {
     fn features_farther_apart_than_the_reach_and_unmarked_triangles_stay() {
         // A coarse tube (8 sides of 2.3 mm round a 3 mm radius) at a reach of 1.25 mm: its
         // vertices and edges lie farther apart than the reach, so none is covered.
-        let (vertices, triangles) = tube(0.003, 8, 1.2, 3);
-        let mut features = collider_features(&triangles);
-        let all = vec![true; triangles.len()];
-        mark_every_feature(&mut features, &all);
+        let (vertices, triangles, mut features) = curled_tube(8);
         let before = features.clone();
         let (covered, count) = cover_curled_features(&mut features, &vertices, &triangles, 0.25 * 0.005);
         assert_eq!((covered, features == before), (0, true), "covered {covered} of {count}");

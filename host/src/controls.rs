@@ -91,26 +91,41 @@ struct ColliderControl {
     extent: Extent,
     /// Its contact needs no substep bound (`ColliderStart::swept_contact`).
     swept_contact: bool,
-    /// The shape its features' covers were measured on (`collider_cover`) and their reach
-    /// there; `None` without covers.
-    covers: Option<(Vec<Vec4>, f32)>,
+    /// Its features' covers (`collider_cover`); `None` without.
+    covers: Option<Covers>,
+}
+
+/// The shape a collider's features' covers were measured on, their reach there, and the
+/// farthest any vertex of the shape the GPU holds lies from it (measured when that shape
+/// arrived, so a frame that does not deform reads no vertex).
+struct Covers {
+    shape: Vec<Vec4>,
+    measured: f32,
+    current_drift: f32,
+}
+
+impl Covers {
+    /// The farthest any vertex of `vertices` lies from the measured shape.
+    fn drift(&self, vertices: &[Vec4]) -> f32 {
+        self.shape.iter().zip(vertices).map(|(a, b)| a.truncate().distance(b.truncate())).fold(0.0, f32::max)
+    }
 }
 
 impl ColliderControl {
     /// Sets the covers' reach for the next frame (`ColliderParams::cover_reach`), which sweeps
-    /// from `current` to the `deformed` shape if any: the measured reach grown by twice the
-    /// farthest any vertex lies from the measured shape at either end (a covered feature's ends
-    /// and every point of its cover lie no farther, in between too), so a collider that
-    /// deforms a little keeps them; the passes drop them beyond `COVER_LIMIT` of the thickness.
+    /// from the shape the GPU holds to the `deformed` one if any: the measured reach grown by
+    /// twice the farthest any vertex lies from the measured shape at either end (a covered
+    /// feature's ends and every point of its cover lie no farther, in between too), so a
+    /// collider that deforms a little keeps them; the passes drop them beyond `COVER_LIMIT` of
+    /// the thickness. The frame leaves the GPU holding the deformed shape, whose drift it keeps.
     fn update_cover_reach(&mut self) {
-        let Some((shape, measured)) = &self.covers else {
+        let Some(covers) = &mut self.covers else {
             return;
         };
-        let drift = |vertices: &[Vec4]| {
-            shape.iter().zip(vertices).map(|(a, b)| a.truncate().distance(b.truncate())).fold(0.0, f32::max)
-        };
-        let farthest = self.deformed.as_deref().map_or(0.0, drift).max(drift(&self.current));
-        let reach = measured + 2.0 * farthest;
+        let incoming = self.deformed.as_deref().map(|vertices| covers.drift(vertices));
+        let farthest = incoming.map_or(covers.current_drift, |d| d.max(covers.current_drift));
+        covers.current_drift = incoming.unwrap_or(covers.current_drift);
+        let reach = covers.measured + 2.0 * farthest;
         let reach = if reach.is_finite() { reach } else { 0.0 };
         if reach != self.params.cover_reach {
             self.params.cover_reach = reach;
@@ -245,7 +260,11 @@ impl Controls {
         let colliders = colliders
             .into_iter()
             .map(|ColliderStart { params, pose, deformable, contents, swept_contact }| ColliderControl {
-                covers: (params.cover_reach > 0.0).then(|| (contents.clone(), params.cover_reach)),
+                covers: (params.cover_reach > 0.0).then(|| Covers {
+                    shape: contents.clone(),
+                    measured: params.cover_reach,
+                    current_drift: 0.0,
+                }),
                 params,
                 deformable: (deformable, contents.len() as u32),
                 extent: Extent::of(&contents),
@@ -1015,20 +1034,7 @@ mod tests {
     #[test]
     fn a_fine_wire_under_a_self_colliding_cloth_gets_its_covers() {
         use crate::{ClothBuilder, Collider, Mesh, Model};
-        let (sides, radius, length) = (512u32, 0.003f32, 1.2f32);
-        let mut vertices = Vec::new();
-        for x in [-0.5 * length, 0.5 * length] {
-            for i in 0..sides {
-                let a = std::f32::consts::TAU * i as f32 / sides as f32;
-                vertices.push(Vec3::new(x, radius * a.cos(), radius * a.sin()));
-            }
-        }
-        let triangles: Vec<[u32; 3]> = (0..sides)
-            .flat_map(|i| {
-                let j = (i + 1) % sides;
-                [[i, j, sides + j], [i, sides + j, sides + i]]
-            })
-            .collect();
+        let (vertices, triangles) = crate::collider_cover::tube(0.003, 512, 1.2, 2);
         let wire = Collider::mesh(&Mesh::from_parts(vertices, triangles).unwrap(), 0.005);
         let reach = |self_collision: Option<f32>| {
             let cloth = ClothBuilder::new(16, 16).size(1.0).self_collision(self_collision).build().unwrap();

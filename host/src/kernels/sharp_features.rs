@@ -124,18 +124,25 @@ mod tests {
         println!("listed {listed_total}, sharp in a pass {sharp_total}, of {triangles_total} triangle-thresholds");
     }
 
+    /// A smooth sphere (radius 0.5 m, 5120 triangles): its features, vertices (w = 0) and
+    /// indices, and a triangle that owns a feature.
+    fn sphere_with_an_owning_triangle() -> (Vec<UVec4>, Vec<Vec4>, Vec<u32>, usize) {
+        let mesh = Mesh::icosphere(0.5, 4);
+        let features = collider_features(&mesh.triangles);
+        let local = mesh.vertices.iter().map(|v| v.extend(0.0)).collect();
+        let indices = mesh.triangles.iter().flatten().copied().collect();
+        let owning = features.iter().position(|f| f.w != 0).expect("a triangle owning a feature");
+        (features, local, indices, owning)
+    }
+
     /// A triangle marked curled (`CURLED_BIT`) is listed however flat its folds, unless it owns
     /// no vertex or edge to test; unmarked, the same triangle of a large sphere is not.
     #[test]
     fn a_curled_triangle_is_listed_whatever_its_folds() {
         use drape_kernels::self_contact::CURLED_BIT;
-        let mesh = Mesh::icosphere(0.5, 4);
-        let features = collider_features(&mesh.triangles);
-        let local: Vec<Vec4> = mesh.vertices.iter().map(|v| v.extend(0.0)).collect();
-        let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+        let (features, local, indices, owning) = sphere_with_an_owning_triangle();
         let mesh = (&local[..], &local[..], &indices[..]);
         let (longest2, thickness) = (0.02f32 * 0.02, 0.005);
-        let owning = features.iter().position(|f| f.w != 0).expect("a triangle owning a feature");
         let plain = features[owning];
         assert!(!may_be_sharp(owning as u32, plain, mesh, longest2, thickness), "a smooth sphere's triangle");
         let curled = UVec4 { w: plain.w | CURLED_BIT, ..plain };
@@ -172,13 +179,9 @@ mod tests {
     #[test]
     fn a_curled_triangle_whose_features_are_all_covered_is_not_listed() {
         use drape_kernels::self_contact::{COVERED_SHIFT, CURLED_BIT, OWNED_FEATURE_BITS};
-        let mesh = Mesh::icosphere(0.5, 4);
-        let features = collider_features(&mesh.triangles);
-        let local: Vec<Vec4> = mesh.vertices.iter().map(|v| v.extend(0.0)).collect();
-        let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+        let (features, local, indices, owning) = sphere_with_an_owning_triangle();
         let mesh = (&local[..], &local[..], &indices[..]);
         let (longest2, thickness) = (0.02f32 * 0.02, 0.005);
-        let owning = features.iter().position(|f| f.w != 0).expect("a triangle owning a feature");
         let owned = features[owning].w & OWNED_FEATURE_BITS;
         let covered = UVec4 { w: owned | CURLED_BIT | (owned << COVERED_SHIFT), ..features[owning] };
         let listed = |reach: f32| {
