@@ -72,7 +72,6 @@ fn check_particle<K: LeafKind>(
         &mut listed,
     );
     detect_brute_force_at::<K>(0, params, &substep, leaves, &xs, &x_prev, &mut brute);
-    assert!(!outcome.overflowed);
     assert_eq!(listed[0], brute[0], "case {case}: {p0} -> {p1} (x {x}, v {v}), {outcome:?}");
     tally.contacts += brute[0].is_some() as u32;
     tally.fell_back += outcome.fell_back as u32;

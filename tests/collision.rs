@@ -6,9 +6,9 @@ mod common;
 use common::{Rng, assert_validation_clean, context};
 use drape::lbvh::{GpuLbvh, build_cpu, collider_params};
 use drape::{ClothBuilder, ClothId, Collider, ColliderId, CpuSolver, Model, SimSettings, Solver};
-use drape_kernels::contact::{STACK_SIZE, brute_force, traverse};
+use drape_kernels::contact::{brute_force, traverse};
 use drape_kernels::spheres::Spheres;
-use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT};
+use drape_types::{BvhNode, LEAF_BIT};
 use glam::{Mat4, Vec3, Vec4};
 
 /// The only cloth of the models here.
@@ -97,9 +97,8 @@ fn bvh_traversal_finds_the_brute_force_contacts() {
         for _ in 0..2000 {
             let p1 = Vec3::new(rng.range(-1.2, 1.2), rng.range(-1.2, 1.2), rng.range(-1.2, 1.2));
             let p0 = p1 + Vec3::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), rng.range(-0.1, 0.1));
-            let (bvh, overflow) = traverse::<Spheres>(&params, &tree.nodes, &tree.aabbs, &tree.spheres, p0, p1);
+            let bvh = traverse::<Spheres>(&params, &tree.nodes, &tree.aabbs, &tree.spheres, p0, p1);
             let brute = brute_force::<Spheres>(&params, &tree.spheres, p0, p1);
-            assert!(!overflow);
             assert_eq!((bvh.t, bvh.leaf), (brute.t, brute.leaf), "n {n}, p0 {p0}, p1 {p1}");
             contacts += (brute.t <= 1.0) as u32;
         }
@@ -107,28 +106,40 @@ fn bvh_traversal_finds_the_brute_force_contacts() {
     assert!(contacts > 400, "only {contacts} contacts: the test must exercise hits");
 }
 
-/// A tree deeper than the stack: the traversal reports the overflow instead of silently
-/// dropping subtrees. (LBVHs of 30-bit Morton codes stay far below 64 levels, so this tree is
-/// built by hand: a spine whose every node has a second internal child to revisit.)
+/// A deep, lopsided tree is walked completely: spheres at 1 - 2^-k along a line (each code
+/// splits off one more leaf, a comb as deep as the codes' 10 bits an axis allow) with many
+/// spheres sharing a point (equal codes, split by index below it): over twice as deep as a
+/// balanced tree of as many leaves. The walk has no stack to run out of: its escapes
+/// check out against a depth-first walk with a stack (`validate`), and every segment finds the
+/// contact a loop over all spheres finds.
 #[test]
-fn traversal_stack_overflow_is_detected() {
-    let levels = STACK_SIZE as u32 + 8;
-    // Node 2k is on the spine: left = 2k + 1 (a node with two leaves), right = 2k + 2.
-    let mut nodes = Vec::new();
-    let mut leaf = 0;
-    for k in 0..levels {
-        let spine = 2 * k;
-        let last = k + 1 == levels;
-        nodes.push(BvhNode { left: spine + 1, right: if last { leaf | LEAF_BIT } else { spine + 2 }, _pad: [0; 2] });
-        nodes.push(BvhNode { left: (leaf + 1) | LEAF_BIT, right: (leaf + 2) | LEAF_BIT, _pad: [0; 2] });
-        leaf += 3;
+fn a_deep_lopsided_tree_is_walked_completely() {
+    let mut spheres: Vec<Vec4> = (0..20).map(|k| Vec4::new(1.0 - (-(k as f32)).exp2(), 0.0, 0.0, 0.004)).collect();
+    spheres.extend((0..300).map(|k| Vec4::new(0.99999, 0.0, 0.0, 0.001 + 1e-5 * k as f32)));
+    let params = collider_params(&spheres, 0.001, 0.0).unwrap();
+    let tree = build_cpu(&spheres, &params).unwrap();
+    tree.validate(&spheres).unwrap();
+    let (depth, balanced) = (tree_depth(&tree.nodes, 0), spheres.len().ilog2() + 1);
+    assert!(depth > 2 * balanced, "the tree must be deep: {depth} levels, a balanced one {balanced}");
+    let mut rng = Rng::new(11);
+    let mut contacts = 0;
+    for k in 0..2000 {
+        // Half of the segments at the shared point, half along the line.
+        let x = if k % 2 == 0 { rng.range(0.99, 1.0) } else { rng.range(0.0, 1.0) };
+        let p1 = Vec3::new(x, rng.range(-0.005, 0.005), rng.range(-0.005, 0.005));
+        let p0 = p1 + Vec3::new(rng.range(-0.01, 0.01), rng.range(-0.005, 0.005), rng.range(-0.005, 0.005));
+        let bvh = traverse::<Spheres>(&params, &tree.nodes, &tree.aabbs, &tree.spheres, p0, p1);
+        let brute = brute_force::<Spheres>(&params, &tree.spheres, p0, p1);
+        assert_eq!((bvh.t, bvh.leaf), (brute.t, brute.leaf), "p0 {p0}, p1 {p1}");
+        contacts += (brute.t <= 1.0) as u32;
     }
-    let spheres = vec![Vec4::new(0.0, 0.0, 0.0, 1.0); leaf as usize];
-    let everything = Aabb { min: Vec4::splat(-1.0), max: Vec4::splat(1.0) };
-    let aabbs = vec![everything; nodes.len()];
-    let params = ColliderParams { leaf_count: leaf, thickness: 0.0, ..Default::default() };
-    let (_, overflow) = traverse::<Spheres>(&params, &nodes, &aabbs, &spheres, Vec3::ZERO, Vec3::ZERO);
-    assert!(overflow, "a {levels}-level spine must overflow a {STACK_SIZE}-entry stack");
+    assert!(contacts > 100, "only {contacts} contacts: the test must exercise hits");
+}
+
+/// Levels below internal node `node` (a leaf child counts one).
+fn tree_depth(nodes: &[BvhNode], node: u32) -> u32 {
+    let child = |c: u32| if c & LEAF_BIT != 0 { 1 } else { 1 + tree_depth(nodes, c) };
+    child(nodes[node as usize].left).max(child(nodes[node as usize].right))
 }
 
 fn ball_collider() -> Collider {

@@ -9,7 +9,7 @@ use crate::model::{ClothId, Model};
 use crate::program::SolverProgram;
 use crate::programs::cloth::ClothBuffers;
 use crate::settings::check_health;
-use crate::solver::{check_collision, teleported};
+use crate::solver::teleported;
 use crate::state::State;
 use drape_types::{CollisionStatus, Health};
 use glam::Vec4;
@@ -47,16 +47,13 @@ impl CpuSolver {
         self.executor.run(&leading)?;
         self.executor.run(&self.program.frame)?;
         self.frames_done += 1;
-        for (i, (cloth, contacts)) in self.program.cloths.iter().zip(&self.program.contacts).enumerate() {
+        for (i, cloth) in self.program.cloths.iter().enumerate() {
             if self.controls.cloths[i].motion.asleep {
                 continue;
             }
             let health: Health = self.executor.read(cloth.health, 1)?[0];
             check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i])?;
             self.controls.observe(i, &health);
-            for contact in contacts {
-                check_collision(&self.executor.read(contact.status, 1)?[0], self.frames_done)?;
-            }
         }
         Ok(())
     }
@@ -73,7 +70,6 @@ impl CpuSolver {
         let mut total = CollisionStatus::default();
         for contact in self.program.contacts.iter().flatten() {
             if let Ok(s) = self.executor.read(contact.status, 1) {
-                total.overflows += s[0].overflows;
                 total.ran += s[0].ran;
                 total.skipped += s[0].skipped;
                 total.fallbacks += s[0].fallbacks;

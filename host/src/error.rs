@@ -57,11 +57,6 @@ pub enum Error {
     /// A mesh file or mesh parameter is unusable; names the file and line where there is one.
     #[error("mesh {path}: {problem}")]
     Mesh { path: PathBuf, problem: String },
-    /// A collider BVH traversal ran out of stack (the tree is deeper than the kernel's stack).
-    #[error(
-        "collision traversal stack overflowed for {particles} particles at frame {frame}; contacts          may be missed: use fewer collider spheres (smaller n) or report the mesh"
-    )]
-    TraversalOverflow { frame: u64, particles: u32 },
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io { path: PathBuf, source: std::io::Error },

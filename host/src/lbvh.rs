@@ -303,6 +303,51 @@ impl Lbvh {
         if let Some(i) = leaf_hits.iter().position(|&h| h != 1) {
             return Err(format!("leaf {i} reached {} times", leaf_hits[i]));
         }
+        self.validate_escapes()
+    }
+
+    /// Checks the stackless walks' links (`BvhNode::escape`, `BvhNode::leaf_escape`) against a
+    /// depth-first walk with a stack, left child first: each node's escape is the entry after
+    /// its subtree, each leaf's the entry after the leaf, and the leaves come in order (the
+    /// last leaf ends the walk). Call on a tree whose children were checked (`validate_boxes`).
+    fn validate_escapes(&self) -> std::result::Result<(), String> {
+        let n = self.leaf_bounds.len() as u32;
+        // Entries depth first, and where each internal node's subtree ends among them.
+        let mut preorder = Vec::with_capacity(2 * n as usize - 1);
+        let mut subtree_end = vec![0usize; n as usize - 1];
+        let mut stack = vec![(0u32, false)];
+        while let Some((entry, done)) = stack.pop() {
+            if done {
+                subtree_end[entry as usize] = preorder.len();
+                continue;
+            }
+            preorder.push(entry);
+            if entry & LEAF_BIT == 0 {
+                let node = self.nodes[entry as usize];
+                stack.push((entry, true));
+                stack.push((node.right, false));
+                stack.push((node.left, false));
+            }
+        }
+        let after = |end: usize| preorder.get(end).copied().unwrap_or(NO_NODE);
+        let leaves: Vec<u32> = preorder.iter().filter(|&&e| e & LEAF_BIT != 0).map(|&e| e & !LEAF_BIT).collect();
+        if leaves.iter().enumerate().any(|(k, &leaf)| leaf != k as u32) {
+            return Err("leaves are not in tree order depth first".into());
+        }
+        for (position, &entry) in preorder.iter().enumerate() {
+            let index = entry & !LEAF_BIT;
+            let (stored, expected, what) = if entry & LEAF_BIT != 0 {
+                if index + 1 == n {
+                    continue; // the last leaf ends the walk without a link
+                }
+                (self.nodes[index as usize].leaf_escape, after(position + 1), "leaf")
+            } else {
+                (self.nodes[index as usize].escape, after(subtree_end[index as usize]), "node")
+            };
+            if stored != expected {
+                return Err(format!("{what} {index} escapes to {stored:#x}, not {expected:#x}"));
+            }
+        }
         Ok(())
     }
 }

@@ -222,14 +222,8 @@ impl SolverProgram {
         steps
     }
 
-    /// Each cloth's status buffers in the order a frame's status is laid out: its health, then
-    /// its contact status with each collider.
+    /// The buffers a frame's status is read from, in its layout: each cloth's health.
     pub fn status_buffers(&self) -> Vec<BufferId> {
-        let mut ids = Vec::new();
-        for (cloth, contacts) in self.cloths.iter().zip(&self.contacts) {
-            ids.push(cloth.health.id());
-            ids.extend(contacts.iter().map(|c| c.status.id()));
-        }
-        ids
+        self.cloths.iter().map(|cloth| cloth.health.id()).collect()
     }
 }

@@ -173,7 +173,6 @@ impl Solver {
             self.controls.observe(i, &health);
             for contact in contacts {
                 let status: CollisionStatus = self.engine.read_mapped(contact.status)?;
-                check_collision(&status, self.frames_done)?;
                 report.collision_ran += status.ran;
                 report.collision_skipped += status.skipped;
                 report.collision_fallbacks += status.fallbacks;
@@ -236,30 +235,25 @@ impl Solver {
     }
 
     /// Reads the status of frames recorded with `record` that have finished on the GPU, without
-    /// waiting; returns how many were read, or the first failure (`Error::Unstable`,
-    /// `Error::TraversalOverflow`) with its frame number.
+    /// waiting; returns how many were read, or the first failure (`Error::Unstable`) with its
+    /// frame number.
     pub fn poll_status(&mut self) -> Result<u32> {
         let mut read = 0;
         while let Some((frame, bytes)) = self.status.poll()? {
             read += 1;
             self.frames_checked = frame;
-            // Per cloth: its health, then its contact status with each collider.
+            // Each cloth's health.
             let mut rest = bytes.as_slice();
             let mut take = |n: usize| {
                 let (head, tail) = rest.split_at_checked(n).unwrap_or((&[], &[]));
                 rest = tail;
                 (head.len() == n).then_some(head)
             };
-            for (i, contacts) in self.program.contacts.iter().enumerate() {
+            for i in 0..self.program.cloths.len() {
                 if let Some(health) = take(size_of::<Health>()) {
                     let health: Health = bytemuck::pod_read_unaligned(health);
                     check_health(&health, frame, i, &self.controls.settings, &self.controls.cloths[i])?;
                     self.controls.observe(i, &health);
-                }
-                for _ in contacts {
-                    if let Some(status) = take(size_of::<CollisionStatus>()) {
-                        check_collision(&bytemuck::pod_read_unaligned(status), frame)?;
-                    }
                 }
             }
         }
@@ -481,12 +475,4 @@ pub struct VertexBuffers {
     pub stride: u32,
     pub format: ash::vk::Format,
     pub index_type: ash::vk::IndexType,
-}
-
-/// Turns a traversal overflow into an error.
-pub(crate) fn check_collision(status: &CollisionStatus, frame: u64) -> Result<()> {
-    if status.overflows > 0 {
-        return Err(Error::TraversalOverflow { frame, particles: status.overflows });
-    }
-    Ok(())
 }

@@ -44,7 +44,6 @@ pub const DETECT_BINDINGS: &[BindingSpec] = &[
     read("x"),
     read("x_prev"),
     write("contacts"),
-    write("status"),
 ];
 
 /// The binding table of every leaf kind's broad phase (push constants: `BroadPhasePush`).
@@ -156,17 +155,14 @@ where
 {
     let threads = d.invocations();
     let push: ContactPush = d.push_as();
-    let [params, collider, pose, nodes, aabbs, leaves, x, x_prev, contacts, status] = d.bindings()?;
+    let [params, collider, pose, nodes, aabbs, leaves, x, x_prev, contacts] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = collider.first()?;
     let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
     let (nodes, aabbs, leaves) = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<K::Leaf>());
     let (x, x_prev, contacts) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), contacts.slice_mut::<Contact>());
-    let status = status.first_mut::<CollisionStatus>()?;
     for i in 0..threads.min(p.particle_count) {
-        if detect_at::<K>(i, &c, &motion, nodes, aabbs, leaves, x, x_prev, contacts) {
-            status.overflows += 1;
-        }
+        detect_at::<K>(i, &c, &motion, nodes, aabbs, leaves, x, x_prev, contacts);
     }
     Ok(())
 }

@@ -264,7 +264,7 @@ fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (lists, counts) = (lists.slice_mut::<u32>(), counts.slice_mut::<u32>());
     let health = health.first_mut::<Health>()?;
     for leaf in 0..threads.min(c.leaf_count) {
-        let (_, motion) = list_self_pairs_at(leaf, &c, tree, motions, owned, anchors, (&mut *lists, &mut *counts));
+        let motion = list_self_pairs_at(leaf, &c, tree, motions, owned, anchors, (&mut *lists, &mut *counts));
         count_full_list(leaf, counts, health);
         note_pair_motion(motion.per_frame(push.to_frame), health);
     }

@@ -306,7 +306,6 @@ impl ContactBuffers {
                         cloth.x.id(),
                         cloth.x_prev.id(),
                         self.contacts.id(),
-                        self.status.id(),
                     ],
                     push,
                     Dispatch::Indirect(self.args),

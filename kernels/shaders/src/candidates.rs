@@ -45,8 +45,7 @@ pub fn query_box(frame: &SubstepMotion, x: Vec3, v: Vec3, gravity: Vec3, thickne
 }
 
 /// Writes into `list` (up to `MAX_CANDIDATES` entries) the leaves, in tree order, that a motion
-/// inside `region` can touch; returns how many, or `CANDIDATES_OVERFLOWED` when they do not fit
-/// (or the walk's stack overflowed).
+/// inside `region` can touch; returns how many, or `CANDIDATES_OVERFLOWED` when they do not fit.
 pub fn gather_candidates<K: LeafKind>(
     collider: &ColliderParams,
     nodes: &[BvhNode],
@@ -58,8 +57,8 @@ pub fn gather_candidates<K: LeafKind>(
 ) -> u32 {
     let mut query =
         GatherQuery::<K> { leaf_bounds, region: *region, thickness: collider.thickness, leaves, list, base };
-    let ((count, full), overflowed) = walk(nodes, aabbs, collider.leaf_count, &mut query, (0, false));
-    if full || overflowed { CANDIDATES_OVERFLOWED } else { count }
+    let (count, full) = walk(nodes, aabbs, collider.leaf_count, &mut query, (0, false));
+    if full { CANDIDATES_OVERFLOWED } else { count }
 }
 
 /// The leaves a motion inside a region can touch, listed as a walk reaches them (found: how
@@ -180,8 +179,6 @@ fn list_blocks<K: LeafKind>(
 pub struct NarrowOutcome {
     /// It walked the whole LBVH (left its query box, or its list had overflowed).
     pub fell_back: bool,
-    /// That walk's stack overflowed.
-    pub overflowed: bool,
     /// Nothing was within its reach: its list is empty and its motion stayed inside its query
     /// box (the list holds every leaf a motion inside the box can touch), so it has no contact
     /// and its record was left as it was.
@@ -214,8 +211,8 @@ pub fn detect_candidates_at<K: LeafKind>(
     let query = queries[i];
     let region = Aabb { min: query.low, max: query.high };
     if query.count == CANDIDATES_OVERFLOWED || !point_in_aabb(p0, &region, 0.0) || !point_in_aabb(p1, &region, 0.0) {
-        let overflowed = detect_at::<K>(index, collider, motion, nodes, aabbs, leaves, x, x_prev, contacts);
-        return NarrowOutcome { fell_back: true, overflowed, nothing: false };
+        detect_at::<K>(index, collider, motion, nodes, aabbs, leaves, x, x_prev, contacts);
+        return NarrowOutcome { fell_back: true, nothing: false };
     }
     if query.count == 0 {
         return NarrowOutcome { nothing: true, ..NarrowOutcome::default() };
@@ -243,8 +240,7 @@ pub fn detect_candidates_at<K: LeafKind>(
         && if point_in_aabb(target.position, &region, 0.0) {
             list_blocks::<K>(leaves, (candidates, base, query.count), (p0, target.position), thickness, left)
         } else {
-            // The path leaves the box, where the list is not complete (a stack overflow in
-            // this walk counts as blocked, the safe answer).
+            // The path leaves the box, where the list is not complete.
             path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position, left)
         };
     contacts[i] = target.contact(blocked);
@@ -284,9 +280,6 @@ pub fn detect_candidates_particle<K: LeafKind>(
     }
     if outcome.fell_back {
         crate::atomics::add(&mut status.fallbacks, 1);
-    }
-    if outcome.overflowed {
-        crate::atomics::add(&mut status.overflows, 1);
     }
     respond_at(index, &contacts[index as usize], collider, &motion, x, v);
 }

@@ -1,6 +1,6 @@
 //! Cloth-vs-collider contact (design.md §1), generic over the collider's leaf kind, in two
 //! passes per substep:
-//! - **detect**: each particle walks the collider's LBVH with a fixed-size stack and writes its
+//! - **detect**: each particle walks the collider's LBVH (stackless, `lbvh::walk`) and writes its
 //!   earliest contact (`drape_types::Contact`: where it goes and the surface normal there) or
 //!   "none". What a leaf is (a sphere, later a triangle) is a `LeafKind`: its hit test, the box
 //!   test that prunes subtrees, and the contact geometry of the chosen leaf.
@@ -25,8 +25,6 @@ use drape_types::{
     SimParams,
 };
 use spirv_std::spirv;
-
-pub use crate::lbvh::STACK_SIZE;
 
 /// What the traversal needs to know about a kind of leaf. Implemented by zero-sized types
 /// (`spheres::Spheres`); the traversal is monomorphised per kind, on the GPU and the CPU.
@@ -139,7 +137,6 @@ pub fn lower_clearance<K: LeafKind>(clearance: f32, leaf: K::Leaf, p0: Vec3, lef
 }
 
 /// Earliest contact of p0 -> p1 with the LBVH's leaves as they stand at the frame's end.
-/// Returns it and whether the stack overflowed (some subtrees were then not visited).
 pub fn traverse<K: LeafKind>(
     collider: &ColliderParams,
     nodes: &[BvhNode],
@@ -147,9 +144,8 @@ pub fn traverse<K: LeafKind>(
     leaves: &[K::Leaf],
     p0: Vec3,
     p1: Vec3,
-) -> (Candidate, bool) {
-    let (best, overflow, _) = traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1, (0.0, 0.0));
-    (best, overflow)
+) -> Candidate {
+    traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1, (0.0, 0.0)).0
 }
 
 /// `traverse`, also returning (for kinds that check paths) a lower bound on the distance from
@@ -164,12 +160,11 @@ pub fn traverse_with_clearance<K: LeafKind>(
     p0: Vec3,
     p1: Vec3,
     left: Left,
-) -> (Candidate, bool, f32) {
+) -> (Candidate, f32) {
     let thickness = collider.thickness;
     let clearance = initial_clearance::<K>(thickness);
     let mut query = HitQuery::<K> { leaves, p0, p1, thickness, left };
-    let ((best, clearance), overflow) = walk(nodes, aabbs, collider.leaf_count, &mut query, (NO_CANDIDATE, clearance));
-    (best, overflow, clearance)
+    walk(nodes, aabbs, collider.leaf_count, &mut query, (NO_CANDIDATE, clearance))
 }
 
 /// The earliest hit of a motion among the leaves a walk reaches, and (for kinds that check
@@ -223,8 +218,7 @@ pub fn brute_force_relative<K: LeafKind>(
     best
 }
 
-/// Whether the path `a -> b` passes through any leaf's surface, through the LBVH. A stack
-/// overflow counts as blocked (the caller then takes the safe choice).
+/// Whether the path `a -> b` passes through any leaf's surface, through the LBVH.
 pub fn path_blocked<K: LeafKind>(
     collider: &ColliderParams,
     nodes: &[BvhNode],
@@ -235,8 +229,7 @@ pub fn path_blocked<K: LeafKind>(
     left: Left,
 ) -> bool {
     let mut query = PathQuery::<K> { leaves, a, b, thickness: collider.thickness, left };
-    let (blocked, overflowed) = walk(nodes, aabbs, collider.leaf_count, &mut query, false);
-    blocked || overflowed
+    walk(nodes, aabbs, collider.leaf_count, &mut query, false)
 }
 
 /// Whether a path crosses any leaf a walk reaches (found: blocked; the walk stops at the
@@ -317,8 +310,8 @@ pub fn local_motion(index: u32, motion: &SubstepMotion, x: &[Vec4], x_prev: &[Ve
     (to_local(&motion.start, x_prev[i].xyz()), to_local(&motion.end, x[i].xyz()))
 }
 
-/// Detect for one particle through the LBVH: writes `contacts[index]`; returns whether its stack
-/// overflowed. Pinned particles get no contact.
+/// Detect for one particle through the LBVH: writes `contacts[index]`. Pinned particles get no
+/// contact.
 #[allow(clippy::too_many_arguments)]
 pub fn detect_at<K: LeafKind>(
     index: u32,
@@ -330,19 +323,18 @@ pub fn detect_at<K: LeafKind>(
     x: &[Vec4],
     x_prev: &[Vec4],
     contacts: &mut [Contact],
-) -> bool {
+) {
     let i = index as usize;
     if x[i].w == 0.0 {
         contacts[i] = Contact::NONE;
-        return false;
+        return;
     }
     let (p0, p1) = local_motion(index, motion, x, x_prev);
     let left = motion.left();
-    let (best, overflow, clearance) = traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1, left);
+    let (best, clearance) = traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1, left);
     let target = target_of::<K>(best, clearance, leaves, (p0, p1), collider.thickness, left);
     let blocked = target.check && path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position, left);
     contacts[i] = target.contact(blocked);
-    overflow
 }
 
 /// Where the earliest hit sends a particle, before its path there is checked.
@@ -391,7 +383,7 @@ pub fn target_of<K: LeafKind>(
 }
 
 /// The body of every leaf kind's LBVH detect entry point: particle `index` (threads past the
-/// cloth do nothing), its overflow counted in `status`.
+/// cloth do nothing).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn detect_particle<K: LeafKind>(
@@ -403,15 +395,12 @@ pub fn detect_particle<K: LeafKind>(
     (nodes, aabbs, leaves): (&[BvhNode], &[Aabb], &[K::Leaf]),
     (x, x_prev): (&[Vec4], &[Vec4]),
     contacts: &mut [Contact],
-    status: &mut CollisionStatus,
 ) {
     if index >= params.particle_count {
         return;
     }
     let motion = substep_motion(params, pose, push);
-    if detect_at::<K>(index, collider, &motion, nodes, aabbs, leaves, x, x_prev, contacts) {
-        crate::atomics::add(&mut status.overflows, 1);
-    }
+    detect_at::<K>(index, collider, &motion, nodes, aabbs, leaves, x, x_prev, contacts);
 }
 
 /// The body of every leaf kind's brute-force detect entry point.
@@ -659,7 +648,6 @@ macro_rules! contact_entry_points {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] x: &[::drape_types::glam::Vec4],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] x_prev: &[::drape_types::glam::Vec4],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] contacts: &mut [::drape_types::Contact],
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] status: &mut ::drape_types::CollisionStatus,
         ) {
             $crate::contact::detect_particle::<$kind>(
                 id.x,
@@ -670,7 +658,6 @@ macro_rules! contact_entry_points {
                 (nodes, aabbs, leaves),
                 (x, x_prev),
                 contacts,
-                status,
             );
         }
 

@@ -11,10 +11,6 @@ use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{AABB_WORDS, Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE};
 use spirv_std::spirv;
 
-/// Walk stack entries: the LBVH of 30-bit Morton codes is at most ~30 + log2(N) deep, and each
-/// level pushes at most one node.
-pub const STACK_SIZE: usize = 64;
-
 /// What a walk of the LBVH looks for: which subtrees to enter, and what to do at each leaf a
 /// walk reaches (a leaf's own box, where a query wants it, is the query's to test).
 ///
@@ -32,56 +28,39 @@ pub trait TreeQuery {
     fn leaf(&mut self, leaf: u32, found: &mut Self::Found) -> bool;
 }
 
-/// Walks a tree of `leaf_count` leaves (nodes and their boxes; node 0 is the root) with an
-/// explicit stack, left child first, offering `query` every leaf under the subtrees it enters.
-/// Returns what the visits found (starting from `found`) and whether the stack overflowed
-/// (subtrees were skipped; the walk goes on without them).
+/// Walks a tree of `leaf_count` leaves (nodes and their boxes; node 0 is the root) depth
+/// first, left child first, without a stack (`BvhNode::escape`), offering `query` every leaf
+/// under the subtrees it enters. Returns what the visits found (starting from `found`).
 pub fn walk<Q: TreeQuery>(
     nodes: &[BvhNode],
     aabbs: &[Aabb],
     leaf_count: u32,
     query: &mut Q,
     mut found: Q::Found,
-) -> (Q::Found, bool) {
+) -> Q::Found {
     if leaf_count == 1 {
         query.leaf(0, &mut found);
-        return (found, false);
+        return found;
     }
-    let mut stack = [0u32; STACK_SIZE];
-    let mut top = 1; // stack[0] = root
-    let mut overflowed = false;
+    let mut next = 0; // the root
     let mut stopped = false;
     let mut batch = [0u32; WALK_BATCH];
-    while top > 0 && !stopped {
+    while next != NO_NODE && !stopped {
         // A stretch of the walk through internal nodes, collecting the leaves it meets, then
         // the leaves' tests: a GPU's warp (or llvmpipe's SIMD lanes) runs its lanes in
         // lockstep, so a leaf test inside the node loop would run, masked, at every step where
         // any lane met a leaf; after the stretch it runs as often as the busiest lane has
         // leaves. The tests see the same leaves in the same order.
         let mut count = 0;
-        while top > 0 && count + 2 <= WALK_BATCH {
-            top -= 1;
-            let node = nodes[stack[top] as usize];
-            // Both children's boxes are loaded before either is tested (a leaf's slot loads
-            // the root's box, unused): on a GPU a walk is a chain of dependent loads, and each
-            // level is then one round of box loads after the node's, not two.
-            let left_box = aabbs[internal_or_root(node.left)];
-            let right_box = aabbs[internal_or_root(node.right)];
-            let mut side = 0;
-            while side < 2 {
-                let child = if side == 0 { node.left } else { node.right };
-                if child & LEAF_BIT != 0 {
-                    batch[count] = child & !LEAF_BIT;
-                    count += 1;
-                } else if query.enters(&if side == 0 { left_box } else { right_box }) {
-                    if top == STACK_SIZE {
-                        overflowed = true;
-                    } else {
-                        stack[top] = child;
-                        top += 1;
-                    }
-                }
-                side += 1;
+        while next != NO_NODE && count < WALK_BATCH {
+            let index = next & !LEAF_BIT;
+            if next & LEAF_BIT != 0 {
+                batch[count] = index;
+                count += 1;
+                next = leaf_escape(nodes, leaf_count, index);
+            } else {
+                let node = nodes[index as usize];
+                next = if query.enters(&aabbs[index as usize]) { node.left } else { node.escape };
             }
         }
         let mut k = 0;
@@ -90,13 +69,7 @@ pub fn walk<Q: TreeQuery>(
             k += 1;
         }
     }
-    (found, overflowed)
-}
-
-/// The index in the internal nodes' boxes of `child`: its own, or the root's for a leaf.
-#[inline]
-fn internal_or_root(child: u32) -> usize {
-    if child & LEAF_BIT != 0 { 0 } else { child as usize }
+    found
 }
 
 /// Leaves a `PairWalk` hands over at a time.
@@ -108,51 +81,40 @@ pub const WALK_BATCH: usize = 16;
 /// would run (masked) at every step where any lane reached a leaf; after the walk it runs as
 /// often as the busiest lane has leaves.
 ///
-/// Only leaves after `first` are wanted (each pair is handled from its earlier leaf): in
-/// Karras' layout an internal node's left child (leaf or internal node γ) covers leaves ending
-/// at γ, and its right child ends where the parent does, so a left child with γ <= `first`
-/// is not entered.
+/// The walk has no stack: it visits the tree depth first, left child first, and where a box
+/// fails its query (or after a leaf) it follows the node's escape (`BvhNode::escape`, the
+/// subtree after it). Its state is the next entry to visit. Private arrays indexed per lane
+/// are memory on llvmpipe and GPUs alike, and the walk for the leaves after `first` starts at
+/// the leaf's own escape: the subtrees right of its path from the root, which a walk from the
+/// root reaches only through the path's nodes (whose boxes hold the query's own).
 pub struct PairWalk {
-    first: u32,
-    /// Whether only leaves after `first` are wanted (else every leaf the query takes).
-    after_only: bool,
-    /// Pending entries: internal nodes whose boxes met the query, and leaves (`LEAF_BIT`) yet
-    /// to be tested.
-    stack: [u32; STACK_SIZE],
-    top: usize,
-    /// Whether the stack overflowed (subtrees were skipped).
-    pub overflowed: bool,
+    /// The next entry to visit: an internal node, a leaf with `LEAF_BIT`, or `NO_NODE` (done).
+    next: u32,
+    leaf_count: u32,
 }
 
 impl PairWalk {
-    /// A walk for leaf `first` of a tree of `leaf_count` leaves: the later leaves its query
-    /// takes (a box, `next_batch`; or any `PairBoxes`, `next_batch_in`).
-    pub fn new(first: u32, leaf_count: u32) -> Self {
-        // A single leaf has no pairs (and no internal node).
-        let top = if leaf_count > 1 { 1 } else { 0 };
-        PairWalk { first, after_only: true, stack: [0u32; STACK_SIZE], top, overflowed: false }
+    /// A walk for leaf `first` of a tree (`nodes`) of `leaf_count` leaves: the later leaves its
+    /// query takes (a box, `next_batch`; or any `PairBoxes`, `next_batch_in`).
+    pub fn new(first: u32, nodes: &[BvhNode], leaf_count: u32) -> Self {
+        PairWalk { next: leaf_escape(nodes, leaf_count, first), leaf_count }
     }
 
     /// A walk for every leaf its query takes, in batches as `new`'s.
     pub fn all(leaf_count: u32) -> Self {
-        let mut walk = PairWalk { after_only: false, ..PairWalk::new(0, leaf_count) };
-        if leaf_count == 1 {
-            // No internal node: the tree is its one leaf, which may meet the query (a
-            // one-triangle cloth under a collider's vertex).
-            walk.stack[0] = LEAF_BIT;
-            walk.top = 1;
-        }
-        walk
+        // A one-leaf tree has no internal node: the tree is its leaf, which may meet the
+        // query (a one-triangle cloth under a collider's vertex).
+        let next = if leaf_count > 1 { 0 } else { LEAF_BIT };
+        PairWalk { next, leaf_count }
     }
 
     /// Whether the walk is over.
     pub fn done(&self) -> bool {
-        self.top == 0
+        self.next == NO_NODE
     }
 
     /// Walks on until `found` holds `WALK_BATCH` leaves or the walk is over; returns how many
-    /// it holds (in tree order within the batch's stretch). Takes the boxes that meet the
-    /// query box `lo..=hi`.
+    /// it holds (in tree order). Takes the boxes that meet the query box `lo..=hi`.
     pub fn next_batch(
         &mut self,
         (nodes, aabbs, leaf_bounds): (&[BvhNode], &[Aabb], &[Aabb]),
@@ -165,41 +127,28 @@ impl PairWalk {
     /// `next_batch` with another test of which subtrees and leaves to take (`boxes`).
     pub fn next_batch_in<B: PairBoxes>(&mut self, nodes: &[BvhNode], boxes: B, found: &mut [u32; WALK_BATCH]) -> usize {
         let mut count = 0;
-        while self.top > 0 && count < WALK_BATCH {
-            self.top -= 1;
-            let entry = self.stack[self.top];
+        while self.next != NO_NODE && count < WALK_BATCH {
+            let entry = self.next;
+            let index = entry & !LEAF_BIT;
             if entry & LEAF_BIT != 0 {
-                let leaf = entry & !LEAF_BIT;
-                if boxes.leaf_meets(leaf) {
-                    found[count] = leaf;
+                if boxes.leaf_meets(index) {
+                    found[count] = index;
                     count += 1;
                 }
-                continue;
-            }
-            let node = nodes[entry as usize];
-            // Both children's boxes loaded before either is tested, as in `walk`.
-            let right_boxes = boxes.node_boxes(internal_or_root(node.right) as u32);
-            let left_boxes = boxes.node_boxes(internal_or_root(node.left) as u32);
-            // Right first, so the left child is popped first (tree order).
-            let mut side = 0;
-            while side < 2 {
-                let child = if side == 0 { node.right } else { node.left };
-                let index = child & !LEAF_BIT;
-                let later = !self.after_only || side == 0 || index > self.first;
-                let child_boxes = if side == 0 { right_boxes } else { left_boxes };
-                if later && (child & LEAF_BIT != 0 || boxes.node_meets(&child_boxes)) {
-                    if self.top == STACK_SIZE {
-                        self.overflowed = true;
-                    } else {
-                        self.stack[self.top] = child;
-                        self.top += 1;
-                    }
-                }
-                side += 1;
+                self.next = leaf_escape(nodes, self.leaf_count, index);
+            } else {
+                let node = nodes[index as usize];
+                self.next = if boxes.node_meets(&boxes.node_boxes(index)) { node.left } else { node.escape };
             }
         }
         count
     }
+}
+
+/// Where a depth-first walk goes after leaf `leaf` of `leaf_count` (`BvhNode::leaf_escape`).
+#[inline]
+fn leaf_escape(nodes: &[BvhNode], leaf_count: u32, leaf: u32) -> u32 {
+    if leaf + 1 >= leaf_count { NO_NODE } else { nodes[leaf as usize].leaf_escape }
 }
 
 /// Which subtrees and leaves a `PairWalk` takes. Passed by value (slices and plain values), so
@@ -362,7 +311,23 @@ pub fn internal_node(codes: &[u32], n: u32, i: u32) -> BvhNode {
     let (first, last) = if ii < j { (ii, j) } else { (j, ii) };
     let left = if first == gamma { gamma as u32 | LEAF_BIT } else { gamma as u32 };
     let right = if last == gamma + 1 { (gamma + 1) as u32 | LEAF_BIT } else { (gamma + 1) as u32 };
-    BvhNode { left, right, _pad: [0; 2] }
+    BvhNode { left, right, escape: entry_after(codes, n, last as u32), leaf_escape: entry_after(codes, n, i) }
+}
+
+/// Where a depth-first walk goes after a subtree whose last leaf is `last` (`BvhNode::escape`):
+/// the subtree that starts at leaf `last + 1`. It is the right child of the node whose split
+/// is `last` (each split belongs to one node), and a right child's index is its first leaf: the
+/// internal node `last + 1` when that node's range starts there (it extends upwards, the
+/// direction Karras' `internal_node` takes), else the leaf `last + 1` alone.
+#[inline]
+pub fn entry_after(codes: &[u32], n: u32, last: u32) -> u32 {
+    let s = last + 1;
+    if s >= n {
+        return NO_NODE;
+    }
+    let si = s as i32;
+    let internal_starting_here = s + 1 < n && delta(codes, n, s, si + 1) - delta(codes, n, s, si - 1) >= 0;
+    if internal_starting_here { s } else { s | LEAF_BIT }
 }
 
 /// Index in the parents buffer: internal nodes first, then leaves.

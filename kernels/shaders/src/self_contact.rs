@@ -588,14 +588,13 @@ pub trait LeafVisitor {
 }
 
 /// Visits every leaf of a tree of `leaf_count` leaves whose box meets `lo..=hi`, in batches
-/// between stretches of the walk (`PairWalk::all`). Returns whether the walk's stack overflowed
-/// (leaves may be missed).
+/// between stretches of the walk (`PairWalk::all`).
 pub fn walk_overlapping<V: LeafVisitor>(
     tree: (&[BvhNode], &[Aabb], &[Aabb]),
     leaf_count: u32,
     query: (Vec3, Vec3),
     visitor: &mut V,
-) -> bool {
+) {
     walk_in_batches(PairWalk::all(leaf_count), tree, query, visitor)
 }
 
@@ -607,19 +606,19 @@ pub fn walk_overlapping_after<V: LeafVisitor>(
     leaf_count: u32,
     query: (Vec3, Vec3),
     visitor: &mut V,
-) -> bool {
-    walk_in_batches(PairWalk::new(leaf, leaf_count), tree, query, visitor)
+) {
+    walk_in_batches(PairWalk::new(leaf, tree.0, leaf_count), tree, query, visitor)
 }
 
 /// Runs `walk` with the query box `query`, handing its leaves to `visitor` in batches between
-/// stretches of the walk. Returns whether the walk's stack overflowed.
+/// stretches of the walk.
 #[inline]
 pub fn walk_in_batches<V: LeafVisitor>(
     mut walk: PairWalk,
     tree: (&[BvhNode], &[Aabb], &[Aabb]),
     query: (Vec3, Vec3),
     visitor: &mut V,
-) -> bool {
+) {
     let mut found = [0u32; WALK_BATCH];
     while !walk.done() {
         let count = walk.next_batch(tree, query, &mut found);
@@ -629,7 +628,6 @@ pub fn walk_in_batches<V: LeafVisitor>(
             k += 1;
         }
     }
-    walk.overflowed
 }
 
 /// The parameters (`s` on `a`-`b`, `t` on `c`-`d`, both in [0, 1]) of the closest points of
@@ -1042,7 +1040,6 @@ pub(crate) fn triangle_query(bounds: &Aabb, thickness: f32) -> (Vec3, Vec3) {
 }
 
 /// Sorted leaf `leaf`'s pairs (its triangle's owned corners and edges) through the tree.
-/// Returns whether the walk's stack overflowed.
 #[allow(clippy::too_many_arguments)]
 pub fn self_triangle_contact_at(
     leaf: u32,
@@ -1051,7 +1048,7 @@ pub fn self_triangle_contact_at(
     owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
     out: PairResponse,
-) -> bool {
+) {
     let tables = (leaf_bounds, sorted, owned);
     let mut pairs = TrianglePairs::of(leaf, tables, (x, x_prev), out);
     pairs.walk_after((nodes, aabbs, leaf_bounds), self_params.leaf_count)
@@ -1059,9 +1056,9 @@ pub fn self_triangle_contact_at(
 
 impl TrianglePairs<'_> {
     /// The pairs with every later leaf whose box meets this triangle's query box, through the
-    /// tree; returns whether the walk's stack overflowed.
+    /// tree.
     #[inline]
-    pub(crate) fn walk_after(&mut self, tree: (&[BvhNode], &[Aabb], &[Aabb]), leaf_count: u32) -> bool {
+    pub(crate) fn walk_after(&mut self, tree: (&[BvhNode], &[Aabb], &[Aabb]), leaf_count: u32) {
         let query = (self.reach_lo, self.reach_hi);
         walk_overlapping_after(self.leaf, tree, leaf_count, query, self)
     }
@@ -1272,8 +1269,7 @@ fn edge_fold(
 /// neighbours across its edges, `feature.xyz`, `NO_NEIGHBOUR` for none), moving with the
 /// collider over the pass `motion`, against the cloth's faces and edges: a spike's tip or a
 /// ridge keeps the thickness from every cloth triangle and edge, on the side it came from, so
-/// it cannot poke through a cloth cell between particles. Returns whether the walk's stack
-/// overflowed.
+/// it cannot poke through a cloth cell between particles.
 #[allow(clippy::too_many_arguments)]
 pub fn collider_feature_contact_at(
     triangle: u32,
@@ -1285,11 +1281,11 @@ pub fn collider_feature_contact_at(
     cloth_owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
     (out, pushes, health): (PairResponse, &mut [u32], &mut Health),
-) -> bool {
+) {
     let thickness = out.thickness;
     let owned = feature.w & OWNED_FEATURE_BITS;
     if owned == 0 {
-        return false;
+        return;
     }
     let i = 3 * triangle as usize;
     let (ia, ib, ic) = (indices[i] as usize, indices[i + 1] as usize, indices[i + 2] as usize);
@@ -1303,7 +1299,7 @@ pub fn collider_feature_contact_at(
     let (lo, hi) = (lo - reach, hi + reach);
     let leaves = self_params.leaf_count;
     if !meets_cloth(aabbs, leaves, (lo, hi)) {
-        return false; // away from the whole cloth (the tree's root): no folds to measure
+        return; // away from the whole cloth (the tree's root): no folds to measure
     }
     // The folds at the pass's end (a deforming collider's change); folded shut where the
     // surface wraps round or forms a ridge at the cloth's scale (`CURLED_BIT`).
@@ -1323,7 +1319,7 @@ pub fn collider_feature_contact_at(
     let longest2 = grown_longest_edge2(self_params);
     let sharp = sharp_features(owned, folds, (longest2, thickness), 1.0);
     if sharp == 0 {
-        return false;
+        return;
     }
     // Each corner's velocity over the pass (the pose's motion and the mesh's deformation).
     let per_second = 1.0 / motion.h;
@@ -1356,7 +1352,6 @@ pub fn collider_feature_contact_at(
     // near the edge (a 1.9 m edge of a tall cone under the cloth hanging around it: one thread
     // tested most of the cloth, 10 ms a pass on an H100).
     let one_by_one = spans_many_cloth_edges(hi - lo, longest2);
-    let mut overflowed = false;
     let mut feature: u32 = 0;
     let mut segment: u32 = 0;
     // The feature's segments, and whether it comes near the cloth at all (set at its first).
@@ -1384,7 +1379,7 @@ pub fn collider_feature_contact_at(
         if sharp & walk != 0 && feature_near && meets_cloth(aabbs, leaves, query) {
             (pairs.owned, pairs.edge, pairs.segment) = (walk, (k, m), (segment, segments));
             let tree = (nodes, aabbs, leaf_bounds);
-            overflowed |= walk_overlapping(tree, leaves, query, &mut pairs);
+            walk_overlapping(tree, leaves, query, &mut pairs);
         }
         segment += 1;
         if segment >= segments || sharp & walk == 0 || !feature_near {
@@ -1396,7 +1391,6 @@ pub fn collider_feature_contact_at(
         let thicknesses = pairs.largest_push * (1.0 / thickness);
         atomics::max(&mut health.collider_feature_push_bits, thicknesses.to_bits());
     }
-    overflowed
 }
 
 /// Whether a collider triangle whose swept box (grown by the thickness) has `extent` spans

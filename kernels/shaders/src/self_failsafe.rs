@@ -301,8 +301,7 @@ impl LeafVisitor for FramePairs<'_> {
 /// (a pair a list leaves out stays a thickness apart while its corners stay within their slops
 /// of their predicted paths, so at the frame's end too); one whose list was full walks for the
 /// later leaves; one that ended outside walks for the later leaves and the earlier ones that do
-/// not walk. A walk whose stack overflowed may have missed pairs: its triangle's particles are
-/// marked, to be safe.
+/// not walk.
 #[allow(clippy::too_many_arguments)]
 pub fn check_frame_at(
     leaf: u32,
@@ -340,13 +339,14 @@ pub fn check_frame_at(
     }
     let (lo, hi) = mine.end_box();
     let query = (lo - Vec3::splat(separation), hi + Vec3::splat(separation));
-    let walk =
-        if escaped { PairWalk::all(self_params.leaf_count) } else { PairWalk::new(leaf, self_params.leaf_count) };
+    let walk = if escaped {
+        PairWalk::all(self_params.leaf_count)
+    } else {
+        PairWalk::new(leaf, nodes, self_params.leaf_count)
+    };
     let take_earlier = escaped;
     let mut pairs = FramePairs { leaf, mine, sorted, x, anchors, walkers, take_earlier, separation, found };
-    if walk_in_batches(walk, (nodes, aabbs, leaf_bounds), query, &mut pairs) {
-        pairs.found.mark(ids, ids);
-    }
+    walk_in_batches(walk, (nodes, aabbs, leaf_bounds), query, &mut pairs);
 }
 
 /// Leaf `leaf`'s list count with the frame's lists (0 without: the counts are stale then).
@@ -441,8 +441,6 @@ pub fn check_collider_triangle_at(
     let reach = Vec3::splat(separation);
     let (lo, hi) = box_of(corners);
     let mut pairs = ColliderFramePairs { corners, bounds: (lo, hi), sorted, x, anchors, separation, found, health };
-    // A walk whose stack overflowed may have missed a crossing; the exact check after the frame
-    // (`metrics::intersections`) would count it.
     walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo - reach, hi + reach), &mut pairs);
 }
 

@@ -493,9 +493,8 @@ pub fn listed_pair_bound(
 /// `counts[leaf]`): the later leaves that may come within the thickness in the frame
 /// (`RelativeMotion`), with the primitive pairs that may touch, found by one walk of the frame's
 /// tree (built over the start boxes, `motions` its motion boxes: internal nodes', leaves').
-/// Returns whether the walk's stack overflowed (the list is marked overflowed), and the largest
-/// motion and approach over the frame of the primitive pairs it found (listed or not:
-/// `PairMotion`).
+/// Returns the largest motion and approach over the frame of the primitive pairs it found
+/// (listed or not: `PairMotion`).
 #[allow(clippy::too_many_arguments)]
 pub fn list_self_pairs_at(
     leaf: u32,
@@ -505,19 +504,19 @@ pub fn list_self_pairs_at(
     owned: &[u32],
     anchors: &[Vec4],
     (lists, counts): (&mut [u32], &mut [u32]),
-) -> (bool, PairMotion) {
+) -> PairMotion {
     let thickness = self_params.thickness;
     let ids = sorted[leaf as usize];
     let mine = AnchoredTriangle::load(ids, anchors);
     if mine.too_small_for(thickness) {
         counts[leaf as usize] = LIST_OVERFLOWED;
-        return (false, PairMotion::default());
+        return PairMotion::default();
     }
     let mine_owned = owned[ids.w as usize];
     let (start, motion) = (&leaf_bounds[leaf as usize], &leaf_motions[leaf as usize]);
     let query = ((start.min.xyz(), start.max.xyz()), (motion.min.xyz(), motion.max.xyz()));
     let boxes = RelativeMotion { aabbs, motion_aabbs, leaf_bounds, leaf_motions, query, thickness };
-    let mut walk = PairWalk::new(leaf, self_params.leaf_count);
+    let mut walk = PairWalk::new(leaf, nodes, self_params.leaf_count);
     let mut found = [0u32; WALK_BATCH];
     let base = (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf) as usize;
     let mut count = 0;
@@ -547,8 +546,8 @@ pub fn list_self_pairs_at(
             j += 1;
         }
     }
-    counts[leaf as usize] = if full || walk.overflowed { LIST_OVERFLOWED } else { count };
-    (walk.overflowed, fastest)
+    counts[leaf as usize] = if full { LIST_OVERFLOWED } else { count };
+    fastest
 }
 
 /// Records a list's largest motion and approach (`list_self_pairs_at`) in the frame's health
@@ -865,7 +864,7 @@ pub fn list_self_pairs(
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     let motions = (motion_aabbs, leaf_motions);
-    let (_, motion) = list_self_pairs_at(id.x, self_params, tree, motions, owned, anchors, (lists, counts));
+    let motion = list_self_pairs_at(id.x, self_params, tree, motions, owned, anchors, (lists, counts));
     count_full_list(id.x, counts, health);
     note_pair_motion(motion.per_frame(push.to_frame), health);
 }

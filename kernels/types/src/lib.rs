@@ -164,7 +164,13 @@ pub const NO_NODE: u32 = u32::MAX;
 pub struct BvhNode {
     pub left: u32,
     pub right: u32,
-    pub _pad: [u32; 2],
+    /// Where a depth-first walk goes after this node's subtree: the subtree that starts at the
+    /// leaf after its last (an internal node, or a leaf with `LEAF_BIT`), or `NO_NODE` when it
+    /// ends the tree. A stackless walk follows it when the node's box fails its query.
+    pub escape: u32,
+    /// Where a depth-first walk goes after the leaf of the same index (`escape` for that leaf;
+    /// the last leaf has no node of its index: its walk ends).
+    pub leaf_escape: u32,
 }
 
 /// Axis-aligned box: `min.xyz`, `max.xyz` (w unused). Internal node bounds of the LBVH. The
@@ -384,8 +390,6 @@ pub struct SortPush {
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 #[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
 pub struct CollisionStatus {
-    /// Particles whose traversal stack overflowed (contacts may be missed).
-    pub overflows: u32,
     /// Substeps whose traversal was skipped because the cloth cannot touch the collider (the
     /// culling pass), or, where the narrow phase over candidate lists runs inside the
     /// integrator's last stage (no culling pass), because the frame's broad phase listed no
@@ -400,7 +404,7 @@ pub struct CollisionStatus {
     /// the cloth is at the collider and the substeps' culling passes, where there are any, do
     /// not test.
     pub listed: u32,
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 4],
 }
 
 /// A collider triangle at the end of the frame: its corners (xyz) and unit normal (the
