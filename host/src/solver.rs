@@ -190,11 +190,10 @@ impl Solver {
     /// vertex-input, vertex-shader, compute, transfer and host-write work on the queue (a
     /// renderer that read last frame's positions, say); it ends with one that makes its writes
     /// available to later vertex input (`VERTEX_ATTRIBUTE_READ`, `INDEX_READ`), vertex and
-    /// compute shaders (`SHADER_READ`), transfers and the host. The blow-up and
-    /// traversal-overflow status is copied to a ring drape reads without stalling: the next
-    /// `record` (or `poll_status`) reports a failed frame as the same `Error::Unstable` /
-    /// `Error::TraversalOverflow` as `step`, once that frame has finished on the GPU (one frame
-    /// late with double buffering). At most 8 recorded frames may be unfinished at once.
+    /// compute shaders (`SHADER_READ`), transfers and the host. The cloths' health (a blow-up)
+    /// is copied to a ring drape reads without stalling: the next `record` (or `poll_status`)
+    /// reports a failed frame as the same `Error::Unstable` as `step`, once that frame has
+    /// finished on the GPU (one frame late with double buffering). At most 8 recorded frames may be unfinished at once.
     ///
     /// # Safety
     /// - `cmd` is a primary command buffer in the recording state, allocated on drape's device

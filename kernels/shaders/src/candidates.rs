@@ -248,7 +248,7 @@ pub fn detect_candidates_at<K: LeafKind>(
 }
 
 /// The body of every leaf kind's narrow-phase entry point: detects particle `index`'s contact
-/// over its list (fallbacks and overflows counted in `status`) and applies it at once. One
+/// over its list (fallbacks counted in `status`) and applies it at once. One
 /// pass instead of a detect pass and a respond pass: a particle's detection reads only its own
 /// position, so no other thread's response can change what it finds.
 #[allow(clippy::too_many_arguments)]
