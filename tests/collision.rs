@@ -106,16 +106,19 @@ fn bvh_traversal_finds_the_brute_force_contacts() {
     assert!(contacts > 400, "only {contacts} contacts: the test must exercise hits");
 }
 
-/// A deep, lopsided tree is walked completely: spheres at 1 - 2^-k along a line (each code
-/// splits off one more leaf, a comb as deep as the codes' 10 bits an axis allow) with many
-/// spheres sharing a point (equal codes, split by index below it): over twice as deep as a
-/// balanced tree of as many leaves. The walk has no stack to run out of: its escapes
+/// A deep, lopsided tree is walked completely: spheres at 1 - 2^-k along three edges of a unit
+/// cube (where codes differ in one more bit, one more leaf splits off: combs as deep as the
+/// codes' 10 bits an axis allow) and 300 spheres sharing its far corner (equal codes, split by
+/// index below them): 21 levels, over twice a balanced tree's 9. The walk has no stack to run out of: its escapes
 /// check out against a depth-first walk with a stack (`validate`), and every segment finds the
 /// contact a loop over all spheres finds.
 #[test]
 fn a_deep_lopsided_tree_is_walked_completely() {
-    let mut spheres: Vec<Vec4> = (0..20).map(|k| Vec4::new(1.0 - (-(k as f32)).exp2(), 0.0, 0.0, 0.004)).collect();
-    spheres.extend((0..300).map(|k| Vec4::new(0.99999, 0.0, 0.0, 0.001 + 1e-5 * k as f32)));
+    let comb = |k: u32| 1.0 - (-(k as f32)).exp2();
+    let mut spheres: Vec<Vec4> = (0..12).map(|k| Vec4::new(comb(k), 0.0, 0.0, 0.004)).collect();
+    spheres.extend((0..12).map(|k| Vec4::new(1.0, comb(k), 0.0, 0.004)));
+    spheres.extend((0..12).map(|k| Vec4::new(1.0, 1.0, comb(k), 0.004)));
+    spheres.extend((0..300).map(|k| Vec4::new(1.0, 1.0, 1.0, 0.001 + 1e-5 * k as f32)));
     let params = collider_params(&spheres, 0.001, 0.0).unwrap();
     let tree = build_cpu(&spheres, &params).unwrap();
     tree.validate(&spheres).unwrap();
@@ -124,9 +127,15 @@ fn a_deep_lopsided_tree_is_walked_completely() {
     let mut rng = Rng::new(11);
     let mut contacts = 0;
     for k in 0..2000 {
-        // Half of the segments at the shared point, half along the line.
-        let x = if k % 2 == 0 { rng.range(0.99, 1.0) } else { rng.range(0.0, 1.0) };
-        let p1 = Vec3::new(x, rng.range(-0.005, 0.005), rng.range(-0.005, 0.005));
+        // Along each comb, and a quarter of the segments at the shared point.
+        let along = if k % 4 == 3 { 1.0 } else { rng.range(0.0, 1.0) };
+        let on_line = match k % 4 {
+            0 => Vec3::new(along, 0.0, 0.0),
+            1 => Vec3::new(1.0, along, 0.0),
+            2 => Vec3::new(1.0, 1.0, along),
+            _ => Vec3::ONE,
+        };
+        let p1 = on_line + Vec3::new(rng.range(-0.005, 0.005), rng.range(-0.005, 0.005), rng.range(-0.005, 0.005));
         let p0 = p1 + Vec3::new(rng.range(-0.01, 0.01), rng.range(-0.005, 0.005), rng.range(-0.005, 0.005));
         let bvh = traverse::<Spheres>(&params, &tree.nodes, &tree.aabbs, &tree.spheres, p0, p1);
         let brute = brute_force::<Spheres>(&params, &tree.spheres, p0, p1);

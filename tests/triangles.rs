@@ -402,7 +402,7 @@ fn continuous_contact_matches_an_f64_reference() {
 }
 
 /// One particle's detect of the substep motion `p0 -> p1` through the LBVH and by the
-/// brute-force loop, checked equal (and without stack overflow).
+/// brute-force loop, checked equal.
 fn bvh_and_brute_force(
     params: &drape_types::ColliderParams,
     tree: &drape::lbvh::Lbvh,

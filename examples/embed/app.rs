@@ -277,7 +277,7 @@ fn simulate_and_draw(engine: &Engine, options: &Options) -> Result<Outcome> {
             }
             Ok(())
         })?;
-        // The frame is complete (waited for): its blow-up / overflow status is readable.
+        // The frame is complete (waited for): its blow-up status is readable.
         sim.poll_status()?;
         if let Some(out) = &options.out
             && (frame % options.every == 0 || frame == options.frames)

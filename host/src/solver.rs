@@ -74,7 +74,7 @@ pub struct Solver {
     controls: Controls,
     lbvh_timings: Option<FrameTimings>,
     frames_done: u64,
-    /// Frames whose blow-up and overflow status has been read.
+    /// Frames whose blow-up status has been read.
     frames_checked: u64,
 }
 
@@ -391,7 +391,7 @@ impl Solver {
     pub fn frames_done(&self) -> u64 {
         self.frames_done
     }
-    /// The last frame whose blow-up and overflow status has been read (equal to `frames_done`
+    /// The last frame whose blow-up status has been read (equal to `frames_done`
     /// after `step`; behind it while recorded frames are in flight).
     pub fn frames_checked(&self) -> u64 {
         self.frames_checked
