@@ -4,11 +4,11 @@
 mod common;
 
 use common::{Rng, assert_validation_clean, context};
-use drape::lbvh::{GpuLbvh, build_cpu, collider_params};
+use drape::lbvh::{GpuLbvh, Lbvh, build_cpu, collider_params};
 use drape::{ClothBuilder, ClothId, Collider, ColliderId, CpuSolver, Model, SimSettings, Solver};
 use drape_kernels::contact::{brute_force, traverse};
 use drape_kernels::spheres::Spheres;
-use drape_types::{BvhNode, LEAF_BIT};
+use drape_types::{BvhNode, ColliderParams, LEAF_BIT};
 use glam::{Mat4, Vec3, Vec4};
 
 /// The only cloth of the models here.
@@ -97,10 +97,7 @@ fn bvh_traversal_finds_the_brute_force_contacts() {
         for _ in 0..2000 {
             let p1 = Vec3::new(rng.range(-1.2, 1.2), rng.range(-1.2, 1.2), rng.range(-1.2, 1.2));
             let p0 = p1 + Vec3::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), rng.range(-0.1, 0.1));
-            let bvh = traverse::<Spheres>(&params, &tree.nodes, &tree.aabbs, &tree.spheres, p0, p1);
-            let brute = brute_force::<Spheres>(&params, &tree.spheres, p0, p1);
-            assert_eq!((bvh.t, bvh.leaf), (brute.t, brute.leaf), "n {n}, p0 {p0}, p1 {p1}");
-            contacts += (brute.t <= 1.0) as u32;
+            contacts += traversal_hits_as_brute_force(&params, &tree, (p0, p1), &format!("n {n}")) as u32;
         }
     }
     assert!(contacts > 400, "only {contacts} contacts: the test must exercise hits");
@@ -109,9 +106,9 @@ fn bvh_traversal_finds_the_brute_force_contacts() {
 /// A deep, lopsided tree is walked completely: spheres at 1 - 2^-k along three edges of a unit
 /// cube (where codes differ in one more bit, one more leaf splits off: combs as deep as the
 /// codes' 10 bits an axis allow) and 300 spheres sharing its far corner (equal codes, split by
-/// index below them): 21 levels, over twice a balanced tree's 9. The walk has no stack to run out of: its escapes
-/// check out against a depth-first walk with a stack (`validate`), and every segment finds the
-/// contact a loop over all spheres finds.
+/// index below them): 21 levels, over twice a balanced tree's 9. The walk has no stack to run
+/// out of: its escapes check out against a depth-first walk with a stack (`validate`), and
+/// every segment finds the contact a loop over all spheres finds.
 #[test]
 fn a_deep_lopsided_tree_is_walked_completely() {
     let comb = |k: u32| 1.0 - (-(k as f32)).exp2();
@@ -137,12 +134,18 @@ fn a_deep_lopsided_tree_is_walked_completely() {
         };
         let p1 = on_line + Vec3::new(rng.range(-0.005, 0.005), rng.range(-0.005, 0.005), rng.range(-0.005, 0.005));
         let p0 = p1 + Vec3::new(rng.range(-0.01, 0.01), rng.range(-0.005, 0.005), rng.range(-0.005, 0.005));
-        let bvh = traverse::<Spheres>(&params, &tree.nodes, &tree.aabbs, &tree.spheres, p0, p1);
-        let brute = brute_force::<Spheres>(&params, &tree.spheres, p0, p1);
-        assert_eq!((bvh.t, bvh.leaf), (brute.t, brute.leaf), "p0 {p0}, p1 {p1}");
-        contacts += (brute.t <= 1.0) as u32;
+        contacts += traversal_hits_as_brute_force(&params, &tree, (p0, p1), "deep tree") as u32;
     }
     assert!(contacts > 100, "only {contacts} contacts: the test must exercise hits");
+}
+
+/// Checks that the traversal of `tree` finds the contact of `p0 -> p1` a loop over all its
+/// spheres finds; returns whether there is one.
+fn traversal_hits_as_brute_force(params: &ColliderParams, tree: &Lbvh, (p0, p1): (Vec3, Vec3), case: &str) -> bool {
+    let bvh = traverse::<Spheres>(params, &tree.nodes, &tree.aabbs, &tree.spheres, p0, p1);
+    let brute = brute_force::<Spheres>(params, &tree.spheres, p0, p1);
+    assert_eq!((bvh.t, bvh.leaf), (brute.t, brute.leaf), "{case}: p0 {p0}, p1 {p1}");
+    brute.t <= 1.0
 }
 
 /// Levels below internal node `node` (a leaf child counts one).

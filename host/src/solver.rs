@@ -193,7 +193,8 @@ impl Solver {
     /// compute shaders (`SHADER_READ`), transfers and the host. The cloths' health (a blow-up)
     /// is copied to a ring drape reads without stalling: the next `record` (or `poll_status`)
     /// reports a failed frame as the same `Error::Unstable` as `step`, once that frame has
-    /// finished on the GPU (one frame late with double buffering). At most 8 recorded frames may be unfinished at once.
+    /// finished on the GPU (one frame late with double buffering). At most 8 recorded frames
+    /// may be unfinished at once.
     ///
     /// # Safety
     /// - `cmd` is a primary command buffer in the recording state, allocated on drape's device

@@ -31,6 +31,9 @@ pub trait TreeQuery {
 /// Walks a tree of `leaf_count` leaves (nodes and their boxes; node 0 is the root) depth
 /// first, left child first, without a stack (`BvhNode::escape`), offering `query` every leaf
 /// under the subtrees it enters. Returns what the visits found (starting from `found`).
+///
+/// It steps as `PairWalk` does, written out again: a `PairBoxes` that asks the query would hold
+/// a reference to it, a pointer kept as data (see `TreeQuery`).
 pub fn walk<Q: TreeQuery>(
     nodes: &[BvhNode],
     aabbs: &[Aabb],
