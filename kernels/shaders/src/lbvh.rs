@@ -277,10 +277,18 @@ pub fn delta(codes: &[u32], n: u32, i: u32, j: i32) -> i32 {
     if a == b { 32 + (i ^ j as u32).leading_zeros() as i32 } else { (a ^ b).leading_zeros() as i32 }
 }
 
+/// Which way internal node `i`'s range of leaves extends from leaf `i` (Karras 2012): 1 up,
+/// -1 down, towards the neighbour it shares more leading bits with.
+#[inline]
+fn range_direction(codes: &[u32], n: u32, i: u32) -> i32 {
+    let ii = i as i32;
+    if delta(codes, n, i, ii + 1) - delta(codes, n, i, ii - 1) >= 0 { 1 } else { -1 }
+}
+
 /// Children of internal node `i` (of n - 1), with `LEAF_BIT` marking leaves.
 pub fn internal_node(codes: &[u32], n: u32, i: u32) -> BvhNode {
     let ii = i as i32;
-    let d: i32 = if delta(codes, n, i, ii + 1) - delta(codes, n, i, ii - 1) >= 0 { 1 } else { -1 };
+    let d = range_direction(codes, n, i);
     let delta_min = delta(codes, n, i, ii - d);
     // Upper bound on the range length, then binary search for its other end.
     let mut l_max: i32 = 2;
@@ -328,8 +336,7 @@ pub fn entry_after(codes: &[u32], n: u32, last: u32) -> u32 {
     if s >= n {
         return NO_NODE;
     }
-    let si = s as i32;
-    let internal_starting_here = s + 1 < n && delta(codes, n, s, si + 1) - delta(codes, n, s, si - 1) >= 0;
+    let internal_starting_here = s + 1 < n && range_direction(codes, n, s) == 1;
     if internal_starting_here { s } else { s | LEAF_BIT }
 }
 
