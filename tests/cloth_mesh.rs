@@ -246,7 +246,7 @@ fn mesh_normals_follow_the_winding() {
 }
 
 /// Bad mesh cloths are refused with the cause: a pin past the last vertex, a mesh without
-/// triangles, an index out of range. A vertex of no triangle is pinned where it is.
+/// triangles, a mesh whose triangles have no area, an index out of range. A vertex of no triangle is pinned where it is.
 #[test]
 fn bad_mesh_cloths_are_refused_and_loose_vertices_pinned() {
     let mesh = disc(2, 6, 0.3);
@@ -256,6 +256,10 @@ fn bad_mesh_cloths_are_refused_and_loose_vertices_pinned() {
     assert!(error.to_string().contains(&format!("particle {n}")), "{error}");
     assert!(ClothMesh::from_parts(mesh.vertices.clone(), vec![]).is_err());
     assert!(ClothMesh::from_parts(mesh.vertices.clone(), vec![[0, 1, n]]).is_err());
+    let flat = ClothMesh::from_parts(vec![Vec3::ZERO, Vec3::X, 2.0 * Vec3::X], vec![[0, 1, 2], [0, 0, 1]]).unwrap();
+    let no_area = ClothBuilder::from_mesh(flat).build().unwrap_err();
+    assert!(matches!(no_area, Error::InvalidParameter { name: "cloth mesh", .. }), "{no_area}");
+    assert!(no_area.to_string().contains("no area"), "{no_area}");
     let bad_box = ClothBuilder::from_mesh(mesh.clone()).pin_within(Vec3::ONE, Vec3::ZERO).build().unwrap_err();
     assert!(bad_box.to_string().contains("min <= max"), "{bad_box}");
     let mut loose = mesh;

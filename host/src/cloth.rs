@@ -187,6 +187,19 @@ impl ClothBuilder {
     /// Validates the parameters and lays out the particles.
     pub fn build(&self) -> Result<Cloth> {
         let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
+        // A mesh cloth's default mass is its area's: without area it would read as a bad mass.
+        if let Some(mesh) = &self.mesh
+            && !(mesh.area().is_finite() && mesh.area() > 0.0)
+        {
+            return bad(
+                "cloth mesh",
+                format!(
+                    "has no area: each of its {} triangles has its corners on one line or a corner twice; \
+                     give a mesh with triangles that span a surface",
+                    mesh.triangles.len()
+                ),
+            );
+        }
         let positive = [("size", self.size), ("length", self.length.unwrap_or(self.size)), ("mass", self.mass)];
         for (name, value) in positive {
             if !(value.is_finite() && value > 0.0) {
