@@ -47,7 +47,7 @@ use crate::lbvh::{PairWalk, WALK_BATCH, box_meets};
 use crate::pose::{SubstepMotion, to_world};
 use crate::self_pairs::{anchor_particles, triangle_motion_at};
 use crate::tiles::wake_particle;
-use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
+use drape_types::glam::{BVec3, UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, DispatchArgs, Health, SelfAnchorPush, SimParams,
 };
@@ -776,6 +776,18 @@ fn pick<T: Copy>(x: T, y: T, z: T, k: u32) -> T {
     }
 }
 
+/// `x`, `y` or `z` for `k` = 0, 1 or 2, by selects.
+#[inline]
+fn pick_vec3(x: Vec3, y: Vec3, z: Vec3, k: u32) -> Vec3 {
+    Vec3::select(BVec3::splat(k <= 1), Vec3::select(BVec3::splat(k == 0), x, y), z)
+}
+
+/// Corner `k` of a triangle's three positions (`pick_vec3`, not an index: see `pick`).
+#[inline]
+fn corner([a, b, c]: [Vec3; 3], k: usize) -> Vec3 {
+    pick_vec3(a, b, c, k as u32)
+}
+
 /// Component `k` (0, 1 or 2) of `v`.
 #[inline]
 fn component_f(v: Vec3, k: u32) -> f32 {
@@ -832,9 +844,9 @@ impl Corners {
     /// The box of corners `k` and `m` over the pass (a corner's own when `k == m`).
     #[inline]
     fn swept_box(&self, k: usize, m: usize) -> (Vec3, Vec3) {
-        let lo = self.now[k].min(self.then[k]).min(self.now[m]).min(self.then[m]);
-        let hi = self.now[k].max(self.then[k]).max(self.now[m]).max(self.then[m]);
-        (lo, hi)
+        let (now_k, then_k, now_m, then_m) =
+            (corner(self.now, k), corner(self.then, k), corner(self.now, m), corner(self.then, m));
+        (now_k.min(then_k).min(now_m).min(then_m), now_k.max(then_k).max(now_m).max(then_m))
     }
 
     /// The box swept by segment `segment` of `segments` equal ones of the edge from corner `k`
@@ -843,6 +855,7 @@ impl Corners {
     fn segment_box(&self, (k, m): (usize, usize), (segment, segments): (u32, u32)) -> (Vec3, Vec3) {
         let step = 1.0 / segments as f32;
         let (s0, s1) = (segment as f32 * step, (segment + 1) as f32 * step);
+        // Indexed, not `corner`: see `collider_vertex_face` (only collider features take it).
         let (then, now) = (self.then[m] - self.then[k], self.now[m] - self.now[k]);
         let ends = [self.then[k] + then * s0, self.then[k] + then * s1, self.now[k] + now * s0, self.now[k] + now * s1];
         (ends[0].min(ends[1]).min(ends[2]).min(ends[3]), ends[0].max(ends[1]).max(ends[2]).max(ends[3]))
@@ -857,7 +870,9 @@ fn vertex_face(vertex: &Corners, k: usize, face: &Corners, out: &mut PairRespons
         return;
     }
     let weights = (vertex.weight(k as u32), face.weights);
-    if let Some(c) = pair_correction((vertex.then[k], vertex.now[k]), face.then, face.now, weights, out.thickness) {
+    if let Some(c) =
+        pair_correction((corner(vertex.then, k), corner(vertex.now, k)), face.then, face.now, weights, out.thickness)
+    {
         accumulate(out.delta, id, c.vertex);
         accumulate(out.delta, face.ids.x, c.corners[0]);
         accumulate(out.delta, face.ids.y, c.corners[1]);
@@ -872,7 +887,10 @@ fn vertex_face(vertex: &Corners, k: usize, face: &Corners, out: &mut PairRespons
 #[inline]
 fn edge_ends(e: &Corners, k: usize, f: &Corners, m: usize) -> ([Vec3; 4], [Vec3; 4]) {
     let (k1, m1) = ((k + 1) % 3, (m + 1) % 3);
-    ([e.then[k], e.then[k1], f.then[m], f.then[m1]], [e.now[k], e.now[k1], f.now[m], f.now[m1]])
+    (
+        [corner(e.then, k), corner(e.then, k1), corner(f.then, m), corner(f.then, m1)],
+        [corner(e.now, k), corner(e.now, k1), corner(f.now, m), corner(f.now, m1)],
+    )
 }
 
 /// Edge `k` of triangle `e` (corners k and k + 1) against edge `m` of triangle `f` (skipped
@@ -1161,6 +1179,8 @@ fn collider_vertex_face(
 ) -> f32 {
     let weights = (0.0, face.weights);
     let limits = (out.thickness, COLLIDER_CROSSING_DEPTH * out.thickness);
+    // Indexed, not `corner`: the collider features' kernel then carried its walk's state,
+    // slices and all, as one phi (`tests/engine.rs`, no_kernel_holds_a_pointer_as_data).
     if let Some(c) = pair_correction_within((feature.then[k], feature.now[k]), face.then, face.now, weights, limits) {
         accumulate(out.delta, face.ids.x, c.corners[0]);
         accumulate(out.delta, face.ids.y, c.corners[1]);
@@ -1188,7 +1208,11 @@ fn collider_edge_edge(
     if !sharp_for(fold, (cloth.now[m1] - cloth.now[m]).length_squared(), thickness) {
         return;
     }
-    let (then, now) = edge_ends(feature, k, cloth, m);
+    // Indexed, not `edge_ends`: see `collider_vertex_face`.
+    let (then, now) = (
+        [feature.then[k], feature.then[k1], cloth.then[m], cloth.then[m1]],
+        [feature.now[k], feature.now[k1], cloth.now[m], cloth.now[m1]],
+    );
     let w = Vec4::new(0.0, 0.0, cloth.weight(m as u32), cloth.weight(m1 as u32));
     if let Some((d, contact)) = edge_pair_correction(then, now, w, thickness, false) {
         let (a, b) = (component(cloth.ids, m as u32), component(cloth.ids, m1 as u32));

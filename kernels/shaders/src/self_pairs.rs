@@ -452,25 +452,37 @@ fn pairs_that_may_touch(
     let mut kept = 0;
     let mut smallest = f32::INFINITY;
     let mut fastest = PairMotion::default();
-    let mut bit = 0;
-    while bit < 15 {
-        if mask & (1 << bit) != 0 {
-            let k = (bit % 3) as usize;
-            let pair = if bit < 3 {
-                vertex_face_pair(a, k, b, thickness)
-            } else if bit < 6 {
-                vertex_face_pair(b, k, a, thickness)
-            } else {
-                edges_pair(a, ((bit - 6) / 3) as usize, b, k, thickness)
-            };
-            if pair.gap < f32::INFINITY {
-                kept |= 1 << bit;
-                smallest = smallest.min(pair.gap);
-                fastest = fastest.max(pair.motion);
+    // Written out pair by pair, so every corner index is a constant: one indexed by a loop's
+    // counter keeps both triangles in memory, and llvmpipe loads from there lane by lane.
+    macro_rules! pair {
+        ($bit:literal, $pair:expr) => {
+            if mask & (1 << $bit) != 0 {
+                let pair = $pair;
+                if pair.gap < f32::INFINITY {
+                    kept |= 1 << $bit;
+                    smallest = smallest.min(pair.gap);
+                    fastest = fastest.max(pair.motion);
+                }
             }
-        }
-        bit += 1;
+        };
     }
+    // Bits 0-2: a's corners against b's face; 3-5: b's against a's; 6 + 3 m + k: a's edge m
+    // against b's edge k (`self_contact::pair_mask`).
+    pair!(0, vertex_face_pair(a, 0, b, thickness));
+    pair!(1, vertex_face_pair(a, 1, b, thickness));
+    pair!(2, vertex_face_pair(a, 2, b, thickness));
+    pair!(3, vertex_face_pair(b, 0, a, thickness));
+    pair!(4, vertex_face_pair(b, 1, a, thickness));
+    pair!(5, vertex_face_pair(b, 2, a, thickness));
+    pair!(6, edges_pair(a, 0, b, 0, thickness));
+    pair!(7, edges_pair(a, 0, b, 1, thickness));
+    pair!(8, edges_pair(a, 0, b, 2, thickness));
+    pair!(9, edges_pair(a, 1, b, 0, thickness));
+    pair!(10, edges_pair(a, 1, b, 1, thickness));
+    pair!(11, edges_pair(a, 1, b, 2, thickness));
+    pair!(12, edges_pair(a, 2, b, 0, thickness));
+    pair!(13, edges_pair(a, 2, b, 1, thickness));
+    pair!(14, edges_pair(a, 2, b, 2, thickness));
     (kept, smallest, fastest)
 }
 
