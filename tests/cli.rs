@@ -330,6 +330,7 @@ fn scene_files_round_trip_override_and_explain_their_errors() {
         ("scene = \"swing\"\ngird = 16\n", 2, &["line 2", "unknown key `gird`"]),
         ("scene = \"swing\"\n\ngrid = 5000\n", 2, &["line 3", "key `grid`", "2..=2048"]),
         ("grid = \"abc\"\n", 2, &["line 1", "key `grid`"]),
+        ("scene = \"swing\"\ngrid = -3\n", 2, &["line 2", "key `grid`", "-3"]),
         ("scene = { name = \"swing\" }\n", 2, &["line 1", "`scene` takes one of"]),
         ("no-timestamps = 3\n", 2, &["line 1", "switch"]),
         ("grid = [1,\n", 2, &["line 1"]),

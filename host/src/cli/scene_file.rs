@@ -142,7 +142,8 @@ fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
             if READ_FROM_FILES.contains(&id.as_str()) {
                 value = beside(scene_dir(path), &id, &value);
             }
-            vec![flag, value]
+            // One token: a value that starts with `-` (a negative number) is not taken for a flag.
+            vec![format!("{flag}={value}")]
         } else {
             match value {
                 toml::Value::Boolean(true) => vec![flag],
