@@ -19,7 +19,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 51] = [
+pub const ALL: [&Kernel; 52] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::NORMALS_AND_HEALTH,
@@ -32,6 +32,7 @@ pub const ALL: [&Kernel; 51] = [
     &self_pairs::CLOTH_TRIANGLE_BOUNDS,
     &self_contact::GATHER_CLOTH_TRIANGLES,
     &self_pairs::LIST_SELF_PAIRS,
+    &self_pairs::PACK_WALK_NODES,
     &self_pairs::LISTED_SELF_PAIRS,
     &self_pairs::SELF_TRIANGLE_CONTACT,
     &self_pairs::WALK_SELF_PAIRS,

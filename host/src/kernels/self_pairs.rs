@@ -10,11 +10,12 @@ use drape_kernels::self_contact::frame_of;
 use drape_kernels::self_contact::self_triangle_contact_at;
 use drape_kernels::self_pairs::{
     LIST_OVERFLOWED, WALK_THREADS, anchor_window_at, cloth_triangle_bounds_at, count_full_list, escaped_at,
-    finds_walkers, list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion, triangle_start_at,
-    walk_self_pairs_at,
+    finds_walkers, list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion, pack_walk_node_at,
+    triangle_start_at, walk_self_pairs_at,
 };
 use drape_types::{
     Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
+    WalkNode,
 };
 use glam::{UVec4, Vec4};
 
@@ -88,6 +89,30 @@ pub static CLOTH_TRIANGLE_BOUNDS: Kernel = Kernel {
     cpu: bounds_cpu,
 };
 
+/// The frame's tree's internal nodes packed for the lists' walk (`WalkNode`): 16-bit boxes
+/// and the links, after the motion boxes' refit.
+pub static PACK_WALK_NODES: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pairs::pack_walk_nodes",
+        bindings: &[read("self_params"), read("nodes"), read("aabbs"), read("motion_aabbs"), write("walk_nodes")],
+        push_constant_size: 0,
+        workgroup_size: 256,
+    },
+    cpu: pack_cpu,
+};
+
+fn pack_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, nodes, aabbs, motion_aabbs, walk_nodes] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let (nodes, boxes) = (nodes.slice::<BvhNode>(), (aabbs.slice::<Aabb>(), motion_aabbs.slice::<Aabb>()));
+    let walk_nodes = walk_nodes.slice_mut::<WalkNode>();
+    for i in 0..threads.min(c.leaf_count.saturating_sub(1)) {
+        pack_walk_node_at(i, nodes, boxes, walk_nodes);
+    }
+    Ok(())
+}
+
 /// Every triangle's list of the later triangles it may touch within the frame (one walk of the
 /// frame's tree each).
 pub static LIST_SELF_PAIRS: Kernel = Kernel {
@@ -103,6 +128,7 @@ pub static LIST_SELF_PAIRS: Kernel = Kernel {
             read("anchors"),
             read("motion_aabbs"),
             read("leaf_motions"),
+            read("walk_nodes"),
             write("lists"),
             write("counts"),
             write("health"),
@@ -253,6 +279,7 @@ fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         anchors,
         motion_aabbs,
         leaf_motions,
+        walk_nodes,
         lists,
         counts,
         health,
@@ -261,10 +288,12 @@ fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let (owned, anchors) = (owned.slice::<u32>(), anchors.slice::<Vec4>());
     let motions = (motion_aabbs.slice::<Aabb>(), leaf_motions.slice::<Aabb>());
+    let walk_nodes = walk_nodes.slice::<WalkNode>();
     let (lists, counts) = (lists.slice_mut::<u32>(), counts.slice_mut::<u32>());
     let health = health.first_mut::<Health>()?;
     for leaf in 0..threads.min(c.leaf_count) {
-        let motion = list_self_pairs_at(leaf, &c, tree, motions, owned, anchors, (&mut *lists, &mut *counts));
+        let motion =
+            list_self_pairs_at(leaf, &c, tree, motions, walk_nodes, owned, anchors, (&mut *lists, &mut *counts));
         count_full_list(leaf, counts, health);
         note_pair_motion(motion.per_frame(push.to_frame), health);
     }

@@ -18,7 +18,7 @@ use crate::kernels::self_contact::{
     APPLY_COLLIDER_PUSHES, APPLY_SELF_CONTACT, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
 };
 use crate::kernels::self_pairs::{
-    ANCHOR_WINDOW, CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS,
+    ANCHOR_WINDOW, CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, PACK_WALK_NODES,
     SELF_TRIANGLE_CONTACT, WALK_SELF_PAIRS,
 };
 use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
@@ -28,6 +28,7 @@ use drape_kernels::self_pairs::{
 };
 use drape_types::{
     Aabb, ColliderParams, ContactPush, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
+    WalkNode,
 };
 use glam::{UVec4, Vec4};
 use std::collections::{HashMap, HashSet};
@@ -63,6 +64,8 @@ pub struct SelfContactBuffers {
     /// lists walk with both, `drape_kernels::self_pairs::RelativeMotion`).
     pub leaf_motions: Handle<Aabb>,
     pub motion_aabbs: Handle<Aabb>,
+    /// The frame's tree's internal nodes packed for the lists' walk.
+    pub walk_nodes: Handle<WalkNode>,
     /// Per sorted leaf: the frame's list of later leaves it may touch, `SELF_LIST_CAPACITY`
     /// entries of `LIST_ENTRY_WORDS` (leaf, primitive pairs, their smallest gap), and its count.
     pub lists: Handle<u32>,
@@ -264,6 +267,7 @@ impl SelfContactBuffers {
             strays: resources.device(format!("{name}: strays"), triangles),
             leaf_motions: resources.device(format!("{name}: leaf motions"), triangles),
             motion_aabbs: resources.device(format!("{name}: node motions"), triangles.saturating_sub(1).max(1)),
+            walk_nodes: resources.device(format!("{name}: packed nodes"), triangles.saturating_sub(1).max(1)),
             lists: resources.device(format!("{name}: pair lists"), LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * triangles),
             counts: resources.device(format!("{name}: pair list counts"), triangles),
             leaf_of: resources.device(format!("{name}: leaf of each triangle"), triangles),
@@ -464,6 +468,12 @@ impl SelfContactBuffers {
     fn list_steps(&self, cloth: &SelfContactCloth, (horizon, substeps): (u32, u32), steps: &mut Vec<Step>) {
         let t = &self.tree;
         steps.extend(t.refit_other_steps("self: refit motions", self.leaf_motions, self.motion_aabbs));
+        steps.push(Step::run(
+            "self: pack nodes",
+            &PACK_WALK_NODES,
+            vec![t.collider.id(), t.nodes.id(), t.aabbs.id(), self.motion_aabbs.id(), self.walk_nodes.id()],
+            Dispatch::Threads(t.leaves),
+        ));
         let to_frame = substeps as f32 / horizon.max(1) as f32;
         steps.push(Step::run_with(
             "self: pair lists",
@@ -478,6 +488,7 @@ impl SelfContactBuffers {
                 self.anchors.id(),
                 self.motion_aabbs.id(),
                 self.leaf_motions.id(),
+                self.walk_nodes.id(),
                 self.lists.id(),
                 self.counts.id(),
                 cloth.health.id(),

@@ -140,8 +140,8 @@ impl PairWalk {
                 }
                 self.next = leaf_escape(nodes, self.leaf_count, index);
             } else {
-                let node = nodes[index as usize];
-                self.next = if boxes.node_meets(&boxes.node_boxes(index)) { node.left } else { node.escape };
+                let (enters, left, escape) = boxes.step(nodes, index);
+                self.next = if enters { left } else { escape };
             }
         }
         count
@@ -165,6 +165,13 @@ pub trait PairBoxes: Copy {
     fn node_meets(&self, boxes: &Self::NodeBoxes) -> bool;
     /// Whether leaf `leaf` (tree order) is wanted.
     fn leaf_meets(&self, leaf: u32) -> bool;
+
+    /// At internal node `index`: whether the walk enters it, its left child and its escape.
+    #[inline]
+    fn step(&self, nodes: &[BvhNode], index: u32) -> (bool, u32, u32) {
+        let node = nodes[index as usize];
+        (self.node_meets(&self.node_boxes(index)), node.left, node.escape)
+    }
 }
 
 /// The boxes that meet the box `lo..=hi`: the tree's own.

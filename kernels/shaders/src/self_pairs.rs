@@ -40,6 +40,7 @@ use crate::self_contact::{
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
+    WalkNode,
 };
 use spirv_std::spirv;
 
@@ -255,9 +256,9 @@ fn aabb_of((lo, hi): (Vec3, Vec3)) -> Aabb {
 /// (a free edge moving 4-7 cm a frame, 3-4 triangles) met 2-3x as many.
 #[derive(Copy, Clone)]
 struct RelativeMotion<'a> {
-    /// Internal nodes' start boxes and motion boxes.
-    aabbs: &'a [Aabb],
-    motion_aabbs: &'a [Aabb],
+    /// Internal nodes' start boxes and motion boxes, packed (`WalkNode`), and their frames.
+    walk_nodes: &'a [WalkNode],
+    frames: (Quantizer, Quantizer),
     /// Leaves' start boxes and motion boxes (tree order).
     leaf_bounds: &'a [Aabb],
     leaf_motions: &'a [Aabb],
@@ -277,23 +278,122 @@ impl RelativeMotion<'_> {
 }
 
 impl PairBoxes for RelativeMotion<'_> {
-    /// The node's start box and motion box.
-    type NodeBoxes = (Aabb, Aabb);
+    /// The node's start box and motion box, each holding the node's own.
+    type NodeBoxes = MovingBoxes;
 
     #[inline]
-    fn node_boxes(&self, node: u32) -> (Aabb, Aabb) {
-        (self.aabbs[node as usize], self.motion_aabbs[node as usize])
+    fn node_boxes(&self, node: u32) -> MovingBoxes {
+        unpack_walk_node(&self.walk_nodes[node as usize], self.frames)
     }
 
     #[inline]
-    fn node_meets(&self, (start, motion): &(Aabb, Aabb)) -> bool {
-        self.meets(start, motion)
+    fn node_meets(&self, boxes: &MovingBoxes) -> bool {
+        moving_boxes_meet(self.query, *boxes, self.thickness)
     }
 
     #[inline]
     fn leaf_meets(&self, leaf: u32) -> bool {
         self.meets(&self.leaf_bounds[leaf as usize], &self.leaf_motions[leaf as usize])
     }
+
+    /// One load of the packed node for its boxes and links.
+    #[inline]
+    fn step(&self, _nodes: &[BvhNode], index: u32) -> (bool, u32, u32) {
+        let packed = self.walk_nodes[index as usize];
+        let enters = self.node_meets(&unpack_walk_node(&packed, self.frames));
+        (enters, packed.motions_and_links.z, packed.motions_and_links.w)
+    }
+}
+
+/// A 16-bit fixed-point frame over a box (`WalkNode`): coordinates are steps of 1/65534 of its
+/// extent from its min. A box is written with its min rounded down and its max up, and read
+/// back grown by `margin` steps, which covers f32's rounding of coordinates as large as the
+/// box's (far from the origin a step is finer than an f32 there): the box read back holds the
+/// box written, so a walk over read-back boxes enters every node it would have.
+#[derive(Copy, Clone, Debug)]
+pub struct Quantizer {
+    lo: Vec3,
+    step: Vec3,
+    margin: Vec3,
+}
+
+const QUANTA: f32 = 65534.0;
+
+impl Quantizer {
+    /// The frame over `root` (a tree's root box, which holds every node's).
+    #[inline]
+    pub fn over(root: &Aabb) -> Self {
+        let (lo, hi) = (root.min.xyz(), root.max.xyz());
+        let step = ((hi - lo) * (1.0 / QUANTA)).max(Vec3::splat(1e-30));
+        // Per axis: an axis the boxes barely span has fine steps, which its own rounding
+        // needs many of, and another's must not take as many of its own.
+        let largest = lo.abs().max(hi.abs());
+        let margin = Vec3::splat(2.0) + (largest * (4.0 * f32::EPSILON) / step).ceil();
+        Quantizer { lo, step, margin }
+    }
+
+    #[inline]
+    fn steps(&self, v: Vec3) -> Vec3 {
+        ((v - self.lo) / self.step).clamp(Vec3::ZERO, Vec3::splat(65535.0))
+    }
+
+    /// `v` in steps, rounded down.
+    #[inline]
+    pub fn below(&self, v: Vec3) -> UVec3 {
+        let s = self.steps(v).floor();
+        UVec3::new(s.x as u32, s.y as u32, s.z as u32)
+    }
+
+    /// `v` in steps, rounded up.
+    #[inline]
+    pub fn above(&self, v: Vec3) -> UVec3 {
+        let s = self.steps(v).ceil();
+        UVec3::new(s.x as u32, s.y as u32, s.z as u32)
+    }
+
+    /// A min written as `q` (`below`), read back at or under the min written.
+    #[inline]
+    pub fn min_of(&self, q: UVec3) -> Vec3 {
+        self.lo + (Vec3::new(q.x as f32, q.y as f32, q.z as f32) - self.margin) * self.step
+    }
+
+    /// A max written as `q` (`above`), read back at or over the max written.
+    #[inline]
+    pub fn max_of(&self, q: UVec3) -> Vec3 {
+        self.lo + (Vec3::new(q.x as f32, q.y as f32, q.z as f32) + self.margin) * self.step
+    }
+}
+
+/// Internal node `i` of the frame's tree packed for the lists' walk (`WalkNode`): its start
+/// box (`aabbs`) and motion box (`motion_aabbs`) over the root's, its left child and escape.
+#[inline]
+pub fn pack_walk_node_at(
+    i: u32,
+    nodes: &[BvhNode],
+    (aabbs, motion_aabbs): (&[Aabb], &[Aabb]),
+    walk_nodes: &mut [WalkNode],
+) {
+    let (start, motion) = (Quantizer::over(&aabbs[0]), Quantizer::over(&motion_aabbs[0]));
+    let (b, m) = (aabbs[i as usize], motion_aabbs[i as usize]);
+    let (lo, hi) = (start.below(b.min.xyz()), start.above(b.max.xyz()));
+    let (mlo, mhi) = (motion.below(m.min.xyz()), motion.above(m.max.xyz()));
+    let node = nodes[i as usize];
+    walk_nodes[i as usize] = WalkNode {
+        boxes: UVec4::new(lo.x | (lo.y << 16), lo.z | (hi.x << 16), hi.y | (hi.z << 16), mlo.x | (mlo.y << 16)),
+        motions_and_links: UVec4::new(mlo.z | (mhi.x << 16), mhi.y | (mhi.z << 16), node.left, node.escape),
+    };
+}
+
+/// A packed node's start box and motion box (`pack_walk_node_at`), each holding the node's own.
+#[inline]
+fn unpack_walk_node(packed: &WalkNode, (start, motion): (Quantizer, Quantizer)) -> MovingBoxes {
+    let (b, r) = (packed.boxes, packed.motions_and_links);
+    let low = |w: u32| w & 0xffff;
+    let lo = UVec3::new(low(b.x), b.x >> 16, low(b.y));
+    let hi = UVec3::new(b.y >> 16, low(b.z), b.z >> 16);
+    let mlo = UVec3::new(low(b.w), b.w >> 16, low(r.x));
+    let mhi = UVec3::new(r.x >> 16, low(r.y), r.y >> 16);
+    ((start.min_of(lo), start.max_of(hi)), (motion.min_of(mlo), motion.max_of(mhi)))
 }
 
 /// Whether the bound says a pair of primitives whose *gap* (their distance at the frame's
@@ -504,7 +604,8 @@ pub fn listed_pair_bound(
 /// Sorted leaf `leaf`'s list for the frame (`lists[LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf..]`, count in
 /// `counts[leaf]`): the later leaves that may come within the thickness in the frame
 /// (`RelativeMotion`), with the primitive pairs that may touch, found by one walk of the frame's
-/// tree (built over the start boxes, `motions` its motion boxes: internal nodes', leaves').
+/// tree (built over the start boxes, `motions` its motion boxes: internal nodes', leaves'; the
+/// internal nodes' read packed, `walk_nodes`: `pack_walk_node_at`).
 /// Returns the largest motion and approach over the frame of the primitive pairs it found
 /// (listed or not: `PairMotion`).
 #[allow(clippy::too_many_arguments)]
@@ -513,6 +614,7 @@ pub fn list_self_pairs_at(
     self_params: &ColliderParams,
     (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
     (motion_aabbs, leaf_motions): (&[Aabb], &[Aabb]),
+    walk_nodes: &[WalkNode],
     owned: &[u32],
     anchors: &[Vec4],
     (lists, counts): (&mut [u32], &mut [u32]),
@@ -527,7 +629,8 @@ pub fn list_self_pairs_at(
     let mine_owned = owned[ids.w as usize];
     let (start, motion) = (&leaf_bounds[leaf as usize], &leaf_motions[leaf as usize]);
     let query = ((start.min.xyz(), start.max.xyz()), (motion.min.xyz(), motion.max.xyz()));
-    let boxes = RelativeMotion { aabbs, motion_aabbs, leaf_bounds, leaf_motions, query, thickness };
+    let frames = (Quantizer::over(&aabbs[0]), Quantizer::over(&motion_aabbs[0]));
+    let boxes = RelativeMotion { walk_nodes, frames, leaf_bounds, leaf_motions, query, thickness };
     let mut walk = PairWalk::new(leaf, nodes, self_params.leaf_count);
     let mut found = [0u32; WALK_BATCH];
     let base = (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf) as usize;
@@ -853,6 +956,21 @@ pub fn add_walker(leaf: u32, walkers: &mut [u32], walk_args: &mut DispatchArgs) 
     atomics::append_for_dispatch(leaf, walkers, walk_args, WALK_THREADS);
 }
 
+/// One thread per internal node of the frame's tree: the node packed for the lists' walk.
+#[spirv(compute(threads(256)))]
+pub fn pack_walk_nodes(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] motion_aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] walk_nodes: &mut [WalkNode],
+) {
+    if id.x + 1 < self_params.leaf_count {
+        pack_walk_node_at(id.x, nodes, (aabbs, motion_aabbs), walk_nodes);
+    }
+}
+
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
 pub fn list_self_pairs(
@@ -867,16 +985,17 @@ pub fn list_self_pairs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] anchors: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] motion_aabbs: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] leaf_motions: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] lists: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] counts: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] walk_nodes: &[WalkNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] lists: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] counts: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] health: &mut Health,
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     let motions = (motion_aabbs, leaf_motions);
-    let motion = list_self_pairs_at(id.x, self_params, tree, motions, owned, anchors, (lists, counts));
+    let motion = list_self_pairs_at(id.x, self_params, tree, motions, walk_nodes, owned, anchors, (lists, counts));
     count_full_list(id.x, counts, health);
     note_pair_motion(motion.per_frame(push.to_frame), health);
 }
@@ -973,6 +1092,57 @@ pub fn walk_self_pairs(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use drape_types::LEAF_BIT;
+
+    /// A packed node's boxes read back hold the boxes written, near the origin and far from it,
+    /// for roots large and small, flat and of zero extent (a cloth at rest has no motion), no
+    /// looser than a few steps of their own axis, and its links come back whole.
+    #[test]
+    fn packed_nodes_hold_their_boxes() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for case in 0..4000 {
+            let centre = [0.0, 1.0, 1000.0, -3.0e4][case % 4];
+            let size = [1.0, 1e-3, 40.0, 0.0][(case / 4) % 4];
+            // Some roots nearly flat in z (a cloth lying flat moves little across itself).
+            let depth = [1.0, 1e-7][(case / 16) % 2];
+            let corner = |u: f32| Vec3::new(centre, -centre, centre * 0.5) + Vec3::new(1.0, 1.0, depth) * (size * u);
+            let (root_lo, root_hi) = (corner(-1.0), corner(1.0));
+            let within = |t: f32| root_lo + (root_hi - root_lo) * t;
+            let (a, b) = (within(next()), within(next()));
+            let (c, d) = (within(next()), within(next()));
+            let node = |lo: Vec3, hi: Vec3| Aabb { min: lo.min(hi).extend(0.0), max: lo.max(hi).extend(0.0) };
+            let root = node(root_lo, root_hi);
+            let (start, motion) = ([root, node(a, b)], [root, node(c, d)]);
+            let nodes = [BvhNode::default(), BvhNode { left: 7, right: 9, escape: LEAF_BIT | 12, leaf_escape: 3 }];
+            let mut packed = [WalkNode::default(); 2];
+            pack_walk_node_at(1, &nodes, (&start, &motion), &mut packed);
+            let frames = (Quantizer::over(&start[0]), Quantizer::over(&motion[0]));
+            let ((lo, hi), (motion_lo, motion_hi)) = unpack_walk_node(&packed[1], frames);
+            let holds = |lo: Vec3, hi: Vec3, b: &Aabb| lo.cmple(b.min.xyz()).all() && hi.cmpge(b.max.xyz()).all();
+            assert!(holds(lo, hi, &start[1]), "case {case}: start {:?} read as {lo} {hi}", start[1]);
+            assert!(
+                holds(motion_lo, motion_hi, &motion[1]),
+                "case {case}: motion {:?} read as {motion_lo} {motion_hi}",
+                motion[1]
+            );
+            // Looser by the rounding and the margin alone: a few steps, or f32's own resolution
+            // there (about 6e-5 m at 1 km).
+            let loose = (hi - lo) - (start[1].max - start[1].min).xyz();
+            let allowed =
+                frames.0.step * (2.0 * (frames.0.margin + 1.0)) + Vec3::splat(4.0 * centre.abs() * f32::EPSILON);
+            assert!(loose.cmple(allowed).all(), "case {case}: {loose} over {allowed}");
+            if centre.abs() <= 1.0 && size >= 1e-3 {
+                assert!(loose.max_element() <= 2e-3 * size, "case {case}: {loose} for a box of {size} m");
+            }
+            assert_eq!((packed[1].motions_and_links.z, packed[1].motions_and_links.w), (7, LEAF_BIT | 12));
+        }
+    }
 
     /// Anchors at 5 mm (no gravity) of a vertex (particle 3) at `vertex` moving by `motion`
     /// over the frame above a still face (particles 0..3) in the plane y = 0.

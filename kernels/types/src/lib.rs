@@ -186,6 +186,21 @@ pub struct Aabb {
 /// u32 words per `Aabb` (as the refit kernel addresses them).
 pub const AABB_WORDS: u32 = 8;
 
+/// An internal node of a self-colliding cloth's tree as its pair lists' walk reads it
+/// (`self_pairs::pack_walk_node_at`): its start box and motion box in 16-bit fixed point over
+/// the root's, rounded outwards (two coordinates a word: the start box's min xyz and max xyz,
+/// then the motion box's), its left child and its escape. Two loads where the node and its two
+/// boxes took five: llvmpipe loads a per-lane address lane by lane, once per load.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct WalkNode {
+    /// Start box min x | y, min z | max x, max y | z, motion box min x | y (low | high 16 bits).
+    pub boxes: glam::UVec4,
+    /// Motion box min z | max x, max y | z, then the left child and the escape (`BvhNode`).
+    pub motions_and_links: glam::UVec4,
+}
+
 /// Constants of a collider (LBVH over spheres) and of the contact model.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
@@ -469,6 +484,7 @@ pub struct DispatchArgs {
 
 const _: () = assert!(core::mem::size_of::<BvhNode>() == 16);
 const _: () = assert!(core::mem::size_of::<Aabb>() == 32);
+const _: () = assert!(core::mem::size_of::<WalkNode>() == 32);
 const _: () = assert!(core::mem::size_of::<Aabb>() == AABB_WORDS as usize * 4);
 const _: () = assert!(core::mem::size_of::<ColliderParams>() == 48);
 const _: () = assert!(core::mem::size_of::<SortPush>() == 16);
