@@ -47,7 +47,7 @@ use crate::lbvh::{PairWalk, WALK_BATCH, box_meets};
 use crate::pose::{SubstepMotion, to_world};
 use crate::self_pairs::{anchor_particles, triangle_motion_at};
 use crate::tiles::wake_particle;
-use drape_types::glam::{BVec3, UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
+use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, DispatchArgs, Health, SelfAnchorPush, SimParams,
 };
@@ -776,16 +776,10 @@ fn pick<T: Copy>(x: T, y: T, z: T, k: u32) -> T {
     }
 }
 
-/// `x`, `y` or `z` for `k` = 0, 1 or 2, by selects.
-#[inline]
-fn pick_vec3(x: Vec3, y: Vec3, z: Vec3, k: u32) -> Vec3 {
-    Vec3::select(BVec3::splat(k <= 1), Vec3::select(BVec3::splat(k == 0), x, y), z)
-}
-
-/// Corner `k` of a triangle's three positions (`pick_vec3`, not an index: see `pick`).
+/// Corner `k` of a triangle's three positions (`pick`, not an index: see there).
 #[inline]
 fn corner([a, b, c]: [Vec3; 3], k: usize) -> Vec3 {
-    pick_vec3(a, b, c, k as u32)
+    pick(a, b, c, k as u32)
 }
 
 /// Component `k` (0, 1 or 2) of `v`.
