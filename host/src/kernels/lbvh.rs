@@ -2,7 +2,7 @@
 //! Karras nodes, refit.
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
-use drape_kernels::lbvh::{aabb_centre, build_node_at, gather_at, morton_code, refit_from_leaf};
+use drape_kernels::lbvh::{aabb_centre, build_node_at, gather_at, morton_code, refit_from_leaf, refit_two_from_leaf};
 use drape_types::{Aabb, BvhNode, ColliderParams};
 use glam::Vec4Swizzles;
 
@@ -37,6 +37,23 @@ pub static REFIT: Kernel = Kernel {
         &[read("collider"), read("nodes"), read("parents"), read("leaf_bounds"), write("flags"), write("aabbs")],
     ),
     cpu: refit_cpu,
+};
+/// Two box sets over one tree in one climb (`drape_kernels::lbvh::refit_two`).
+pub static REFIT_TWO: Kernel = Kernel {
+    spec: spec(
+        "lbvh::refit_two",
+        &[
+            read("collider"),
+            read("nodes"),
+            read("parents"),
+            read("leaf_bounds"),
+            read("other_leaf_bounds"),
+            write("flags"),
+            write("aabbs"),
+            write("other_aabbs"),
+        ],
+    ),
+    cpu: refit_two_cpu,
 };
 
 fn morton_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
@@ -87,6 +104,23 @@ fn refit_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (flags, words) = (flags.slice_mut::<u32>(), aabbs.slice_mut::<u32>());
     for leaf in 0..threads.min(n) {
         refit_from_leaf(leaf, n, nodes, parents, leaf_bounds, flags, words);
+    }
+    Ok(())
+}
+
+fn refit_two_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [collider, nodes, parents, leaf_bounds, other_leaf_bounds, flags, aabbs, other_aabbs] = d.bindings()?;
+    let n = collider.first::<ColliderParams>()?.leaf_count;
+    if n < 2 {
+        return Ok(());
+    }
+    let (nodes, parents) = (nodes.slice::<BvhNode>(), parents.slice::<u32>());
+    let boxes = (leaf_bounds.slice::<Aabb>(), other_leaf_bounds.slice::<Aabb>());
+    let (flags, words, other_words) =
+        (flags.slice_mut::<u32>(), aabbs.slice_mut::<u32>(), other_aabbs.slice_mut::<u32>());
+    for leaf in 0..threads.min(n) {
+        refit_two_from_leaf(leaf, n, nodes, parents, boxes, flags, words, other_words);
     }
     Ok(())
 }

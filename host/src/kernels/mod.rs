@@ -19,7 +19,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 52] = [
+pub const ALL: [&Kernel; 53] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::NORMALS_AND_HEALTH,
@@ -52,6 +52,7 @@ pub const ALL: [&Kernel; 52] = [
     &lbvh::GATHER_BOUNDS,
     &lbvh::BUILD_NODES,
     &lbvh::REFIT,
+    &lbvh::REFIT_TWO,
     &spheres::SPHERE_BOUNDS,
     &spheres::GATHER_SPHERES,
     &spheres::DETECT_SPHERES,

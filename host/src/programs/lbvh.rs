@@ -5,7 +5,7 @@
 
 use super::sort::RadixSort;
 use crate::graph::{Dispatch, Handle, Resources, Step};
-use crate::kernels::lbvh::{BUILD_NODES, GATHER_BOUNDS, MORTON_CODES, REFIT};
+use crate::kernels::lbvh::{BUILD_NODES, GATHER_BOUNDS, MORTON_CODES, REFIT, REFIT_TWO};
 use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs};
 
 /// The buffers of one LBVH.
@@ -46,6 +46,14 @@ impl LbvhBuffers {
 
     /// The whole build, from `bounds` and `collider`.
     pub fn build_steps(&self) -> Vec<Step> {
+        let mut steps = self.build_shape_steps();
+        self.push_refit(&mut steps);
+        steps
+    }
+
+    /// The build without its refit: Morton codes, sort, the leaf boxes gathered into the new
+    /// order and the nodes (for a caller that refits them with more, `refit_with_steps`).
+    pub fn build_shape_steps(&self) -> Vec<Step> {
         let n = self.leaves;
         let mut steps = vec![Step::run(
             "morton codes",
@@ -61,7 +69,6 @@ impl LbvhBuffers {
             vec![self.collider.id(), self.codes.id(), self.nodes.id(), self.parents.id()],
             Dispatch::Threads(n.saturating_sub(1).max(1)),
         ));
-        self.push_refit(&mut steps);
         steps
     }
 
@@ -100,6 +107,34 @@ impl LbvhBuffers {
         steps
     }
 
+    /// The refit of `refit_sorted_steps` and, in the same climb, of a second set of boxes over
+    /// the tree (`other`: its leaves' boxes in tree order, its internal nodes' boxes), labelled
+    /// `label` (`drape_kernels::lbvh::refit_two`).
+    pub fn refit_with_steps(&self, label: &'static str, other: (Handle<Aabb>, Handle<Aabb>)) -> Vec<Step> {
+        let (other_leaf_bounds, other_aabbs) = other;
+        vec![
+            Step::fill(self.flags, 0),
+            // The refit writes xyz words only; zero the w words too.
+            Step::fill(self.aabbs, 0),
+            Step::fill(other_aabbs, 0),
+            Step::run(
+                label,
+                &REFIT_TWO,
+                vec![
+                    self.collider.id(),
+                    self.nodes.id(),
+                    self.parents.id(),
+                    self.sorted_bounds.id(),
+                    other_leaf_bounds.id(),
+                    self.flags.id(),
+                    self.aabbs.id(),
+                    other_aabbs.id(),
+                ],
+                Dispatch::Threads(self.leaves),
+            ),
+        ]
+    }
+
     /// A leaf kind's build: its pass writing `bounds`, the build, its pass gathering its own
     /// leaves into the tree's order.
     pub fn build_around(&self, boxes: Step, gather: Step) -> Vec<Step> {
@@ -117,7 +152,8 @@ impl LbvhBuffers {
         steps
     }
 
-    fn gather_step(&self) -> Step {
+    /// The leaves' boxes (`bounds`) gathered into the tree's order (`sorted_bounds`).
+    pub fn gather_step(&self) -> Step {
         Step::run(
             "gather leaf boxes",
             &GATHER_BOUNDS,

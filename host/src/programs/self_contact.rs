@@ -401,17 +401,24 @@ impl SelfContactBuffers {
             Dispatch::Workgroups(1),
         ));
         let starts = self.starts_step(cloth);
-        let gather = self.gather_step(cloth);
-        // A rebuilt tree's leaves are in a new order: the gather follows the build. A refit
-        // keeps the order: the start boxes go to the leaves they had.
+        if !lists {
+            // A rebuilt tree's leaves are in a new order: the gather follows the build. A refit
+            // keeps the order: the start boxes go to the leaves they had.
+            let gather = self.gather_step(cloth);
+            if rebuild {
+                steps.extend(t.build_around(starts, gather));
+            } else {
+                steps.extend(t.refit_around(starts, gather));
+            }
+            return;
+        }
+        steps.push(starts);
         if rebuild {
-            steps.extend(t.build_around(starts, gather));
+            steps.extend(t.build_shape_steps());
         } else {
-            steps.extend(t.refit_around(starts, gather));
+            steps.push(t.gather_step());
         }
-        if lists {
-            self.list_steps(cloth, (horizon, substeps), steps);
-        }
+        self.list_steps(cloth, (horizon, substeps), steps);
     }
 
     /// Each triangle's box at the start of the anchors' span, its corners grown by their slops
@@ -458,16 +465,19 @@ impl SelfContactBuffers {
             bytemuck::cast(SelfAnchorPush { window_substeps: horizon, frame_substeps: substeps, _pad: [0; 2] }),
             Dispatch::Threads(self.particles),
         ));
-        let starts = self.starts_step(cloth);
-        steps.extend(t.refit_around(starts, self.gather_step(cloth)));
+        steps.push(self.starts_step(cloth));
+        steps.push(t.gather_step());
         self.list_steps(cloth, (horizon, substeps), steps);
     }
 
-    /// The motion boxes refit over the tree and each triangle's list, over `horizon` of the
-    /// frame's `substeps` substeps (the pairs' measured motion scaled to the frame).
+    /// Once the start boxes are in the tree's leaf order: the triangles' corners and motion
+    /// boxes in that order, the tree refit to its start boxes and their motions in one climb,
+    /// and each triangle's list, over `horizon` of the frame's `substeps` substeps (the pairs'
+    /// measured motion scaled to the frame).
     fn list_steps(&self, cloth: &SelfContactCloth, (horizon, substeps): (u32, u32), steps: &mut Vec<Step>) {
         let t = &self.tree;
-        steps.extend(t.refit_other_steps("self: refit motions", self.leaf_motions, self.motion_aabbs));
+        steps.push(self.gather_step(cloth));
+        steps.extend(t.refit_with_steps("self: refit starts + motions", (self.leaf_motions, self.motion_aabbs)));
         steps.push(Step::run(
             "self: pack nodes",
             &PACK_WALK_NODES,
