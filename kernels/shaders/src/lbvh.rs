@@ -433,10 +433,16 @@ pub fn refit_from_leaf(
         if atomics::add_acq_rel(&mut flags[node as usize], 1) == 0 {
             return;
         }
-        let b = union(child_aabb(children.left, leaf_bounds, words), child_aabb(children.right, leaf_bounds, words));
-        store_aabb(words, node, b);
+        fit_node(node, children, leaf_bounds, words);
         node = parent;
     }
+}
+
+/// Internal node `node`'s box (children `children`): the union of its children's, stored.
+#[inline]
+fn fit_node(node: u32, children: BvhNode, leaf_bounds: &[Aabb], words: &mut [u32]) {
+    let b = union(child_aabb(children.left, leaf_bounds, words), child_aabb(children.right, leaf_bounds, words));
+    store_aabb(words, node, b);
 }
 
 /// `refit_from_leaf` over two sets of boxes on the same tree at once (`leaf_bounds` into
@@ -461,13 +467,8 @@ pub fn refit_two_from_leaf(
         if atomics::add_acq_rel(&mut flags[node as usize], 1) == 0 {
             return;
         }
-        let b = union(child_aabb(children.left, leaf_bounds, words), child_aabb(children.right, leaf_bounds, words));
-        store_aabb(words, node, b);
-        let o = union(
-            child_aabb(children.left, other_leaf_bounds, other_words),
-            child_aabb(children.right, other_leaf_bounds, other_words),
-        );
-        store_aabb(other_words, node, o);
+        fit_node(node, children, leaf_bounds, words);
+        fit_node(node, children, other_leaf_bounds, other_words);
         node = parent;
     }
 }
@@ -519,13 +520,7 @@ mod tests {
     /// the union of its set's leaves: trees of 2 to 200 leaves, codes with repeats.
     #[test]
     fn one_climb_refits_two_box_sets_as_two_refits_do() {
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = crate::test_random::unit_floats(0x2545_F491_4F6C_DD1D);
         for n in [2u32, 3, 7, 64, 200] {
             let mut codes: Vec<u32> = (0..n).map(|_| (next() * 50.0) as u32).collect();
             codes.sort_unstable();

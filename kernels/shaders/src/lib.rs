@@ -28,5 +28,8 @@ pub mod tiles;
 pub mod triangles;
 pub mod update_contact;
 
+#[cfg(test)]
+mod test_random;
+
 /// Threads per workgroup of every 1-D kernel here (the host divides by it).
 pub const WORKGROUP_SIZE: u32 = 256;

@@ -1099,13 +1099,7 @@ mod tests {
     /// looser than a few steps of their own axis, and its links come back whole.
     #[test]
     fn packed_nodes_hold_their_boxes() {
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = crate::test_random::unit_floats(0x9E37_79B9_7F4A_7C15);
         for case in 0..4000 {
             let centre = [0.0, 1.0, 1000.0, -3.0e4][case % 4];
             let size = [1.0, 1e-3, 40.0, 0.0][(case / 4) % 4];
