@@ -51,7 +51,8 @@ fn measure_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let tiles = (offsets.slice::<u32>(), members.slice::<u32>());
     let (x, rest) = (x.slice::<Vec4>(), rest.slice_mut::<Vec4>());
     let (motion, bounds) = (motion.slice_mut::<f32>(), bounds.slice_mut::<Aabb>());
-    for t in 0..threads.min(p.tile_count) {
+    // The workgroups take every tile between them (`tile_workgroups`).
+    for t in 0..if threads >= TILE_THREADS { p.tile_count } else { 0 } {
         measure_tile_at(t, tiles, x, rest, motion, bounds);
     }
     Ok(())
@@ -67,7 +68,7 @@ fn decide_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let graph = (offsets.slice::<u32>(), neighbours.slice::<u32>());
     let (moving, frames, v) = (moving.slice::<Aabb>(), frames.slice_mut::<u32>(), v.slice_mut::<Vec4>());
     let health = health.first_mut::<Health>()?;
-    for t in 0..threads.min(p.tile_count) {
+    for t in 0..if threads >= TILE_THREADS { p.tile_count } else { 0 } {
         decide_tile_at(t, &p, members, tiles, graph, moving, frames, v, health);
     }
     Ok(())

@@ -8,7 +8,7 @@ use crate::kernels::tiles::{DECIDE_TILES, MEASURE_TILES};
 use crate::motion::Sleep;
 use drape_kernels::cloth::{SPRINGS, neighbour};
 use drape_kernels::lbvh::morton_code;
-use drape_kernels::tiles::TILE_PARTICLES;
+use drape_kernels::tiles::{TILE_PARTICLES, tile_workgroups};
 use drape_types::{Aabb, Health, TileParams};
 use glam::{Vec3, Vec4};
 use std::collections::BTreeSet;
@@ -216,7 +216,7 @@ impl TileBuffers {
                 v.id(),
                 health.id(),
             ],
-            Dispatch::Threads(self.tiles),
+            Dispatch::Workgroups(tile_workgroups(self.tiles)),
         )
     }
 
@@ -234,7 +234,7 @@ impl TileBuffers {
                 self.motion.id(),
                 self.bounds.id(),
             ],
-            Dispatch::Threads(self.tiles),
+            Dispatch::Workgroups(tile_workgroups(self.tiles)),
         )
     }
 
