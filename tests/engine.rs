@@ -329,13 +329,75 @@ fn barriers_follow_declared_reads_and_writes() {
     let b = resources.device::<u32>("b", 4).id();
     let c = resources.device::<u32>("c", 4).id();
     let mut hazards = HazardTracker::default();
-    assert!(!hazards.needs_barrier(&[(a, Access::Write)]), "first write");
-    assert!(!hazards.needs_barrier(&[(b, Access::Write)]), "independent write");
-    assert!(hazards.needs_barrier(&[(a, Access::Read), (c, Access::Write)]), "read after write");
-    assert!(!hazards.needs_barrier(&[(a, Access::Read)]), "read after read");
-    assert!(hazards.needs_barrier(&[(a, Access::Write)]), "write after read");
-    assert!(hazards.needs_barrier(&[(a, Access::Write)]), "write after write");
-    assert!(hazards.needs_barrier(&[(b, Access::IndirectRead), (a, Access::Read)]), "indirect read after write");
+    let mut needs =
+        |accesses: &[(drape::graph::BufferId, Access)]| hazards.barrier_before(&access_step(accesses, None)).is_some();
+    assert!(!needs(&[(a, Access::Write)]), "first write");
+    assert!(!needs(&[(b, Access::Write)]), "independent write");
+    assert!(needs(&[(a, Access::Read), (c, Access::Write)]), "read after write");
+    assert!(!needs(&[(a, Access::Read)]), "read after read");
+    assert!(needs(&[(a, Access::Write)]), "write after read");
+    assert!(needs(&[(a, Access::Write)]), "write after write");
+}
+
+/// A step of a test kernel whose bindings are `accesses` (one read, one write, or a read and a
+/// write), dispatched indirectly from `args` when given.
+fn access_step(
+    accesses: &[(drape::graph::BufferId, drape::graph::Access)],
+    args: Option<drape::graph::Handle<drape_types::DispatchArgs>>,
+) -> drape::graph::Step {
+    use drape::graph::{Access, BindingSpec, Dispatch, Kernel, KernelSpec, Pass, Step};
+    static READ: Kernel =
+        Kernel { spec: KernelSpec::new("test::read", &[BindingSpec::read("r")], 64), cpu: |_| Ok(()) };
+    static WRITE: Kernel =
+        Kernel { spec: KernelSpec::new("test::write", &[BindingSpec::write("w")], 64), cpu: |_| Ok(()) };
+    static READ_WRITE: Kernel = Kernel {
+        spec: KernelSpec::new("test::read_write", &[BindingSpec::read("r"), BindingSpec::write("w")], 64),
+        cpu: |_| Ok(()),
+    };
+    let kernel = match accesses {
+        [(_, Access::Read)] => &READ,
+        [(_, Access::Write)] => &WRITE,
+        [(_, Access::Read), (_, Access::Write)] => &READ_WRITE,
+        other => panic!("no test kernel for {other:?}"),
+    };
+    let dispatch = args.map_or(Dispatch::Threads(64), Dispatch::Indirect);
+    let bindings = accesses.iter().map(|(id, _)| *id).collect();
+    Step::Run(Pass { label: "test", kernel, bindings, push: None, dispatch })
+}
+
+/// A barrier covers only the stages the next step uses: a later indirect dispatch whose
+/// arguments were written before a kernel-to-kernel barrier still gets a barrier for its
+/// argument read, a fill after kernels that read the buffer waits for them, and a barrier's
+/// source stages are those of every access still pending for its destination stages.
+#[test]
+fn barriers_cover_the_stages_that_need_them() {
+    use drape::graph::{Access, Barrier, HazardTracker, Resources, Stages, Step};
+    let mut resources = Resources::new();
+    let args = resources.device::<drape_types::DispatchArgs>("args", 1);
+    let (a, b) = (resources.device::<u32>("a", 4), resources.device::<u32>("b", 4));
+    let (args_id, a_id, b_id) = (args.id(), a.id(), b.id());
+    let mut hazards = HazardTracker::default();
+    // A kernel writes the arguments and `a`; the next kernel reads `a`: kernel to kernel.
+    let kernels = Barrier { before: Stages::KERNEL, after: Stages::KERNEL };
+    assert_eq!(hazards.barrier_before(&access_step(&[(args_id, Access::Read), (a_id, Access::Write)], None)), None);
+    assert_eq!(
+        hazards.barrier_before(&access_step(&[(a_id, Access::Read), (b_id, Access::Write)], None)),
+        Some(kernels)
+    );
+    // An indirect dispatch reading the arguments (written before that barrier) and `b`
+    // (written after it): one barrier for both of its stages.
+    let indirect = access_step(&[(b_id, Access::Read)], Some(args));
+    let both = Stages::KERNEL | Stages::INDIRECT;
+    assert_eq!(hazards.barrier_before(&indirect), Some(Barrier { before: Stages::KERNEL, after: both }));
+    // A fill of `a`, which kernels read: a transfer after kernels.
+    let fill = Step::fill(a, 0);
+    assert_eq!(hazards.barrier_before(&fill), Some(Barrier { before: both, after: Stages::TRANSFER }));
+    // A kernel reading what the fill wrote: after the transfer. The barrier also orders the
+    // reads still pending for kernels (the arguments', `b`'s), so its source is every stage.
+    let read = access_step(&[(a_id, Access::Read)], None);
+    assert_eq!(hazards.barrier_before(&read), Some(Barrier { before: Stages::ALL, after: Stages::KERNEL }));
+    // A second indirect dispatch over the same, unchanged arguments: nothing to wait for.
+    assert_eq!(hazards.barrier_before(&access_step(&[(b_id, Access::Read)], Some(args))), None);
 }
 
 /// A recorded cloth frame has fewer barriers than commands: the resets at the start of the

@@ -7,6 +7,7 @@ use crate::error::{Error, Result};
 use crate::gpu::recording::encode_frame;
 use crate::gpu::status_ring::StatusRing;
 use crate::gpu::{Command, Context, Engine, FrameTimings, RecordedFrame};
+use crate::graph::Barrier;
 use crate::lbvh;
 use crate::model::{ClothId, ColliderId, Model};
 use crate::program::SolverProgram;
@@ -136,7 +137,7 @@ impl Solver {
         if !leading.is_empty() || self.own_frame_stale {
             let mut writes = self.engine.encode(self.frame.bindings(), &leading)?;
             if !writes.is_empty() {
-                writes.push(Command::Barrier);
+                writes.push(Command::Barrier(Barrier::FULL));
             }
             self.frame.rerecord(&[&writes, &self.frame_commands])?;
             // A frame that starts with writes must not replay them next time.
@@ -211,7 +212,7 @@ impl Solver {
         self.replan(replan)?;
         let mut writes = self.engine.encode(self.frame.bindings(), &leading)?;
         if !writes.is_empty() {
-            writes.push(Command::Barrier);
+            writes.push(Command::Barrier(Barrier::FULL));
         }
         // The own command buffer may hold writes this frame supersedes.
         self.own_frame_stale = true;

@@ -132,6 +132,44 @@ pub fn full_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
     );
 }
 
+/// A barrier between the description layer's stages (`graph::Stages`): kernels, transfers
+/// (fills, inline writes) and indirect-argument reads, each mapped to its pipeline stage and
+/// access.
+pub fn stage_barrier(device: &ash::Device, cmd: vk::CommandBuffer, barrier: crate::graph::Barrier) {
+    use crate::graph::Stages;
+    let stages = |set: Stages| {
+        let mut flags = vk::PipelineStageFlags::empty();
+        for (stage, flag) in [
+            (Stages::KERNEL, vk::PipelineStageFlags::COMPUTE_SHADER),
+            (Stages::TRANSFER, vk::PipelineStageFlags::TRANSFER),
+            (Stages::INDIRECT, vk::PipelineStageFlags::DRAW_INDIRECT),
+        ] {
+            if set.contains(stage) {
+                flags |= flag;
+            }
+        }
+        flags
+    };
+    let mut src_access = vk::AccessFlags::empty();
+    if barrier.before.contains(Stages::KERNEL) {
+        src_access |= vk::AccessFlags::SHADER_WRITE;
+    }
+    if barrier.before.contains(Stages::TRANSFER) {
+        src_access |= vk::AccessFlags::TRANSFER_WRITE;
+    }
+    let mut dst_access = vk::AccessFlags::empty();
+    if barrier.after.contains(Stages::KERNEL) {
+        dst_access |= vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE;
+    }
+    if barrier.after.contains(Stages::TRANSFER) {
+        dst_access |= vk::AccessFlags::TRANSFER_READ | vk::AccessFlags::TRANSFER_WRITE;
+    }
+    if barrier.after.contains(Stages::INDIRECT) {
+        dst_access |= vk::AccessFlags::INDIRECT_COMMAND_READ;
+    }
+    memory_barrier(device, cmd, (stages(barrier.before), src_access), (stages(barrier.after), dst_access));
+}
+
 /// Makes transfer writes (a copy into host-visible memory) visible to the host.
 pub fn transfer_to_host_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
     memory_barrier(

@@ -8,7 +8,7 @@ use super::recording::FrameBindings;
 use super::staging::Staging;
 use super::{Buffer, Command, Context, Pipeline, RecordedFrame};
 use crate::error::{Error, Result};
-use crate::graph::{BufferId, Dispatch, Handle, HazardTracker, Memory, Resources, Step};
+use crate::graph::{BufferId, Dispatch, Handle, Memory, Resources, Step, plan_barriers};
 use gpu_allocator::MemoryLocation;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -137,11 +137,10 @@ impl Engine {
         let handle = |id: BufferId| {
             bindings.buffers.get(id.index()).map(|b| b.handle).ok_or_else(|| engine_error(format!("{id:?} not bound")))
         };
-        let mut hazards = HazardTracker::default();
         let mut commands = Vec::with_capacity(steps.len() * 2);
-        for step in steps {
-            if hazards.needs_barrier(&step.accesses()) {
-                commands.push(Command::Barrier);
+        for (step, barrier) in steps.iter().zip(plan_barriers(steps)) {
+            if let Some(barrier) = barrier {
+                commands.push(Command::Barrier(barrier));
             }
             commands.push(match step {
                 Step::Fill { buffer, value } => Command::Fill { buffer: handle(*buffer)?, value: *value },

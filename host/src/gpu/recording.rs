@@ -3,12 +3,12 @@
 
 use super::buffer::Buffer;
 use super::commands::{
-    COMPUTE_AND_TRANSFER, COMPUTE_AND_TRANSFER_ACCESS, CommandBuffer, DescriptorArena, full_barrier, memory_barrier,
+    COMPUTE_AND_TRANSFER, COMPUTE_AND_TRANSFER_ACCESS, CommandBuffer, DescriptorArena, memory_barrier, stage_barrier,
 };
 use super::context::Context;
 use super::pipeline::Pipeline;
 use crate::error::{Result, VkContext};
-use crate::graph::BufferId;
+use crate::graph::{Barrier, BufferId};
 use ash::vk;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -32,8 +32,9 @@ pub enum Command {
     Fill { buffer: vk::Buffer, value: u32 },
     /// Write host bytes into a buffer inline (`vkCmdUpdateBuffer`, in chunks of 64 KiB).
     Write { buffer: vk::Buffer, offset: u64, bytes: Vec<u8> },
-    /// Make every earlier write visible to every later command (derived from declared accesses).
-    Barrier,
+    /// Order earlier commands before later ones in the barrier's stages and make their writes
+    /// visible there (derived from declared accesses).
+    Barrier(Barrier),
     /// A pass the scene does not need: not recorded, but reported as skipped.
     Skipped { label: &'static str },
 }
@@ -90,7 +91,7 @@ pub(crate) unsafe fn encode(
                         device.cmd_update_buffer(cb, *buffer, at, chunk);
                     }
                 }
-                Command::Barrier => full_barrier(device, cb),
+                Command::Barrier(barrier) => stage_barrier(device, cb, *barrier),
                 Command::Skipped { .. } => {}
             }
         }
@@ -297,7 +298,7 @@ impl RecordedFrame {
     /// only grows.
     pub fn rerecord(&mut self, segments: &[&[Command]]) -> Result<()> {
         let commands = || segments.iter().flat_map(|s| s.iter());
-        self.barriers = commands().filter(|c| matches!(c, Command::Barrier)).count() as u32;
+        self.barriers = commands().filter(|c| matches!(c, Command::Barrier(_))).count() as u32;
         self.labels.clear();
         self.skipped.clear();
         for c in commands() {

@@ -1,5 +1,6 @@
 //! Passes and the steps of a command list.
 
+use super::hazards::Stages;
 use super::kernel::Kernel;
 use super::resources::{BufferId, Handle};
 use drape_types::DispatchArgs;
@@ -42,7 +43,7 @@ pub enum Access {
 }
 
 impl Access {
-    fn writes(self) -> bool {
+    pub(super) fn writes(self) -> bool {
         matches!(self, Access::Write | Access::WriteBytes { .. })
     }
 
@@ -54,7 +55,7 @@ impl Access {
         }
     }
 
-    fn overlaps(self, other: Access) -> bool {
+    pub(super) fn overlaps(self, other: Access) -> bool {
         match (self.range(), other.range()) {
             (Some((a0, a1)), Some((b0, b1))) => a0 < b1 && b0 < a1,
             _ => true,
@@ -128,6 +129,16 @@ impl Step {
         }
     }
 
+    /// Where this step's `access` happens: a fill or inline write in a transfer, a pass's
+    /// indirect arguments where the dispatch reads them, its bindings in its kernel.
+    pub fn stage_of(&self, access: Access) -> Stages {
+        match (self, access) {
+            (Step::Fill { .. } | Step::Write { .. }, _) => Stages::TRANSFER,
+            (_, Access::IndirectRead) => Stages::INDIRECT,
+            _ => Stages::KERNEL,
+        }
+    }
+
     /// Every buffer this step touches and how: what executors derive barriers from.
     pub fn accesses(&self) -> Vec<(BufferId, Access)> {
         match self {
@@ -149,36 +160,5 @@ impl Step {
                 out
             }
         }
-    }
-}
-
-/// Tracks accesses since the last barrier and says when the next step needs one: it reads or
-/// writes something written since (read-after-write, write-after-write), or writes something
-/// read since (write-after-read). A barrier covers every earlier command, so both sets reset.
-#[derive(Default)]
-pub struct HazardTracker {
-    written: Vec<(BufferId, Access)>,
-    read: Vec<BufferId>,
-}
-
-impl HazardTracker {
-    /// Whether `accesses` must wait for earlier steps; then records them.
-    pub fn needs_barrier(&mut self, accesses: &[(BufferId, Access)]) -> bool {
-        let hazard = accesses.iter().any(|&(id, access)| {
-            self.written.iter().any(|&(w, earlier)| w == id && earlier.overlaps(access))
-                || (access.writes() && self.read.contains(&id))
-        });
-        if hazard {
-            self.written.clear();
-            self.read.clear();
-        }
-        for &(id, access) in accesses {
-            if access.writes() {
-                self.written.push((id, access));
-            } else {
-                self.read.push(id);
-            }
-        }
-        hazard
     }
 }
