@@ -339,8 +339,8 @@ fn barriers_follow_declared_reads_and_writes() {
     assert!(needs(&[(a, Access::Write)]), "write after write");
 }
 
-/// A step of a test kernel whose bindings are `accesses` (one read, one write, or a read and a
-/// write), dispatched indirectly from `args` when given.
+/// A step of a test kernel whose bindings are `accesses` (one read, one write, a read and a
+/// write, or two writes), dispatched indirectly from `args` when given.
 fn access_step(
     accesses: &[(drape::graph::BufferId, drape::graph::Access)],
     args: Option<drape::graph::Handle<drape_types::DispatchArgs>>,
@@ -354,10 +354,15 @@ fn access_step(
         spec: KernelSpec::new("test::read_write", &[BindingSpec::read("r"), BindingSpec::write("w")], 64),
         cpu: |_| Ok(()),
     };
+    static WRITE_TWO: Kernel = Kernel {
+        spec: KernelSpec::new("test::write_two", &[BindingSpec::write("w0"), BindingSpec::write("w1")], 64),
+        cpu: |_| Ok(()),
+    };
     let kernel = match accesses {
         [(_, Access::Read)] => &READ,
         [(_, Access::Write)] => &WRITE,
         [(_, Access::Read), (_, Access::Write)] => &READ_WRITE,
+        [(_, Access::Write), (_, Access::Write)] => &WRITE_TWO,
         other => panic!("no test kernel for {other:?}"),
     };
     let dispatch = args.map_or(Dispatch::Threads(64), Dispatch::Indirect);
@@ -365,39 +370,56 @@ fn access_step(
     Step::Run(Pass { label: "test", kernel, bindings, push: None, dispatch })
 }
 
-/// A barrier covers only the stages the next step uses: a later indirect dispatch whose
-/// arguments were written before a kernel-to-kernel barrier still gets a barrier for its
-/// argument read, a fill after kernels that read the buffer waits for them, and a barrier's
-/// source stages are those of every access still pending for its destination stages.
+/// A kernel writes indirect arguments and `a`, the next reads `a` and writes `b`, then an
+/// indirect dispatch over those arguments reads `c` (which nothing wrote).
+fn indirect_after_kernels(
+    resources: &mut drape::graph::Resources,
+) -> (drape::graph::Handle<drape_types::DispatchArgs>, drape::graph::Handle<u32>, Vec<drape::graph::Step>) {
+    use drape::graph::Access;
+    let args = resources.device::<drape_types::DispatchArgs>("args", 1);
+    let (a, b, c) = (resources.device::<u32>("a", 4), resources.device::<u32>("b", 4), resources.device::<u32>("c", 4));
+    let steps = vec![
+        access_step(&[(args.id(), Access::Write), (a.id(), Access::Write)], None),
+        access_step(&[(a.id(), Access::Read), (b.id(), Access::Write)], None),
+        access_step(&[(c.id(), Access::Read)], Some(args)),
+    ];
+    (args, a, steps)
+}
+
+/// A barrier covers only the stages where the next step conflicts with earlier accesses: a
+/// kernel-to-kernel barrier does not cover a later indirect dispatch's reading of arguments
+/// written before it, which gets a barrier of its own; a fill after kernels that wrote and read
+/// the buffer waits for them and for the argument read; a barrier's source stages are those of
+/// every access still pending for its destination stages.
 #[test]
 fn barriers_cover_the_stages_that_need_them() {
     use drape::graph::{Access, Barrier, HazardTracker, Resources, Stages, Step};
     let mut resources = Resources::new();
-    let args = resources.device::<drape_types::DispatchArgs>("args", 1);
-    let (a, b) = (resources.device::<u32>("a", 4), resources.device::<u32>("b", 4));
-    let (args_id, a_id, b_id) = (args.id(), a.id(), b.id());
+    let (_, a, steps) = indirect_after_kernels(&mut resources);
     let mut hazards = HazardTracker::default();
-    // A kernel writes the arguments and `a`; the next kernel reads `a`: kernel to kernel.
+    let barriers: Vec<_> = steps.iter().map(|step| hazards.barrier_before(step)).collect();
     let kernels = Barrier { before: Stages::KERNEL, after: Stages::KERNEL };
-    assert_eq!(hazards.barrier_before(&access_step(&[(args_id, Access::Read), (a_id, Access::Write)], None)), None);
-    assert_eq!(
-        hazards.barrier_before(&access_step(&[(a_id, Access::Read), (b_id, Access::Write)], None)),
-        Some(kernels)
-    );
-    // An indirect dispatch reading the arguments (written before that barrier) and `b`
-    // (written after it): one barrier for both of its stages.
-    let indirect = access_step(&[(b_id, Access::Read)], Some(args));
-    let both = Stages::KERNEL | Stages::INDIRECT;
-    assert_eq!(hazards.barrier_before(&indirect), Some(Barrier { before: Stages::KERNEL, after: both }));
-    // A fill of `a`, which kernels read: a transfer after kernels.
+    let arguments = Barrier { before: Stages::KERNEL, after: Stages::INDIRECT };
+    assert_eq!(barriers, [None, Some(kernels), Some(arguments)]);
     let fill = Step::fill(a, 0);
-    assert_eq!(hazards.barrier_before(&fill), Some(Barrier { before: both, after: Stages::TRANSFER }));
-    // A kernel reading what the fill wrote: after the transfer. The barrier also orders the
-    // reads still pending for kernels (the arguments', `b`'s), so its source is every stage.
-    let read = access_step(&[(a_id, Access::Read)], None);
+    let after_reads = Barrier { before: Stages::KERNEL | Stages::INDIRECT, after: Stages::TRANSFER };
+    assert_eq!(hazards.barrier_before(&fill), Some(after_reads));
+    // A kernel reading what the fill wrote waits for it (and orders the reads still pending
+    // for kernels: every stage is a source).
+    let read = access_step(&[(a.id(), Access::Read)], None);
     assert_eq!(hazards.barrier_before(&read), Some(Barrier { before: Stages::ALL, after: Stages::KERNEL }));
-    // A second indirect dispatch over the same, unchanged arguments: nothing to wait for.
-    assert_eq!(hazards.barrier_before(&access_step(&[(b_id, Access::Read)], Some(args))), None);
+}
+
+/// `plan_barriers` widens a barrier by the stages of a later step that would otherwise need a
+/// barrier of its own: the indirect dispatch's argument read joins the kernel-to-kernel
+/// barrier before it, one barrier where step-by-step tracking places two.
+#[test]
+fn planned_barriers_cover_later_steps_when_that_spares_a_barrier() {
+    use drape::graph::{Barrier, Resources, Stages, plan_barriers};
+    let mut resources = Resources::new();
+    let (_, _, steps) = indirect_after_kernels(&mut resources);
+    let widened = Barrier { before: Stages::KERNEL, after: Stages::KERNEL | Stages::INDIRECT };
+    assert_eq!(plan_barriers(&steps), [None, Some(widened), None]);
 }
 
 /// A recorded cloth frame has fewer barriers than commands: the resets at the start of the

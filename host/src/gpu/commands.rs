@@ -137,6 +137,8 @@ pub fn full_barrier(device: &ash::Device, cmd: vk::CommandBuffer) {
 /// access.
 pub fn stage_barrier(device: &ash::Device, cmd: vk::CommandBuffer, barrier: crate::graph::Barrier) {
     use crate::graph::Stages;
+    // Empty stage masks are invalid without synchronization2; a planned barrier has both.
+    debug_assert!(!barrier.before.is_empty() && !barrier.after.is_empty(), "empty barrier {barrier:?}");
     let stages = |set: Stages| {
         let mut flags = vk::PipelineStageFlags::empty();
         for (stage, flag) in [
