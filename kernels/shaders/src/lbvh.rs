@@ -424,6 +424,20 @@ pub fn refit_from_leaf(
     flags: &mut [u32],
     words: &mut [u32],
 ) {
+    climb_from_leaf(leaf, n, (nodes, parents), flags, |node, children| fit_node(node, children, leaf_bounds, words));
+}
+
+/// The refits' climb from leaf `leaf` towards the root: at each node the first thread to arrive
+/// stops; the second (acquire/release on the node's flag makes what the sibling's thread wrote
+/// visible) calls `fit` with the node and its children, and goes on.
+#[inline]
+fn climb_from_leaf(
+    leaf: u32,
+    n: u32,
+    (nodes, parents): (&[BvhNode], &[u32]),
+    flags: &mut [u32],
+    mut fit: impl FnMut(u32, BvhNode),
+) {
     let mut node = parents[parent_slot(leaf | LEAF_BIT, n) as usize];
     while node != NO_NODE {
         // The tree's shape does not change in a refit: its loads go out with the flag's atomic
@@ -433,7 +447,7 @@ pub fn refit_from_leaf(
         if atomics::add_acq_rel(&mut flags[node as usize], 1) == 0 {
             return;
         }
-        fit_node(node, children, leaf_bounds, words);
+        fit(node, children);
         node = parent;
     }
 }
@@ -460,17 +474,10 @@ pub fn refit_two_from_leaf(
     words: &mut [u32],
     other_words: &mut [u32],
 ) {
-    let mut node = parents[parent_slot(leaf | LEAF_BIT, n) as usize];
-    while node != NO_NODE {
-        let children = nodes[node as usize];
-        let parent = parents[node as usize];
-        if atomics::add_acq_rel(&mut flags[node as usize], 1) == 0 {
-            return;
-        }
+    climb_from_leaf(leaf, n, (nodes, parents), flags, |node, children| {
         fit_node(node, children, leaf_bounds, words);
         fit_node(node, children, other_leaf_bounds, other_words);
-        node = parent;
-    }
+    });
 }
 
 #[spirv(compute(threads(256)))]
