@@ -147,9 +147,9 @@ fn main() {
                         &step,
                         (&tree.nodes, &tree.aabbs, &tree.triangles),
                         (&queries, &lists),
-                        &x,
-                        &x_prev,
+                        (&x, &x_prev),
                         &mut contacts,
+                        (0, false),
                     );
                     fell += o.fell_back as u32;
                 }

@@ -67,9 +67,9 @@ fn check_particle<K: LeafKind>(
         &substep,
         (&tree.nodes, &tree.aabbs, leaves),
         (&queries, &candidates),
-        &xs,
-        &x_prev,
+        (&xs, &x_prev),
         &mut listed,
+        (0, false),
     );
     detect_brute_force_at::<K>(0, params, &substep, leaves, &xs, &x_prev, &mut brute);
     assert_eq!(listed[0], brute[0], "case {case}: {p0} -> {p1} (x {x}, v {v}), {outcome:?}");
@@ -207,5 +207,62 @@ fn euler_commit_with_contact_equals_the_walk_and_the_cpu_twin() {
     let settings = SimSettings::default().with_timestamps(false).with_integrator(drape::Integrator::SemiImplicitEuler);
     let contact_frames = assert_fused_contact_equals_walk_and_cpu(&ctx, &cloth, &collider, settings, 30);
     assert!(contact_frames > 10, "the cloth must reach the sphere ({contact_frames} frames)");
+    assert_validation_clean(&ctx);
+}
+
+/// Crowded particles (lists of `CROWDED_LIST` leaves or more, and walks of the tree) handed
+/// to a workgroup each give the contacts their lanes give, bit for bit: a cloth thrown at a
+/// dense torus, with a dense icosphere as a second collider (whose narrow phase is a pass of
+/// its own, not inside the last integration stage), on the GPU with the crowded pass
+/// (`--crowded-contact on`), with the automatic choice (on lavapipe: counted, never handed
+/// over; on a GPU: handed over while there are many) and without it, and on the CPU twin with
+/// it. The automatic run counts the crowded particles the forced one hands over.
+#[test]
+fn crowded_particles_get_their_lanes_contacts_from_a_workgroup() {
+    let ctx = context();
+    let cloth = ClothBuilder::new(24, 24)
+        .size(0.9)
+        .velocity(Vec3::new(0.0, -4.0, 0.0))
+        .transform(Mat4::from_translation(Vec3::new(0.05, 0.3, 0.0)))
+        .build()
+        .unwrap();
+    let torus = Collider::mesh(&Mesh::torus(0.35, 0.12, 192, 96), 0.01).with_friction(0.3);
+    let ball = Mesh::icosphere(0.15, 5).transformed(Mat4::from_translation(Vec3::new(0.0, -0.05, 0.0)));
+    let colliders = [torus, Collider::mesh(&ball, 0.01).with_friction(0.3)];
+    let model = |crowded: Option<bool>| {
+        let settings = SimSettings::default().with_timestamps(false).with_crowded_contact(crowded);
+        Model::single(&cloth, &colliders, settings).unwrap()
+    };
+    let mut shared = Solver::new(&ctx, &model(Some(true))).unwrap();
+    let mut automatic = Solver::new(&ctx, &model(None)).unwrap();
+    let mut alone = Solver::new(&ctx, &model(Some(false))).unwrap();
+    let mut cpu = CpuSolver::new(&model(Some(true))).unwrap();
+    let (mut crowded, mut fallbacks) = (0, 0);
+    for f in 1..=30 {
+        let report = shared.step_report().unwrap();
+        let counted = automatic.step_report().unwrap();
+        let lanes = alone.step_report().unwrap();
+        cpu.step().unwrap();
+        let x = shared.positions(CLOTH).unwrap();
+        assert_eq!(x, alone.positions(CLOTH).unwrap(), "frame {f}: workgroups != lanes");
+        assert_eq!(x, automatic.positions(CLOTH).unwrap(), "frame {f}: workgroups != the automatic choice");
+        assert_eq!(x, cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
+        assert_eq!(shared.velocities(CLOTH).unwrap(), alone.velocities(CLOTH).unwrap(), "frame {f}: velocities");
+        assert_eq!(shared.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU");
+        assert_eq!(report.collision_fallbacks, lanes.collision_fallbacks, "frame {f}: fallback counts");
+        assert_eq!(report.collision_crowded, cpu.collision_status().crowded, "frame {f}: handed-over counts");
+        assert_eq!(
+            report.crowded_contacts, report.collision_crowded,
+            "frame {f}: on, every crowded one is handed over"
+        );
+        assert_eq!(counted.crowded_contacts, report.collision_crowded, "frame {f}: the automatic choice's count");
+        assert_eq!((lanes.collision_crowded, lanes.crowded_contacts), (0, 0), "frame {f}: off, none counted");
+        crowded += report.collision_crowded;
+        fallbacks += report.collision_fallbacks;
+    }
+    assert!(
+        crowded > fallbacks && fallbacks > 0,
+        "walks ({fallbacks}) and long lists ({crowded} in all) must be handed over"
+    );
     assert_validation_clean(&ctx);
 }

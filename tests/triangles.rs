@@ -564,9 +564,9 @@ fn swept_leaves_through_the_bvh_and_lists_equal_brute_force() {
             &motion,
             tree_in,
             (&queries, &candidates),
-            &x,
-            &x_prev,
+            (&x, &x_prev),
             &mut lists,
+            (0, false),
         );
         assert_eq!(lists[0], brute, "case {i}: lists, {outcome:?}");
         hits += brute.is_some() as u32;

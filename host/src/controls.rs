@@ -10,6 +10,7 @@ use crate::model::{ClothId, ColliderId};
 use crate::motion::{ClothMotion, FEATURE_SUBSTEPS_LIMIT, FeatureContact, Proximity, SELF_SUBSTEPS_LIMIT};
 use crate::program::SolverProgram;
 use crate::programs::cloth::FramePlan;
+use crate::programs::contact::Crowded;
 use crate::programs::self_contact::{SelfContactBuffers, lists_pay};
 use crate::settings::SimSettings;
 use crate::stability::{BoundInputs, Stability};
@@ -165,6 +166,28 @@ pub(crate) struct ClothControl {
     tiles_woken: bool,
     /// Moving colliders' boxes the tiles were last handed (0: none, nothing to write).
     tiles_moving: usize,
+    /// Under the automatic choice (`SimSettings::crowded_contact`), the narrow phase hands its
+    /// crowded particles to a workgroup each: the last frames had enough of them
+    /// (`observe_crowded`).
+    crowded_handed_over: bool,
+}
+
+/// Crowded particles per substep (`Health::crowded_contacts`) from which the automatic choice
+/// hands them to a workgroup each, and below which it stops. On an H100 the crowded pass and
+/// its barrier cost about 10 µs a substep: the icosphere's 25 crowded particles a substep made
+/// its frame 0.61 -> 0.73 ms, the bunny's 800 made it 2.06 -> 1.33 ms.
+pub const CROWDED_ON: u32 = 64;
+pub const CROWDED_OFF: u32 = 16;
+
+impl ClothControl {
+    /// Follows the last frame's crowded particles (`crowded` particle-substeps over its
+    /// `substeps`) under the automatic choice; returns whether the choice changed.
+    fn observe_crowded(&mut self, crowded: u32, substeps: u32) -> bool {
+        let per_substep = crowded / substeps.max(1);
+        let was = self.crowded_handed_over;
+        self.crowded_handed_over = if was { per_substep >= CROWDED_OFF } else { per_substep >= CROWDED_ON };
+        self.crowded_handed_over != was
+    }
 }
 
 impl ClothControl {
@@ -211,7 +234,9 @@ fn plan_of(settings: &SimSettings, c: &ClothControl) -> FramePlan {
     let plan = settings.plan(&c.params, &c.stability, c.motion.asleep, passes);
     let self_lists = c.self_lists();
     let self_windows = if self_lists && c.motion.list_windows && settings.self_list_windows { 2 } else { 1 };
-    FramePlan { self_lists, self_windows, self_rebuild: c.self_tree.rebuild, ..plan }
+    let crowded =
+        if plan.crowded == Crowded::Counted && c.crowded_handed_over { Crowded::HandedOver } else { plan.crowded };
+    FramePlan { self_lists, self_windows, self_rebuild: c.self_tree.rebuild, crowded, ..plan }
 }
 
 fn invalid(name: &'static str, problem: String) -> Error {
@@ -255,6 +280,7 @@ impl Controls {
                 pins: Vec::new(),
                 tiles_woken: false,
                 tiles_moving: 0,
+                crowded_handed_over: false,
             })
             .collect();
         let colliders = colliders
@@ -348,12 +374,12 @@ impl Controls {
     pub fn observe(&mut self, index: usize, health: &Health) {
         let sleep = self.settings.sleep;
         if let Some(c) = self.cloths.get_mut(index) {
-            let substep = c.stability.substep;
+            let (substep, substep_count) = (c.stability.substep, c.stability.substeps);
             log::trace!(
                 "cloth {index}: fastest particle {} m/s, moving at {} m/s over the last substep, {} self-contact \
                  corrections, fastest pair that may touch {} m over the frame (closing {} m), {} self-collision walks, \
                  {} full lists, largest collider vertex push {} thicknesses, {} particles put back by the fail-safe{} ({} \
-                 cloth triangles through a collider's)",
+                 cloth triangles through a collider's), {} crowded contacts",
                 crate::motion::max_speed(health),
                 crate::motion::max_motion(health, substep),
                 health.self_contacts,
@@ -364,7 +390,8 @@ impl Controls {
                 f32::from_bits(health.collider_feature_push_bits),
                 health.self_rollbacks,
                 if health.self_rollback_all != 0 { " (the whole cloth)" } else { "" },
-                health.self_rollback_collider_pairs
+                health.self_rollback_collider_pairs,
+                health.crowded_contacts
             );
             if health.self_rollback_all != 0 {
                 log::warn!(
@@ -393,6 +420,15 @@ impl Controls {
             // Its passes follow whether it touches itself; its lists' windows, how much walked.
             self.replan |= c.self_collision.is_some()
                 && (c.motion.self_contact != self_contact || c.motion.list_windows != windows);
+            let automatic = self.settings.crowded_contact.is_none() && self.settings.device_is_gpu;
+            if automatic && c.observe_crowded(health.crowded_contacts, substep_count) {
+                log::debug!(
+                    "cloth {index}: crowded particles {} a workgroup each ({} particle-substeps in the last frame)",
+                    if c.crowded_handed_over { "handed to" } else { "no longer handed to" },
+                    health.crowded_contacts
+                );
+                self.replan = true;
+            }
         }
     }
 
@@ -1026,6 +1062,43 @@ mod tests {
         // Through the public setter: the deformation is noted, the reach follows at the frame.
         controls.set_collider_vertices(ColliderId(0), &[Vec3::ZERO, Vec3::X, Vec3::Z]).unwrap();
         assert!(frame(&mut controls, None).0 > COVER_LIMIT * 0.005);
+    }
+
+    /// The automatic choice hands a cloth's crowded particles to a workgroup each once a frame
+    /// has `CROWDED_ON` a substep, keeps doing so while frames have `CROWDED_OFF`, and stops
+    /// below (replanning the frame at each change); on a CPU driver it only counts them, and a
+    /// forced choice does not follow the frames.
+    #[test]
+    fn crowded_particles_are_handed_over_while_frames_have_many() {
+        use super::{CROWDED_OFF, CROWDED_ON};
+        use crate::programs::contact::Crowded;
+        use crate::{ClothBuilder, Collider, Mesh, Model};
+        use drape_types::Health;
+        let cloth = ClothBuilder::new(8, 8).build().unwrap();
+        let ball = Collider::mesh(&Mesh::icosphere(0.3, 2), 0.005);
+        let controls = |crowded: Option<bool>, gpu: bool| {
+            let settings = SimSettings::default().with_crowded_contact(crowded);
+            let model = Model::single(&cloth, std::slice::from_ref(&ball), settings).unwrap();
+            crate::program::SolverProgram::with_controls_on(&model, gpu).unwrap().1
+        };
+        let mut gpu = controls(None, true);
+        let substeps = gpu.cloths[0].stability.substeps;
+        let frame = |controls: &mut Controls, per_substep: u32| {
+            let health = Health { crowded_contacts: per_substep * substeps, ..Health::default() };
+            controls.observe(0, &health);
+            (controls.plans()[0].crowded, controls.take_replan())
+        };
+        assert_eq!(gpu.plans()[0].crowded, Crowded::Counted, "the first frame counts");
+        assert_eq!(frame(&mut gpu, CROWDED_ON - 1), (Crowded::Counted, false), "a few");
+        assert_eq!(frame(&mut gpu, CROWDED_ON), (Crowded::HandedOver, true), "many");
+        assert_eq!(frame(&mut gpu, CROWDED_OFF), (Crowded::HandedOver, false), "fewer, not few");
+        assert_eq!(frame(&mut gpu, CROWDED_OFF - 1), (Crowded::Counted, true), "few");
+        let mut cpu = controls(None, false);
+        assert_eq!(frame(&mut cpu, 10 * CROWDED_ON), (Crowded::Counted, false), "a CPU driver only counts");
+        let mut on = controls(Some(true), true);
+        assert_eq!(frame(&mut on, 0), (Crowded::HandedOver, false), "forced on");
+        let mut off = controls(Some(false), true);
+        assert_eq!(frame(&mut off, 10 * CROWDED_ON), (Crowded::Ignored, false), "forced off");
     }
 
     /// A solver's program sets a triangle collider's cover reach (a quarter thickness) where

@@ -74,6 +74,7 @@ impl CpuSolver {
                 total.skipped += s[0].skipped;
                 total.fallbacks += s[0].fallbacks;
                 total.listed += s[0].listed;
+                total.crowded += s[0].crowded;
             }
         }
         total

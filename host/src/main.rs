@@ -197,7 +197,8 @@ fn run(args: &Args) -> drape::Result<()> {
         .with_sleep((args.sleep > 0.0).then(|| drape::Sleep { speed: args.sleep, ..drape::Sleep::default() }))
         .with_tile_sleep(args.tile_sleep == OnOff::On)
         .with_self_failsafe(args.self_failsafe == OnOff::On)
-        .with_self_list_windows(args.self_list_windows == OnOff::On);
+        .with_self_list_windows(args.self_list_windows == OnOff::On)
+        .with_crowded_contact(args.crowded_contact.forced());
     let search = match (args.brute_force, args.search) {
         (true, _) | (_, SearchArg::BruteForce) => ContactSearch::BruteForce,
         (_, SearchArg::Lists) => ContactSearch::CandidateLists,
@@ -297,7 +298,7 @@ fn run(args: &Args) -> drape::Result<()> {
     };
     let mut worst = WorstIntersections::default();
     let mut report = TimingReport::default();
-    let (mut ran, mut skipped, mut fallbacks) = (0, 0, 0u64);
+    let (mut ran, mut skipped, mut fallbacks, mut crowded, mut handed_over) = (0, 0, 0u64, 0u64, 0u64);
     let (mut self_walks, mut self_triangle_passes) = (0u64, 0u64);
     let mut rollbacks = Rollbacks::default();
     let collider_ids: Vec<_> = model.collider_ids().collect();
@@ -328,6 +329,8 @@ fn run(args: &Args) -> drape::Result<()> {
         ran += r.collision_ran;
         skipped += r.collision_skipped;
         fallbacks += u64::from(r.collision_fallbacks);
+        crowded += u64::from(r.crowded_contacts);
+        handed_over += u64::from(r.collision_crowded);
         self_walks += u64::from(r.self_walks);
         self_triangle_passes += u64::from(r.self_triangle_passes);
         rollbacks.record(&r, frame);
@@ -402,7 +405,13 @@ fn run(args: &Args) -> drape::Result<()> {
     if let Some(c) = colliders.first() {
         json.insert(
             "collision".into(),
-            json!({ "substeps_run": ran, "substeps_culled": skipped, "candidate_list_fallbacks": fallbacks }),
+            json!({
+                "substeps_run": ran,
+                "substeps_culled": skipped,
+                "candidate_list_fallbacks": fallbacks,
+                "crowded_particle_substeps": crowded,
+                "crowded_handed_to_workgroups": handed_over,
+            }),
         );
         if c.search == ContactSearch::CandidateLists {
             // The narrow phase runs in every substep (inside the last integration stage): a
@@ -415,6 +424,17 @@ fn run(args: &Args) -> drape::Result<()> {
             say!(
                 "candidate lists: {fallbacks} of {particle_substeps} particle-substeps fell back to a full walk ({:.2} %)",
                 100.0 * fallbacks as f64 / particle_substeps.max(1) as f64
+            );
+            let choice = match sim.settings().crowded_contact {
+                Some(true) => "--crowded-contact on",
+                Some(false) => "off: not counted",
+                None if sim.settings().device_is_gpu() => "automatic: while a frame has many",
+                None => "automatic: never on a CPU driver",
+            };
+            say!(
+                "crowded particles ({} leaves or more, or a walk): {crowded} particle-substeps, {handed_over} of \
+                 them handed to a workgroup each ({choice})",
+                drape_kernels::crowded::CROWDED_LIST,
             );
         } else {
             say!("collision traversal: ran in {ran} substeps, culled (cloth cannot touch) in {skipped}");

@@ -47,7 +47,13 @@ impl SolverProgram {
     /// The program of `model`, and the host-side controls holding its starting values (what
     /// both solvers start from).
     pub fn with_controls(model: &Model) -> Result<(Self, Controls)> {
-        let settings = *model.settings();
+        Self::with_controls_on(model, false)
+    }
+
+    /// `with_controls` for a device that `is_gpu` (or a CPU driver): the settings' automatic
+    /// choices that depend on the device made for it (`SimSettings::on_device`).
+    pub fn with_controls_on(model: &Model, is_gpu: bool) -> Result<(Self, Controls)> {
+        let settings = model.settings().on_device(is_gpu);
         let mut resolved = Vec::new();
         for (cloth, bound) in model.cloths().iter().zip(model.bounds()) {
             let (params, stability) = settings.resolve_params(&cloth.params, bound)?;

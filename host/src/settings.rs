@@ -4,6 +4,7 @@ use crate::cloth::Cloth;
 use crate::error::{Error, Result};
 use crate::motion::Sleep;
 use crate::programs::cloth::FramePlan;
+use crate::programs::contact::Crowded;
 use crate::stability::{self, BoundInputs, DEFAULT_SAFETY, Stability};
 use drape_types::{Health, SimParams, integrator};
 
@@ -61,6 +62,18 @@ pub struct SimSettings {
     /// (`motion::ClothMotion::list_windows`): the same pairs, fewer of its triangles walking the
     /// tree; off, once per frame.
     pub self_list_windows: bool,
+    /// The narrow phase over candidate lists hands its crowded particles (a walk of the tree, or
+    /// a list of `drape_kernels::crowded::CROWDED_LIST` leaves or more) to a pass that runs a
+    /// workgroup per particle, its lanes sharing the tests (`drape_kernels::crowded`): the same
+    /// contacts, bit for bit. `None` (automatic): counted every frame, and on a GPU handed over
+    /// while a frame has many (`controls::CROWDED_ON` a substep; a dense collider such as the
+    /// bunny), not while it has few (`CROWDED_OFF`; the pass and its barrier cost more than
+    /// they save); never on a CPU driver (lavapipe), where a workgroup's lanes run one after
+    /// another.
+    pub crowded_contact: Option<bool>,
+    /// The device is a GPU (`on_device`): the automatic `crowded_contact` may hand crowded
+    /// particles over; on a CPU driver it only counts them.
+    pub(crate) device_is_gpu: bool,
 }
 
 impl Default for SimSettings {
@@ -78,6 +91,8 @@ impl Default for SimSettings {
             tile_sleep: true,
             self_failsafe: true,
             self_list_windows: true,
+            crowded_contact: None,
+            device_is_gpu: true,
         }
     }
 }
@@ -132,6 +147,23 @@ impl SimSettings {
     /// Whether parts of a cloth (tiles) sleep on their own, under the `sleep` policy.
     pub fn with_tile_sleep(mut self, on: bool) -> Self {
         self.tile_sleep = on;
+        self
+    }
+    /// Whether crowded particles' contact is shared by a workgroup each (`None`: automatic,
+    /// see `crowded_contact`).
+    pub fn with_crowded_contact(mut self, on: Option<bool>) -> Self {
+        self.crowded_contact = on;
+        self
+    }
+    /// Whether these settings run on a GPU (false: a CPU driver, or the CPU twin): where the
+    /// automatic `crowded_contact` may hand crowded particles over.
+    pub fn device_is_gpu(&self) -> bool {
+        self.device_is_gpu
+    }
+    /// These settings on a device that `is_gpu` (or a CPU driver, where the automatic
+    /// `crowded_contact` never hands crowded particles over).
+    pub(crate) fn on_device(mut self, is_gpu: bool) -> Self {
+        self.device_is_gpu = is_gpu;
         self
     }
     /// Whether self-collision's frames end with the check for crossed pairs (and put their
@@ -243,6 +275,11 @@ impl SimSettings {
             self_windows: 1,
             self_rebuild: true,
             self_failsafe: self.self_failsafe,
+            crowded: match self.crowded_contact {
+                Some(true) => Crowded::HandedOver,
+                Some(false) => Crowded::Ignored,
+                None => Crowded::Counted,
+            },
         }
     }
 

@@ -30,6 +30,12 @@ pub struct FrameReport {
     /// Particle-substeps whose candidate list did not cover their motion, answered by a full
     /// LBVH walk instead (`ContactSearch::CandidateLists`).
     pub collision_fallbacks: u32,
+    /// Particle-substeps the narrow phase handed to the crowded pass, a workgroup each
+    /// (`SimSettings::crowded_contact`).
+    pub collision_crowded: u32,
+    /// Particle-substeps whose narrow phase was crowded, handed over or not (the cloths'
+    /// `Health::crowded_contacts`; counted unless `SimSettings::crowded_contact` is off).
+    pub crowded_contacts: u32,
     /// Particles the frame's broad phase gave candidates (`ContactSearch::CandidateLists`,
     /// all colliders together): when a collider has any, its culling passes (where there are
     /// any) say run at once.
@@ -82,7 +88,8 @@ pub struct Solver {
 impl Solver {
     /// Uploads `model`, builds every collider's LBVH on the GPU and records the frame.
     pub fn new(ctx: &Arc<Context>, model: &Model) -> Result<Self> {
-        let (program, controls) = SolverProgram::with_controls(model)?;
+        let is_gpu = ctx.info().device_type != ash::vk::PhysicalDeviceType::CPU;
+        let (program, controls) = SolverProgram::with_controls_on(model, is_gpu)?;
         let mut engine = Engine::new(ctx)?;
         engine.allocate(&program.resources)?;
         for (id, data) in &program.initial {
@@ -155,6 +162,7 @@ impl Solver {
             }
             let health: Health = self.engine.read_mapped(cloth.health)?;
             report.tiles_asleep += health.tiles_asleep;
+            report.crowded_contacts += health.crowded_contacts;
             report.tiles += cloth.tiles.as_ref().map_or(0, |t| t.tiles);
             if let (Some(s), Some(plan)) = (&cloth.self_contact, plans.get(i)) {
                 report.self_rollbacks += health.self_rollbacks;
@@ -177,6 +185,7 @@ impl Solver {
                 report.collision_ran += status.ran;
                 report.collision_skipped += status.skipped;
                 report.collision_fallbacks += status.fallbacks;
+                report.collision_crowded += status.crowded;
                 report.collision_listed += status.listed;
             }
         }

@@ -54,6 +54,25 @@ pub(crate) enum OnOff {
     Off,
 }
 
+/// A choice drape can make for the device, or a forced one.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum AutoOnOff {
+    Auto,
+    On,
+    Off,
+}
+
+impl AutoOnOff {
+    /// `None` for automatic.
+    pub(crate) fn forced(self) -> Option<bool> {
+        match self {
+            AutoOnOff::Auto => None,
+            AutoOnOff::On => Some(true),
+            AutoOnOff::Off => Some(false),
+        }
+    }
+}
+
 #[derive(Copy, Clone, Debug, ValueEnum)]
 pub(crate) enum IntegratorArg {
     Rk4,
@@ -163,6 +182,13 @@ pub(crate) struct Args {
     /// substep).
     #[arg(long, value_enum, default_value = "on")]
     pub(crate) contact_substeps: OnOff,
+    /// Hand each substep's crowded particles (those with 8 or more collider leaves to test, or
+    /// a walk of the tree) to a pass that runs a workgroup per particle, its lanes sharing the
+    /// tests: the same contacts, bit for bit (auto: on a GPU while a frame has many, 64 a
+    /// substep, until it has few, 16; never on a CPU driver such as lavapipe, where a
+    /// workgroup's lanes run one after another).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub(crate) crowded_contact: AutoOnOff,
     /// Print nothing on stdout and draw no progress bar (errors and warnings still go to
     /// stderr; `--json` still writes its report).
     #[arg(long)]

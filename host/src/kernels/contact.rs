@@ -9,11 +9,12 @@ use drape_kernels::contact::{
     CONTACT_THREADS, CULL_THREADS, LeafKind, aabbs_overlap, detect_at, detect_brute_force_at, record_cull, respond_at,
     root_aabb, substep_motion, swept_bounds,
 };
+use drape_kernels::crowded::detect_crowded_alone;
 use drape_kernels::integrate::{ClothForces, GridSprings, SpringList};
 use drape_kernels::update_contact::update_and_contact_particle;
 use drape_types::{
     Aabb, BroadPhasePush, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery,
-    DispatchArgs, ParticleSprings, SimParams, Spring,
+    DispatchArgs, Health, ParticleSprings, SimParams, Spring,
 };
 use glam::Vec4;
 
@@ -88,6 +89,29 @@ pub const DETECT_CANDIDATES_BINDINGS: &[BindingSpec] = &[
     write("v"),
     write("contacts"),
     write("status"),
+    write("crowded"),
+    write("crowded_args"),
+    write("health"),
+];
+
+/// The binding table of every leaf kind's crowded pass (`drape_kernels::crowded`): the
+/// narrow phase's, the crowded particles and their count read.
+pub const DETECT_CROWDED_BINDINGS: &[BindingSpec] = &[
+    read("params"),
+    read("collider"),
+    read("pose"),
+    read("nodes"),
+    read("aabbs"),
+    read("leaves"),
+    read("queries"),
+    read("candidates"),
+    write("x"),
+    read("x_prev"),
+    write("v"),
+    write("contacts"),
+    write("status"),
+    read("crowded"),
+    read("crowded_args"),
 ];
 
 /// The bindings of every leaf kind's update-and-contact pass (the integrator's last stage and
@@ -104,7 +128,10 @@ macro_rules! update_contact_bindings {
             read("queries"),
             read("candidates"),
             write("contacts"),
-            write("status")
+            write("status"),
+            write("crowded"),
+            write("crowded_args"),
+            write("health")
             $(, $extra)*
         )
     };
@@ -199,8 +226,24 @@ where
 {
     let threads = d.invocations();
     let push: ContactPush = d.push_as();
-    let [params, collider, pose, nodes, aabbs, leaves, queries, candidates, x, x_prev, v, contacts, status] =
-        d.bindings()?;
+    let [
+        params,
+        collider,
+        pose,
+        nodes,
+        aabbs,
+        leaves,
+        queries,
+        candidates,
+        x,
+        x_prev,
+        v,
+        contacts,
+        status,
+        crowded,
+        crowded_args,
+        health,
+    ] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = collider.first()?;
     let pose: ColliderPose = pose.first()?;
@@ -208,6 +251,8 @@ where
     let lists = (queries.slice::<ContactQuery>(), candidates.slice::<u32>());
     let (x, x_prev, v) = (x.slice_mut::<Vec4>(), x_prev.slice::<Vec4>(), v.slice_mut::<Vec4>());
     let (contacts, status) = (contacts.slice_mut::<Contact>(), status.first_mut::<CollisionStatus>()?);
+    let (crowded, crowded_args) = (crowded.slice_mut::<u32>(), crowded_args.first_mut::<DispatchArgs>()?);
+    let health = health.first_mut::<Health>()?;
     for i in 0..threads.min(p.particle_count) {
         detect_candidates_particle::<K>(
             i,
@@ -219,8 +264,49 @@ where
             lists,
             (&mut *x, x_prev, &mut *v),
             contacts,
-            status,
+            (&mut *status, &mut *health, (&mut *crowded, &mut *crowded_args)),
         );
+    }
+    Ok(())
+}
+
+/// CPU adapter of leaf kind `K`'s crowded pass (`DETECT_CROWDED_BINDINGS`): each handed-over
+/// particle answered as its lane would have (`crowded::detect_crowded_alone`), which the
+/// workgroup's answer equals.
+pub fn detect_crowded_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String>
+where
+    K::Leaf: bytemuck::Pod,
+{
+    let push: ContactPush = d.push_as();
+    let [
+        params,
+        collider,
+        pose,
+        nodes,
+        aabbs,
+        leaves,
+        queries,
+        candidates,
+        x,
+        x_prev,
+        v,
+        contacts,
+        status,
+        crowded,
+        crowded_args,
+    ] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let c: ColliderParams = collider.first()?;
+    let pose: ColliderPose = pose.first()?;
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<K::Leaf>());
+    let lists = (queries.slice::<ContactQuery>(), candidates.slice::<u32>());
+    let (x, x_prev, v) = (x.slice_mut::<Vec4>(), x_prev.slice::<Vec4>(), v.slice_mut::<Vec4>());
+    let (contacts, status) = (contacts.slice_mut::<Contact>(), status.first_mut::<CollisionStatus>()?);
+    let count = crowded_args.first::<DispatchArgs>()?._pad as usize;
+    let crowded = crowded.slice::<u32>().get(..count).ok_or("crowded pass: more particles than the queue holds")?;
+    for &i in crowded {
+        let state = (&mut *x, x_prev, &mut *v);
+        detect_crowded_alone::<K>(i, &push, &p, (&c, &pose), tree, lists, state, contacts, status);
     }
     Ok(())
 }
@@ -252,10 +338,11 @@ where
 }
 
 /// The bindings both update-and-contact passes start with.
-const UPDATE_CONTACT_COMMON: usize = 19;
+const UPDATE_CONTACT_COMMON: usize = 22;
 
 /// `update_and_contact_particle` for every particle in turn (each one's work reads only its own
-/// new position, so the order cannot matter), over the passes' first 19 bindings.
+/// new position, so the order cannot matter; crowded particles are handed over in index order),
+/// over the passes' first 22 bindings.
 fn update_contact_each<K: LeafKind, F: ClothForces>(
     threads: u32,
     push: &ContactPush,
@@ -285,6 +372,9 @@ where
         candidates,
         contacts,
         status,
+        crowded,
+        crowded_args,
+        health,
     ] = buffers;
     let p: SimParams = params.first()?;
     let c: ColliderParams = collider.first()?;
@@ -296,6 +386,8 @@ where
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<K::Leaf>());
     let lists = (queries.slice::<ContactQuery>(), candidates.slice::<u32>());
     let (contacts, status) = (contacts.slice_mut::<Contact>(), status.first_mut::<CollisionStatus>()?);
+    let (crowded, crowded_args) = (crowded.slice_mut::<u32>(), crowded_args.first_mut::<DispatchArgs>()?);
+    let health = health.first_mut::<Health>()?;
     for i in 0..threads.min(p.particle_count) {
         update_and_contact_particle::<K, F>(
             i,
@@ -308,7 +400,7 @@ where
             tree,
             lists,
             &mut *contacts,
-            &mut *status,
+            (&mut *status, &mut *health, (&mut *crowded, &mut *crowded_args)),
         );
     }
     Ok(())

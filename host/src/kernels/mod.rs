@@ -19,7 +19,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 53] = [
+pub const ALL: [&Kernel; 55] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &normals::NORMALS_AND_HEALTH,
@@ -59,6 +59,7 @@ pub const ALL: [&Kernel; 53] = [
     &spheres::DETECT_SPHERES_BRUTE_FORCE,
     &spheres::BROAD_PHASE_SPHERES,
     &spheres::DETECT_SPHERES_CANDIDATES,
+    &spheres::DETECT_SPHERES_CROWDED,
     &spheres::UPDATE_CONTACT_SPHERES,
     &spheres::UPDATE_CONTACT_SPHERES_SPRINGS,
     &triangles::TRIANGLE_BOUNDS,
@@ -67,6 +68,7 @@ pub const ALL: [&Kernel; 53] = [
     &triangles::DETECT_TRIANGLES_BRUTE_FORCE,
     &triangles::BROAD_PHASE_TRIANGLES,
     &triangles::DETECT_TRIANGLES_CANDIDATES,
+    &triangles::DETECT_TRIANGLES_CROWDED,
     &triangles::UPDATE_CONTACT_TRIANGLES,
     &triangles::UPDATE_CONTACT_TRIANGLES_SPRINGS,
     &contact::CULL_CONTACT,

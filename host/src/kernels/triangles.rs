@@ -2,13 +2,15 @@
 //! the triangles' corners gathered into the tree's order, and contact detection over them.
 
 use super::contact::{
-    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, DETECT_CANDIDATES_BINDINGS, UPDATE_CONTACT_BINDINGS,
-    UPDATE_CONTACT_SPRINGS_BINDINGS, broad_phase_cpu, broad_phase_spec, contact_spec, detect_brute_force_cpu,
-    detect_candidates_cpu, detect_cpu, update_contact_cpu, update_contact_springs_cpu,
+    DETECT_BINDINGS, DETECT_BRUTE_FORCE_BINDINGS, DETECT_CANDIDATES_BINDINGS, DETECT_CROWDED_BINDINGS,
+    UPDATE_CONTACT_BINDINGS, UPDATE_CONTACT_SPRINGS_BINDINGS, broad_phase_cpu, broad_phase_spec, contact_spec,
+    detect_brute_force_cpu, detect_candidates_cpu, detect_cpu, detect_crowded_cpu, update_contact_cpu,
+    update_contact_springs_cpu,
 };
 use super::lbvh::THREADS;
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::contact::CONTACT_THREADS;
+use drape_kernels::crowded::CROWDED_THREADS;
 use drape_kernels::triangles::{Triangles, swept_aabb, triangle_at};
 use drape_types::{Aabb, ColliderParams, Triangle};
 use glam::Vec4;
@@ -47,6 +49,11 @@ pub static BROAD_PHASE_TRIANGLES: Kernel =
 pub static DETECT_TRIANGLES_CANDIDATES: Kernel = Kernel {
     spec: contact_spec("triangles::detect_candidates", DETECT_CANDIDATES_BINDINGS, CONTACT_THREADS),
     cpu: detect_candidates_cpu::<Triangles>,
+};
+/// The crowded particles the narrow phase over triangles hands over, a workgroup each.
+pub static DETECT_TRIANGLES_CROWDED: Kernel = Kernel {
+    spec: contact_spec("triangles::detect_crowded", DETECT_CROWDED_BINDINGS, CROWDED_THREADS),
+    cpu: detect_crowded_cpu::<Triangles>,
 };
 /// The integrator's last stage and the narrow phase over triangles in one pass (grid cloth).
 pub static UPDATE_CONTACT_TRIANGLES: Kernel = Kernel {

@@ -2,7 +2,7 @@
 //! vertex normals and the blow-up check.
 
 use super::contact::{
-    CONTACT_LABEL, ColliderBuffers, ContactBuffers, EULER_UPDATE_CONTACT_LABEL, RK4_UPDATE_CONTACT_LABEL,
+    CONTACT_LABEL, ColliderBuffers, ContactBuffers, Crowded, EULER_UPDATE_CONTACT_LABEL, RK4_UPDATE_CONTACT_LABEL,
 };
 use super::self_contact::{SelfContactBuffers, SelfContactCloth, pass_due, window_ends};
 use super::tiles::TileBuffers;
@@ -196,6 +196,11 @@ pub struct FramePlan {
     pub self_rebuild: bool,
     /// Self-collision ends the frame with its fail-safe (`self_failsafe`).
     pub self_failsafe: bool,
+    /// What the narrow phase over candidate lists does with its crowded particles (many leaves
+    /// to test, or a walk of the tree): hands them to a pass that runs a workgroup per particle
+    /// (`drape_kernels::crowded`; `SimSettings::crowded_contact`), or counts them, or nothing.
+    /// The same contacts.
+    pub crowded: Crowded,
 }
 
 /// The timing table's line of the frame's last pass with vertex normals on.
@@ -242,6 +247,11 @@ pub fn frame_steps(
     let fused = colliders.first().filter(|(_, contact)| contact.fuses_with_update());
     let separate = &colliders[usize::from(fused.is_some())..];
     for substep in 0..plan.substeps {
+        // The crowded pass's queue emptied before the stages (its write waits on the last
+        // substep's crowded pass with the stages' own barrier).
+        if let Some((_, contact)) = fused {
+            steps.extend(contact.crowded_reset_step(plan.crowded));
+        }
         // Stage s reads the previous stage's output: A and B swap roles each stage.
         let (last, (input, output), fused_label) = if plan.integrator == integrator::SEMI_IMPLICIT_EULER {
             steps.push(cloth.stage("euler: evaluate", 0, b, a));
@@ -252,13 +262,17 @@ pub fn frame_steps(
             steps.push(cloth.stage("rk4: k3", 2, b, a));
             ("rk4: k4 + update", (a, b), RK4_UPDATE_CONTACT_LABEL)
         };
+        let at = (substep, plan.substeps, plan.crowded);
         let update_contact = fused.and_then(|(collider, contact)| {
             let stage = cloth.stage_bindings(input, output);
-            contact.update_contact_step(fused_label, cloth, stage, collider, (substep, plan.substeps))
+            contact.update_contact_step(fused_label, cloth, stage, collider, at)
         });
         steps.push(update_contact.unwrap_or_else(|| cloth.stage(last, 3, input, output)));
+        if let Some((collider, contact)) = fused {
+            steps.extend(contact.crowded_step(cloth, collider, at));
+        }
         for (collider, contact) in separate {
-            contact.substep_steps(cloth, collider, (substep, plan.substeps), &mut steps);
+            contact.substep_steps(cloth, collider, at, &mut steps);
         }
         if let Some(s) = &cloth.self_contact
             && pass_due(substep, plan.substeps, plan.self_passes)

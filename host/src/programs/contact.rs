@@ -12,6 +12,7 @@ use super::spheres::SphereBvh;
 use super::triangles::TriangleBvh;
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
 use crate::kernels::contact::{CULL_CONTACT, RESPOND_CONTACTS};
+use drape_kernels::crowded::CROWDED_LIST;
 use drape_types::{
     BroadPhasePush, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery, DispatchArgs, MAX_CANDIDATES,
 };
@@ -45,6 +46,8 @@ pub enum ContactMode {
 pub const BROAD_PHASE_LABEL: &str = "contact: broad phase";
 /// Label of the narrow-phase detect pass over candidate lists.
 pub const DETECT_CANDIDATES_LABEL: &str = "contact: detect+respond (lists)";
+/// Label of the crowded pass (a workgroup per crowded particle, `drape_kernels::crowded`).
+pub const CROWDED_LABEL: &str = "contact: crowded particles (a workgroup each)";
 /// Label of RK4's last stage fused with the narrow phase over candidate lists.
 pub const RK4_UPDATE_CONTACT_LABEL: &str = "rk4: k4 + update + contact (lists)";
 /// Label of semi-implicit Euler's commit fused with the narrow phase over candidate lists.
@@ -64,6 +67,9 @@ pub trait ContactLeaves {
     fn broad_phase_kernel(&self) -> &'static Kernel;
     /// Detect over candidate lists (`kernels::contact::DETECT_CANDIDATES_BINDINGS`).
     fn detect_candidates_kernel(&self) -> &'static Kernel;
+    /// The crowded particles the narrow phase hands over, a workgroup each
+    /// (`kernels::contact::DETECT_CROWDED_BINDINGS`).
+    fn detect_crowded_kernel(&self) -> &'static Kernel;
     /// The integrator's last stage and detect over candidate lists in one pass
     /// (`kernels::contact::UPDATE_CONTACT_BINDINGS`, `..._SPRINGS_BINDINGS` for a spring-list
     /// cloth).
@@ -104,7 +110,28 @@ impl ColliderLeaves {
 /// The push constants of work spanning substeps `first..end` of a frame of `substeps`: the
 /// fractions of the frame where it starts and ends (what the colliders' poses interpolate at).
 pub fn substep_span(first: u32, end: u32, substeps: u32) -> ContactPush {
-    ContactPush { from: first as f32 / substeps as f32, to: end as f32 / substeps as f32, _pad: [0; 2] }
+    ContactPush { from: first as f32 / substeps as f32, to: end as f32 / substeps as f32, crowded: 0, hand_over: 0 }
+}
+
+/// What a frame's narrow phase over candidate lists does with its crowded particles (those
+/// that walk the tree, and lists of `CROWDED_LIST` leaves or more; `drape_kernels::crowded`).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Crowded {
+    /// Nothing: each lane answers its own, uncounted.
+    Ignored,
+    /// Each lane answers its own; they are counted in the cloth's health
+    /// (`Health::crowded_contacts`), for the host to choose.
+    Counted,
+    /// Counted, and handed to the crowded pass, a workgroup each.
+    HandedOver,
+}
+
+/// The push constants of substep `substep` of `substeps`'s narrow phase over candidate lists
+/// and its crowded pass (`crowded`: what it does with its crowded particles).
+pub fn narrow_phase_push(substep: u32, substeps: u32, crowded: Crowded) -> ContactPush {
+    let longest = if crowded == Crowded::Ignored { 0 } else { CROWDED_LIST };
+    let hand_over = u32::from(crowded == Crowded::HandedOver);
+    ContactPush { crowded: longest, hand_over, ..substep_span(substep, substep + 1, substeps) }
 }
 
 /// One collider's buffers: its LBVH (built in the collider's own frame) and its pose at the
@@ -135,6 +162,10 @@ pub struct CandidateLists {
     pub queries: Handle<ContactQuery>,
     /// `MAX_CANDIDATES` leaf indices per particle.
     pub candidates: Handle<u32>,
+    /// The particles a substep's narrow phase hands to the crowded pass (`FramePlan::crowded`,
+    /// `drape_kernels::crowded`), and that pass's indirect dispatch.
+    pub crowded: Handle<u32>,
+    pub crowded_args: Handle<DispatchArgs>,
 }
 
 /// A contact's search (`ContactMode`) with the buffers it needs.
@@ -160,6 +191,8 @@ impl ContactBuffers {
             ContactMode::Lists => Search::Lists(CandidateLists {
                 queries: resources.device(format!("{name}: query boxes"), particles),
                 candidates: resources.device(format!("{name}: candidate lists"), particles * MAX_CANDIDATES),
+                crowded: resources.device(format!("{name}: crowded particles"), particles),
+                crowded_args: resources.device(format!("{name}: crowded dispatch"), 1),
             }),
             ContactMode::Bvh => Search::Bvh,
             ContactMode::BruteForce => Search::BruteForce,
@@ -223,7 +256,7 @@ impl ContactBuffers {
         cloth: &ClothBuffers,
         stage: Vec<BufferId>,
         collider: &ColliderBuffers,
-        (substep, substeps): (u32, u32),
+        (substep, substeps, crowded): (u32, u32, Crowded),
     ) -> Option<Step> {
         let Search::Lists(lists) = &self.search else { return None };
         let (leaves, tree) = (collider.leaves.kind(), collider.tree());
@@ -238,10 +271,13 @@ impl ContactBuffers {
             lists.candidates.id(),
             self.contacts.id(),
             self.status.id(),
+            lists.crowded.id(),
+            lists.crowded_args.id(),
+            cloth.health.id(),
         ]);
         // A spring-list cloth's two bindings come last (`UPDATE_CONTACT_SPRINGS_BINDINGS`).
         bindings.extend(springs.into_iter().flatten());
-        let push: [u32; 4] = bytemuck::cast(substep_span(substep, substep + 1, substeps));
+        let push: [u32; 4] = bytemuck::cast(narrow_phase_push(substep, substeps, crowded));
         Some(Step::run_with(
             label,
             leaves.update_contact_kernel(springs.is_some()),
@@ -251,22 +287,74 @@ impl ContactBuffers {
         ))
     }
 
-    /// The contact passes of substep `substep` of `substeps` of `cloth` against `collider`.
+    /// With crowded particles handed over (`Crowded::HandedOver`; candidate lists only): the
+    /// write that empties the crowded pass's dispatch, before a substep's narrow phase.
+    pub fn crowded_reset_step(&self, crowded: Crowded) -> Option<Step> {
+        match &self.search {
+            Search::Lists(lists) if crowded == Crowded::HandedOver => Some(super::empty_dispatch(lists.crowded_args)),
+            _ => None,
+        }
+    }
+
+    /// With crowded particles handed over (`Crowded::HandedOver`; candidate lists only): the
+    /// crowded pass of substep `substep` of `substeps` of `cloth` against `collider`, after its
+    /// narrow phase (a workgroup per particle handed over, `drape_kernels::crowded`).
+    pub fn crowded_step(
+        &self,
+        cloth: &ClothBuffers,
+        collider: &ColliderBuffers,
+        (substep, substeps, crowded): (u32, u32, Crowded),
+    ) -> Option<Step> {
+        let Search::Lists(lists) = &self.search else { return None };
+        if crowded != Crowded::HandedOver {
+            return None;
+        }
+        let (leaves, tree) = (collider.leaves.kind(), collider.tree());
+        let push: [u32; 4] = bytemuck::cast(narrow_phase_push(substep, substeps, crowded));
+        Some(Step::run_with(
+            CROWDED_LABEL,
+            leaves.detect_crowded_kernel(),
+            vec![
+                cloth.params.id(),
+                tree.collider.id(),
+                collider.pose.id(),
+                tree.nodes.id(),
+                tree.aabbs.id(),
+                leaves.sorted_leaves(),
+                lists.queries.id(),
+                lists.candidates.id(),
+                cloth.x.id(),
+                cloth.x_prev.id(),
+                cloth.v.id(),
+                self.contacts.id(),
+                self.status.id(),
+                lists.crowded.id(),
+                lists.crowded_args.id(),
+            ],
+            push,
+            Dispatch::Indirect(lists.crowded_args),
+        ))
+    }
+
+    /// The contact passes of substep `substep` of `substeps` of `cloth` against `collider`
+    /// (`crowded`: what the narrow phase over lists does with its crowded particles).
     pub fn substep_steps(
         &self,
         cloth: &ClothBuffers,
         collider: &ColliderBuffers,
-        (substep, substeps): (u32, u32),
+        (substep, substeps, crowded): (u32, u32, Crowded),
         out: &mut Vec<Step>,
     ) {
-        let (leaves, pose) = (collider.leaves.kind(), collider.pose);
+        let (leaves, pose, buffers) = (collider.leaves.kind(), collider.pose, collider);
         let tree = leaves.tree();
         let span = substep_span(substep, substep + 1, substeps);
         let push: [u32; 4] = bytemuck::cast(span);
         let (params, collider) = (cloth.params.id(), tree.collider.id());
         let dispatch = match &self.search {
             Search::Lists(lists) => {
+                out.extend(self.crowded_reset_step(crowded));
                 out.push(self.cull_step(cloth, tree, pose, push));
+                let narrow: [u32; 4] = bytemuck::cast(narrow_phase_push(substep, substeps, crowded));
                 out.push(Step::run_with(
                     DETECT_CANDIDATES_LABEL,
                     leaves.detect_candidates_kernel(),
@@ -284,10 +372,14 @@ impl ContactBuffers {
                         cloth.v.id(),
                         self.contacts.id(),
                         self.status.id(),
+                        lists.crowded.id(),
+                        lists.crowded_args.id(),
+                        cloth.health.id(),
                     ],
-                    push,
+                    narrow,
                     Dispatch::Indirect(self.args),
                 ));
+                out.extend(self.crowded_step(cloth, buffers, (substep, substeps, crowded)));
                 // The pass responds too: no respond pass (one dispatch and barrier fewer).
                 return;
             }

@@ -6,8 +6,8 @@ use super::contact::ContactLeaves;
 use super::lbvh::LbvhBuffers;
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
 use crate::kernels::spheres::{
-    BROAD_PHASE_SPHERES, DETECT_SPHERES, DETECT_SPHERES_BRUTE_FORCE, DETECT_SPHERES_CANDIDATES, GATHER_SPHERES,
-    SPHERE_BOUNDS, UPDATE_CONTACT_SPHERES, UPDATE_CONTACT_SPHERES_SPRINGS,
+    BROAD_PHASE_SPHERES, DETECT_SPHERES, DETECT_SPHERES_BRUTE_FORCE, DETECT_SPHERES_CANDIDATES, DETECT_SPHERES_CROWDED,
+    GATHER_SPHERES, SPHERE_BOUNDS, UPDATE_CONTACT_SPHERES, UPDATE_CONTACT_SPHERES_SPRINGS,
 };
 use glam::Vec4;
 
@@ -81,6 +81,9 @@ impl ContactLeaves for SphereBvh {
     }
     fn detect_candidates_kernel(&self) -> &'static Kernel {
         &DETECT_SPHERES_CANDIDATES
+    }
+    fn detect_crowded_kernel(&self) -> &'static Kernel {
+        &DETECT_SPHERES_CROWDED
     }
     fn update_contact_kernel(&self, springs: bool) -> &'static Kernel {
         if springs { &UPDATE_CONTACT_SPHERES_SPRINGS } else { &UPDATE_CONTACT_SPHERES }

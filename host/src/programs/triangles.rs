@@ -8,7 +8,8 @@ use super::lbvh::LbvhBuffers;
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
 use crate::kernels::triangles::{
     BROAD_PHASE_TRIANGLES, DETECT_TRIANGLES, DETECT_TRIANGLES_BRUTE_FORCE, DETECT_TRIANGLES_CANDIDATES,
-    GATHER_TRIANGLES, TRIANGLE_BOUNDS, UPDATE_CONTACT_TRIANGLES, UPDATE_CONTACT_TRIANGLES_SPRINGS,
+    DETECT_TRIANGLES_CROWDED, GATHER_TRIANGLES, TRIANGLE_BOUNDS, UPDATE_CONTACT_TRIANGLES,
+    UPDATE_CONTACT_TRIANGLES_SPRINGS,
 };
 use drape_types::Triangle;
 use glam::Vec4;
@@ -97,6 +98,9 @@ impl ContactLeaves for TriangleBvh {
     }
     fn detect_candidates_kernel(&self) -> &'static Kernel {
         &DETECT_TRIANGLES_CANDIDATES
+    }
+    fn detect_crowded_kernel(&self) -> &'static Kernel {
+        &DETECT_TRIANGLES_CROWDED
     }
     fn update_contact_kernel(&self, springs: bool) -> &'static Kernel {
         if springs { &UPDATE_CONTACT_TRIANGLES_SPRINGS } else { &UPDATE_CONTACT_TRIANGLES }

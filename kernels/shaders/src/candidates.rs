@@ -16,13 +16,14 @@ use crate::contact::{
     Candidate, LeafKind, Left, NO_CANDIDATE, blocks_relative, consider, detect_at, hit_relative, initial_clearance,
     local_motion, lower_clearance, path_blocked, point_in_aabb, respond_at, substep_motion, target_of,
 };
+use crate::crowded::CrowdedQueue;
 use crate::lbvh::{TreeQuery, walk};
 use crate::pose::{SubstepMotion, to_local};
 use crate::tiles::sleeping;
 use drape_types::glam::{Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BroadPhasePush, BvhNode, CANDIDATES_OVERFLOWED, ColliderParams, ColliderPose, CollisionStatus, Contact,
-    ContactPush, ContactQuery, MAX_CANDIDATES, SimParams,
+    ContactPush, ContactQuery, Health, MAX_CANDIDATES, SimParams,
 };
 
 /// What the broad phase walks: the LBVH's nodes and boxes, the leaves' boxes and the leaves,
@@ -155,6 +156,22 @@ pub fn frame_motion(params: &SimParams, pose: &ColliderPose, push: &BroadPhasePu
     SubstepMotion::of(pose, 0.0, 1.0, params.substep * push.substeps as f32)
 }
 
+/// Whether a particle's narrow phase walks the whole LBVH instead of its list (`query`): its
+/// motion `p0 -> p1` left the query box, or the list overflowed.
+#[inline]
+pub fn walks_tree(query: &ContactQuery, (p0, p1): (Vec3, Vec3)) -> bool {
+    let region = Aabb { min: query.low, max: query.high };
+    query.count == CANDIDATES_OVERFLOWED || !point_in_aabb(p0, &region, 0.0) || !point_in_aabb(p1, &region, 0.0)
+}
+
+/// Whether a particle's narrow phase is crowded for `ContactPush::crowded` = `longest` (> 0):
+/// it walks the tree (`walks`), or its list holds at least `longest` leaves. Its lane would
+/// test them one after another.
+#[inline]
+pub fn is_crowded(query: &ContactQuery, walks: bool, longest: u32) -> bool {
+    walks || query.count >= longest
+}
+
 /// Whether the path `a -> b` crosses any leaf of a candidate list.
 #[inline]
 fn list_blocks<K: LeafKind>(
@@ -183,6 +200,11 @@ pub struct NarrowOutcome {
     /// box (the list holds every leaf a motion inside the box can touch), so it has no contact
     /// and its record was left as it was.
     pub nothing: bool,
+    /// It is crowded (`is_crowded`, under the threshold asked for).
+    pub crowded: bool,
+    /// It is crowded and was asked to hand such a case over: nothing was detected or
+    /// written; the crowded pass answers it.
+    pub handed_over: bool,
 }
 
 /// Narrow-phase detect for one particle: writes `contacts[index]`, from its candidate list when
@@ -190,7 +212,9 @@ pub struct NarrowOutcome {
 /// list and the motion inside the box, writes nothing (`NarrowOutcome::nothing`: no contact).
 /// That is most of a cloth before it reaches the collider, where writing the record and
 /// applying it cost as much as the test; a record is read only by its own particle's response,
-/// so the one left there is never used.
+/// so the one left there is never used. `crowded` is (`ContactPush::crowded`,
+/// `ContactPush::hand_over`): with a threshold > 0 a crowded particle (`is_crowded`) is reported
+/// (`NarrowOutcome::crowded`), and with `hand_over` only reported (`NarrowOutcome::handed_over`).
 #[allow(clippy::too_many_arguments)]
 pub fn detect_candidates_at<K: LeafKind>(
     index: u32,
@@ -198,9 +222,9 @@ pub fn detect_candidates_at<K: LeafKind>(
     motion: &SubstepMotion,
     (nodes, aabbs, leaves): (&[BvhNode], &[Aabb], &[K::Leaf]),
     (queries, candidates): (&[ContactQuery], &[u32]),
-    x: &[Vec4],
-    x_prev: &[Vec4],
+    (x, x_prev): (&[Vec4], &[Vec4]),
     contacts: &mut [Contact],
+    (longest, hand_over): (u32, bool),
 ) -> NarrowOutcome {
     let i = index as usize;
     if x[i].w == 0.0 {
@@ -210,9 +234,14 @@ pub fn detect_candidates_at<K: LeafKind>(
     let (p0, p1) = local_motion(index, motion, x, x_prev);
     let query = queries[i];
     let region = Aabb { min: query.low, max: query.high };
-    if query.count == CANDIDATES_OVERFLOWED || !point_in_aabb(p0, &region, 0.0) || !point_in_aabb(p1, &region, 0.0) {
+    let walks = walks_tree(&query, (p0, p1));
+    let crowded = longest != 0 && is_crowded(&query, walks, longest);
+    if crowded && hand_over {
+        return NarrowOutcome { crowded, handed_over: true, ..NarrowOutcome::default() };
+    }
+    if walks {
         detect_at::<K>(index, collider, motion, nodes, aabbs, leaves, x, x_prev, contacts);
-        return NarrowOutcome { fell_back: true, nothing: false };
+        return NarrowOutcome { fell_back: true, crowded, ..NarrowOutcome::default() };
     }
     if query.count == 0 {
         return NarrowOutcome { nothing: true, ..NarrowOutcome::default() };
@@ -244,7 +273,7 @@ pub fn detect_candidates_at<K: LeafKind>(
             path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position, left)
         };
     contacts[i] = target.contact(blocked);
-    NarrowOutcome::default()
+    NarrowOutcome { crowded, ..NarrowOutcome::default() }
 }
 
 /// The body of every leaf kind's narrow-phase entry point: detects particle `index`'s contact
@@ -263,7 +292,7 @@ pub fn detect_candidates_particle<K: LeafKind>(
     lists: (&[ContactQuery], &[u32]),
     (x, x_prev, v): (&mut [Vec4], &[Vec4], &mut [Vec4]),
     contacts: &mut [Contact],
-    status: &mut CollisionStatus,
+    (status, health, crowded): (&mut CollisionStatus, &mut Health, CrowdedQueue<'_>),
 ) {
     if index >= params.particle_count {
         return;
@@ -274,7 +303,15 @@ pub fn detect_candidates_particle<K: LeafKind>(
         return;
     }
     let motion = substep_motion(params, pose, push);
-    let outcome = detect_candidates_at::<K>(index, collider, &motion, tree, lists, x, x_prev, contacts);
+    let asked = (push.crowded, push.hand_over != 0);
+    let outcome = detect_candidates_at::<K>(index, collider, &motion, tree, lists, (x, x_prev), contacts, asked);
+    if outcome.crowded {
+        crate::atomics::add(&mut health.crowded_contacts, 1);
+    }
+    if outcome.handed_over {
+        crate::crowded::hand_over(index, crowded, status);
+        return;
+    }
     if outcome.nothing {
         return;
     }

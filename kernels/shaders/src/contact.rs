@@ -169,12 +169,12 @@ pub fn traverse_with_clearance<K: LeafKind>(
 
 /// The earliest hit of a motion among the leaves a walk reaches, and (for kinds that check
 /// paths) the least clearance of those leaves (found: the best candidate and the clearance).
-struct HitQuery<'a, K: LeafKind> {
-    leaves: &'a [K::Leaf],
-    p0: Vec3,
-    p1: Vec3,
-    thickness: f32,
-    left: Left,
+pub(crate) struct HitQuery<'a, K: LeafKind> {
+    pub(crate) leaves: &'a [K::Leaf],
+    pub(crate) p0: Vec3,
+    pub(crate) p1: Vec3,
+    pub(crate) thickness: f32,
+    pub(crate) left: Left,
 }
 
 impl<K: LeafKind> TreeQuery for HitQuery<'_, K> {
@@ -234,12 +234,12 @@ pub fn path_blocked<K: LeafKind>(
 
 /// Whether a path crosses any leaf a walk reaches (found: blocked; the walk stops at the
 /// first).
-struct PathQuery<'a, K: LeafKind> {
-    leaves: &'a [K::Leaf],
-    a: Vec3,
-    b: Vec3,
-    thickness: f32,
-    left: Left,
+pub(crate) struct PathQuery<'a, K: LeafKind> {
+    pub(crate) leaves: &'a [K::Leaf],
+    pub(crate) a: Vec3,
+    pub(crate) b: Vec3,
+    pub(crate) thickness: f32,
+    pub(crate) left: Left,
 }
 
 impl<K: LeafKind> TreeQuery for PathQuery<'_, K> {
@@ -627,10 +627,11 @@ pub fn record_cull(run: bool, params: &SimParams, args: &mut DispatchArgs, statu
 /// kind's own module so they are named after it (`spheres::detect`, `triangles::detect`, ...):
 /// `detect` (through the LBVH), `detect_brute_force` (every leaf), `broad_phase` (once per
 /// frame: query boxes and candidate lists), `detect_candidates` (every substep, over the
-/// lists) and `update_contact` / `update_contact_springs` (the integrator's last stage and
-/// `detect_candidates` in one pass, `crate::update_contact`). Their binding tables are
+/// lists), `update_contact` / `update_contact_springs` (the integrator's last stage and
+/// `detect_candidates` in one pass, `crate::update_contact`) and `detect_crowded` (the crowded
+/// particles those hand over, `crate::crowded`). Their binding tables are
 /// `kernels::contact::{DETECT, DETECT_BRUTE_FORCE, BROAD_PHASE, DETECT_CANDIDATES,
-/// UPDATE_CONTACT, UPDATE_CONTACT_SPRINGS}_BINDINGS` on the host.
+/// UPDATE_CONTACT, UPDATE_CONTACT_SPRINGS, DETECT_CROWDED}_BINDINGS` on the host.
 macro_rules! contact_entry_points {
     ($kind:ty, $leaf:ty) => {
         /// Detect through the LBVH (tree order): one contact per particle.
@@ -739,6 +740,9 @@ macro_rules! contact_entry_points {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] v: &mut [::drape_types::glam::Vec4],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] contacts: &mut [::drape_types::Contact],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] status: &mut ::drape_types::CollisionStatus,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] crowded: &mut [u32],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] crowded_args: &mut ::drape_types::DispatchArgs,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] health: &mut ::drape_types::Health,
         ) {
             $crate::candidates::detect_candidates_particle::<$kind>(
                 id.x,
@@ -750,8 +754,58 @@ macro_rules! contact_entry_points {
                 (queries, candidates),
                 (x, x_prev, v),
                 contacts,
-                status,
+                (status, health, (crowded, crowded_args)),
             );
+        }
+
+        /// The crowded particles the narrow phase handed over (`crate::crowded`), a workgroup
+        /// each (indirect: as many as there are, at most `MAX_CROWDED_GROUPS`).
+        #[allow(clippy::too_many_arguments)]
+        #[spirv(compute(threads(64)))]
+        pub fn detect_crowded(
+            #[spirv(workgroup_id)] group: ::drape_types::glam::UVec3,
+            #[spirv(local_invocation_id)] lid: ::drape_types::glam::UVec3,
+            #[spirv(push_constant)] push: &::drape_types::ContactPush,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &::drape_types::SimParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] collider: &::drape_types::ColliderParams,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &::drape_types::ColliderPose,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[::drape_types::BvhNode],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[::drape_types::Aabb],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[$leaf],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] queries: &[::drape_types::ContactQuery],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] candidates: &[u32],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] x: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] x_prev: &[::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] v: &mut [::drape_types::glam::Vec4],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] contacts: &mut [::drape_types::Contact],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] status: &mut ::drape_types::CollisionStatus,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] crowded: &[u32],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] crowded_args: &::drape_types::DispatchArgs,
+            #[spirv(workgroup)] frontier: &mut [u32; 2 * $crate::crowded::FRONTIER],
+            #[spirv(workgroup)] reached: &mut [u32; 2 * $crate::crowded::FRONTIER],
+            #[spirv(workgroup)] counters: &mut [u32; $crate::crowded::COUNTERS],
+            #[spirv(workgroup)] finds: &mut [::drape_types::glam::UVec4; $crate::crowded::CROWDED_THREADS as usize],
+            #[spirv(workgroup)] target: &mut [::drape_types::glam::Vec4; 2],
+        ) {
+            let mut shared = $crate::crowded::Shared { frontier, reached, counters, finds, target };
+            // The same in every lane, so every lane reaches each barrier.
+            let mut entry = group.x;
+            while entry < crowded_args._pad {
+                $crate::crowded::detect_crowded_particle::<$kind>(
+                    crowded[entry as usize],
+                    (lid.x, $crate::crowded::CROWDED_THREADS),
+                    push,
+                    params,
+                    (collider, pose),
+                    (nodes, aabbs, leaves),
+                    (queries, candidates),
+                    (x, x_prev, v),
+                    contacts,
+                    status,
+                    &mut shared,
+                );
+                entry += $crate::crowded::MAX_CROWDED_GROUPS;
+            }
         }
 
         /// The integrator's last stage and the narrow phase in one pass, for a grid cloth
@@ -780,6 +834,9 @@ macro_rules! contact_entry_points {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] candidates: &[u32],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 17)] contacts: &mut [::drape_types::Contact],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 18)] status: &mut ::drape_types::CollisionStatus,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 19)] crowded: &mut [u32],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 20)] crowded_args: &mut ::drape_types::DispatchArgs,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 21)] health: &mut ::drape_types::Health,
         ) {
             $crate::update_contact::update_and_contact_particle::<$kind, _>(
                 id.x,
@@ -792,7 +849,7 @@ macro_rules! contact_entry_points {
                 (nodes, aabbs, leaves),
                 (queries, candidates),
                 contacts,
-                status,
+                (status, health, (crowded, crowded_args)),
             );
         }
 
@@ -822,8 +879,11 @@ macro_rules! contact_entry_points {
             #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] candidates: &[u32],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 17)] contacts: &mut [::drape_types::Contact],
             #[spirv(storage_buffer, descriptor_set = 0, binding = 18)] status: &mut ::drape_types::CollisionStatus,
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 19)] particles: &[::drape_types::ParticleSprings],
-            #[spirv(storage_buffer, descriptor_set = 0, binding = 20)] springs: &[::drape_types::Spring],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 19)] crowded: &mut [u32],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 20)] crowded_args: &mut ::drape_types::DispatchArgs,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 21)] health: &mut ::drape_types::Health,
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 22)] particles: &[::drape_types::ParticleSprings],
+            #[spirv(storage_buffer, descriptor_set = 0, binding = 23)] springs: &[::drape_types::Spring],
         ) {
             $crate::update_contact::update_and_contact_particle::<$kind, _>(
                 id.x,
@@ -836,7 +896,7 @@ macro_rules! contact_entry_points {
                 (nodes, aabbs, leaves),
                 (queries, candidates),
                 contacts,
-                status,
+                (status, health, (crowded, crowded_args)),
             );
         }
     };

@@ -12,6 +12,7 @@ pub mod atomics;
 pub mod candidates;
 pub mod cloth;
 pub mod contact;
+pub mod crowded;
 pub mod health;
 pub mod integrate;
 pub mod lbvh;

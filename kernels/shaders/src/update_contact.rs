@@ -16,10 +16,11 @@
 
 use crate::candidates::detect_candidates_particle;
 use crate::contact::LeafKind;
+use crate::crowded::CrowdedQueue;
 use crate::integrate::{ClothForces, StageBuffers, integrate_stage_at};
 use drape_types::glam::Vec4;
 use drape_types::{
-    Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery, SimParams,
+    Aabb, BvhNode, ColliderParams, ColliderPose, CollisionStatus, Contact, ContactPush, ContactQuery, Health, SimParams,
 };
 
 /// The integration stage this pass runs: the last, which writes the new state.
@@ -46,7 +47,7 @@ pub fn update_and_contact_particle<K: LeafKind, F: ClothForces>(
     tree: (&[BvhNode], &[Aabb], &[K::Leaf]),
     lists: (&[ContactQuery], &[u32]),
     contacts: &mut [Contact],
-    status: &mut CollisionStatus,
+    (status, health, crowded): (&mut CollisionStatus, &mut Health, CrowdedQueue<'_>),
 ) {
     if index >= params.particle_count {
         return;
@@ -59,7 +60,19 @@ pub fn update_and_contact_particle<K: LeafKind, F: ClothForces>(
         integrate_stage_at(&p, UPDATE_STAGE, index, &mut stage, forces);
     }
     count_substep(index, status);
-    detect_candidates_particle::<K>(index, push, &p, collider, pose, tree, lists, (x, &*x_prev, v), contacts, status);
+    let state = (x, &*x_prev, v);
+    detect_candidates_particle::<K>(
+        index,
+        push,
+        &p,
+        collider,
+        pose,
+        tree,
+        lists,
+        state,
+        contacts,
+        (status, health, crowded),
+    );
 }
 
 /// The substep in the collision counters, from invocation 0 alone: tested (`ran`) when the

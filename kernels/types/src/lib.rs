@@ -112,6 +112,10 @@ pub struct Health {
     /// crossed at the frame's end (summed over its rounds; `drape_kernels::self_failsafe`): a
     /// collider's vertex or edge through a cloth cell, or a cloth edge through its face.
     pub self_rollback_collider_pairs: u32,
+    /// Particle-substeps whose narrow phase over candidate lists was crowded (see
+    /// `ContactPush::crowded`; counted only where the frame asks): what the host's choice of
+    /// handing them to a workgroup each follows (`SimSettings::crowded_contact`).
+    pub crowded_contacts: u32,
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
@@ -147,7 +151,7 @@ const _: () = assert!(core::mem::size_of::<SimParams>() == 96);
 const _: () = assert!(core::mem::size_of::<Spring>() == 16);
 const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
-const _: () = assert!(core::mem::size_of::<Health>() == 56);
+const _: () = assert!(core::mem::size_of::<Health>() == 60);
 const _: () = assert!(core::mem::size_of::<FailsafePush>() == 16);
 const _: () = assert!(core::mem::size_of::<TileParams>() == 32);
 
@@ -257,14 +261,19 @@ pub struct ColliderPose {
 }
 
 /// Push constants of the contact passes: the substep's span as fractions of the frame
-/// (`from` = s / S, `to` = (s + 1) / S for substep s of S).
+/// (`from` = s / S, `to` = (s + 1) / S for substep s of S), and what the narrow phase over
+/// candidate lists does with its crowded particles (`drape_kernels::crowded`): with `crowded` >
+/// 0 those that walk the tree and those whose lists hold at least `crowded` leaves are crowded,
+/// counted in the cloth's `Health::crowded_contacts`, and with `hand_over` = 1 handed to a
+/// workgroup each; with `crowded` = 0 nothing is counted or handed over.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 #[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
 pub struct ContactPush {
     pub from: f32,
     pub to: f32,
-    pub _pad: [u32; 2],
+    pub crowded: u32,
+    pub hand_over: u32,
 }
 
 /// Push constants of a self-collision pass's triangle boxes: the pass's span as fractions of the
@@ -419,7 +428,10 @@ pub struct CollisionStatus {
     /// the cloth is at the collider and the substeps' culling passes, where there are any, do
     /// not test.
     pub listed: u32,
-    pub _pad: [u32; 4],
+    /// Particle-substeps the narrow phase handed to the crowded pass (a workgroup each:
+    /// `drape_kernels::crowded`); their full traversals count in `fallbacks` as the lane's do.
+    pub crowded: u32,
+    pub _pad: [u32; 3],
 }
 
 /// A collider triangle at the end of the frame: its corners (xyz) and unit normal (the
