@@ -266,3 +266,44 @@ fn crowded_particles_get_their_lanes_contacts_from_a_workgroup() {
     );
     assert_validation_clean(&ctx);
 }
+
+/// The automatic choice on a GPU (run here as on one, `Solver::new_as_gpu`) hands the crowded
+/// particles over once a frame has many (the cloth lands on a dense torus) and stops once it
+/// has few (the cloth is lifted a metre above it at frame 25), re-encoding the frame each time
+/// (with passes bound at setup); every frame equals the run that never hands them over.
+#[test]
+fn the_automatic_choice_switches_the_crowded_pass_on_and_off_with_the_same_frames() {
+    let ctx = context();
+    let cloth = ClothBuilder::new(32, 32)
+        .size(0.9)
+        .velocity(Vec3::new(0.0, -4.0, 0.0))
+        .transform(Mat4::from_translation(Vec3::new(0.05, 0.3, 0.0)))
+        .build()
+        .unwrap();
+    let torus = [Collider::mesh(&Mesh::torus(0.35, 0.12, 192, 96), 0.01).with_friction(0.3)];
+    let model = |crowded: Option<bool>| {
+        let settings = SimSettings::default().with_timestamps(false).with_crowded_contact(crowded);
+        Model::single(&cloth, &torus, settings).unwrap()
+    };
+    let mut automatic = Solver::new_as_gpu(&ctx, &model(None)).unwrap();
+    let mut alone = Solver::new(&ctx, &model(Some(false))).unwrap();
+    let mut handed = Vec::new();
+    for f in 1..=40 {
+        if f == 25 {
+            let lifted: Vec<Vec3> = alone.positions(CLOTH).unwrap().iter().map(|p| p.truncate() + Vec3::Y).collect();
+            let still = vec![Vec3::ZERO; lifted.len()];
+            automatic.teleport(CLOTH, &lifted, &still).unwrap();
+            alone.teleport(CLOTH, &lifted, &still).unwrap();
+        }
+        let report = automatic.step_report().unwrap();
+        alone.step().unwrap();
+        assert_eq!(automatic.positions(CLOTH).unwrap(), alone.positions(CLOTH).unwrap(), "frame {f}");
+        assert_eq!(automatic.velocities(CLOTH).unwrap(), alone.velocities(CLOTH).unwrap(), "frame {f}");
+        handed.push(report.collision_crowded > 0);
+        // Handed over, every crowded particle is; else none.
+        assert!(report.collision_crowded == 0 || report.collision_crowded == report.crowded_contacts, "frame {f}");
+    }
+    let switches = handed.windows(2).filter(|w| w[0] != w[1]).count();
+    assert!(handed.iter().any(|&h| h) && switches >= 2, "handed over in frames {handed:?}: on, then off again");
+    assert_validation_clean(&ctx);
+}

@@ -8,7 +8,7 @@ use crate::error::Result;
 use crate::graph::{BufferId, Resources, Step};
 use crate::model::{ColliderShape, ContactSearch, Model};
 use crate::programs::cloth::{ClothBuffers, FramePlan, frame_steps};
-use crate::programs::contact::{ColliderBuffers, ColliderLeaves, ContactBuffers, ContactMode};
+use crate::programs::contact::{ColliderBuffers, ColliderLeaves, ContactBuffers, ContactMode, Crowded};
 use crate::programs::self_contact::SelfContactBuffers;
 use crate::programs::spheres::SphereBvh;
 use crate::programs::tiles::TileBuffers;
@@ -204,6 +204,20 @@ impl SolverProgram {
             steps.extend(frame_steps(*plan, cloth, &pairs));
         }
         steps
+    }
+
+    /// The frame under `plans` with every cloth whose crowded particles are only counted
+    /// (`Crowded::Counted`: the automatic choice) handing them over instead: the passes a later
+    /// plan may add.
+    pub fn crowded_steps(&self, plans: &[FramePlan]) -> Vec<Step> {
+        let handed: Vec<FramePlan> = plans
+            .iter()
+            .map(|p| match p.crowded {
+                Crowded::Counted => FramePlan { crowded: Crowded::HandedOver, asleep: false, ..*p },
+                _ => *p,
+            })
+            .collect();
+        if handed == plans { Vec::new() } else { self.frame_steps(&handed) }
     }
 
     /// Every collider's LBVH build, in one list.

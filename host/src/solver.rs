@@ -89,6 +89,19 @@ impl Solver {
     /// Uploads `model`, builds every collider's LBVH on the GPU and records the frame.
     pub fn new(ctx: &Arc<Context>, model: &Model) -> Result<Self> {
         let is_gpu = ctx.info().device_type != ash::vk::PhysicalDeviceType::CPU;
+        Self::on_device(ctx, model, is_gpu)
+    }
+
+    /// `new`, with the choices that depend on the device made as for a GPU even on a CPU driver
+    /// (`SimSettings::crowded_contact`): what drape's tests use to run a GPU's choices on
+    /// lavapipe. The same results, only the cost differs.
+    #[cfg(feature = "internals")]
+    #[doc(hidden)]
+    pub fn new_as_gpu(ctx: &Arc<Context>, model: &Model) -> Result<Self> {
+        Self::on_device(ctx, model, true)
+    }
+
+    fn on_device(ctx: &Arc<Context>, model: &Model, is_gpu: bool) -> Result<Self> {
         let (program, controls) = SolverProgram::with_controls_on(model, is_gpu)?;
         let mut engine = Engine::new(ctx)?;
         engine.allocate(&program.resources)?;
@@ -100,7 +113,10 @@ impl Solver {
         } else {
             Some(engine.record(&program.build_steps(), true)?.submit()?)
         };
-        let bindings = engine.bind(&[&program.frame, &program.refit_steps(), &program.self_window_steps()])?;
+        // The frame as it is planned now, and what later plans may add: colliders' refits,
+        // lists built again within a frame, crowded particles handed over.
+        let later = [program.refit_steps(), program.self_window_steps(), program.crowded_steps(&controls.plans())];
+        let bindings = engine.bind(&[&program.frame, &later[0], &later[1], &later[2]])?;
         let frame_commands = engine.encode(&bindings, &program.frame)?;
         let settings = controls.settings;
         let frame = RecordedFrame::new(ctx, bindings, &frame_commands, settings.timestamps)?;

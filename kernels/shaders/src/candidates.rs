@@ -212,9 +212,9 @@ pub struct NarrowOutcome {
 /// list and the motion inside the box, writes nothing (`NarrowOutcome::nothing`: no contact).
 /// That is most of a cloth before it reaches the collider, where writing the record and
 /// applying it cost as much as the test; a record is read only by its own particle's response,
-/// so the one left there is never used. `crowded` is (`ContactPush::crowded`,
-/// `ContactPush::hand_over`): with a threshold > 0 a crowded particle (`is_crowded`) is reported
-/// (`NarrowOutcome::crowded`), and with `hand_over` only reported (`NarrowOutcome::handed_over`).
+/// so the one left there is never used. With `longest` > 0 (`ContactPush::crowded`) a crowded
+/// particle (`is_crowded`) is reported (`NarrowOutcome::crowded`), and with `hand_over`
+/// (`ContactPush::hand_over`) only reported (`NarrowOutcome::handed_over`).
 #[allow(clippy::too_many_arguments)]
 pub fn detect_candidates_at<K: LeafKind>(
     index: u32,

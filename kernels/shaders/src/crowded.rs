@@ -15,7 +15,9 @@
 //! own, bit for bit: `contact::consider` is a total order and the clearance a minimum, so the
 //! order of the tests does not matter, and the level walk reaches exactly the leaves the
 //! depth-first walk reaches (a leaf is reached when every internal node above it enters the
-//! query). The CPU twin answers each handed-over particle as its lane would have.
+//! query). The CPU twin answers each handed-over particle as its lane would have. (On a GPU
+//! the claim also needs the driver to compile the same math alike in both pipelines; no
+//! `NoContraction` forbids it fusing differently. The H100's final frames were the same.)
 
 use crate::atomics;
 use crate::candidates::{detect_candidates_particle, walks_tree};
@@ -327,7 +329,7 @@ pub fn detect_crowded_alone<K: LeafKind>(
     detect_candidates_particle::<K>(index, &alone, params, collider, pose, tree, lists, state, contacts, counters);
 }
 
-/// Whether the lanes' partial finds fold to the one-lane answer: used by the tests.
+/// The fold of finds split over lanes (as the pass shares them): for the tests.
 #[cfg(test)]
 fn fold_of(finds: &[(Candidate, f32)], clearance: f32) -> (Candidate, f32) {
     let mut shared = [UVec4::ZERO; CROWDED_THREADS as usize];
@@ -363,7 +365,7 @@ mod tests {
     }
 
     /// The level walk reaches the leaves the depth-first walk reaches, on one lane: LBVHs of
-    /// 1 to 300 random boxes (codes with repeats), queries of every size; and a query wider
+    /// 1 to 2000 random boxes (codes with repeats), queries of every size; and a query wider
     /// than `FRONTIER` nodes says it did not fit.
     #[test]
     fn the_level_walk_reaches_the_leaves_of_the_depth_first_walk() {
