@@ -309,31 +309,42 @@ impl ContactBuffers {
         if crowded != Crowded::HandedOver {
             return None;
         }
-        let (leaves, tree) = (collider.leaves.kind(), collider.tree());
         let push: [u32; 4] = bytemuck::cast(narrow_phase_push(substep, substeps, crowded));
         Some(Step::run_with(
             CROWDED_LABEL,
-            leaves.detect_crowded_kernel(),
-            vec![
-                cloth.params.id(),
-                tree.collider.id(),
-                collider.pose.id(),
-                tree.nodes.id(),
-                tree.aabbs.id(),
-                leaves.sorted_leaves(),
-                lists.queries.id(),
-                lists.candidates.id(),
-                cloth.x.id(),
-                cloth.x_prev.id(),
-                cloth.v.id(),
-                self.contacts.id(),
-                self.status.id(),
-                lists.crowded.id(),
-                lists.crowded_args.id(),
-            ],
+            collider.leaves.kind().detect_crowded_kernel(),
+            self.narrow_phase_bindings(cloth, collider, lists),
             push,
             Dispatch::Indirect(lists.crowded_args),
         ))
+    }
+
+    /// The bindings the narrow phase over `lists` (`DETECT_CANDIDATES_BINDINGS`, less the
+    /// cloth's health) and the crowded pass (`DETECT_CROWDED_BINDINGS`) share.
+    fn narrow_phase_bindings(
+        &self,
+        cloth: &ClothBuffers,
+        collider: &ColliderBuffers,
+        lists: &CandidateLists,
+    ) -> Vec<BufferId> {
+        let (leaves, tree) = (collider.leaves.kind(), collider.tree());
+        vec![
+            cloth.params.id(),
+            tree.collider.id(),
+            collider.pose.id(),
+            tree.nodes.id(),
+            tree.aabbs.id(),
+            leaves.sorted_leaves(),
+            lists.queries.id(),
+            lists.candidates.id(),
+            cloth.x.id(),
+            cloth.x_prev.id(),
+            cloth.v.id(),
+            self.contacts.id(),
+            self.status.id(),
+            lists.crowded.id(),
+            lists.crowded_args.id(),
+        ]
     }
 
     /// The contact passes of substep `substep` of `substeps` of `cloth` against `collider`
@@ -355,27 +366,12 @@ impl ContactBuffers {
                 out.extend(self.crowded_reset_step(crowded));
                 out.push(self.cull_step(cloth, tree, pose, push));
                 let narrow: [u32; 4] = bytemuck::cast(narrow_phase_push(substep, substeps, crowded));
+                let mut bindings = self.narrow_phase_bindings(cloth, buffers, lists);
+                bindings.push(cloth.health.id());
                 out.push(Step::run_with(
                     DETECT_CANDIDATES_LABEL,
                     leaves.detect_candidates_kernel(),
-                    vec![
-                        params,
-                        collider,
-                        pose.id(),
-                        tree.nodes.id(),
-                        tree.aabbs.id(),
-                        leaves.sorted_leaves(),
-                        lists.queries.id(),
-                        lists.candidates.id(),
-                        cloth.x.id(),
-                        cloth.x_prev.id(),
-                        cloth.v.id(),
-                        self.contacts.id(),
-                        self.status.id(),
-                        lists.crowded.id(),
-                        lists.crowded_args.id(),
-                        cloth.health.id(),
-                    ],
+                    bindings,
                     narrow,
                     Dispatch::Indirect(self.args),
                 ));

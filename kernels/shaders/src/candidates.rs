@@ -172,21 +172,55 @@ pub fn is_crowded(query: &ContactQuery, walks: bool, longest: u32) -> bool {
     walks || query.count >= longest
 }
 
-/// Whether the path `a -> b` crosses any leaf of a candidate list.
+/// A particle's candidate list: the lists' buffer, where its list starts and how many leaves
+/// it holds.
+pub type CandidateList<'a> = (&'a [u32], usize, u32);
+
+/// Which of a list's entries a lane takes: every `stride`-th from `first` ((0, 1): all of
+/// them, in order; (lane, lanes): a workgroup lane's share, `crowded`).
+pub type ListShare = (u32, u32);
+
+/// The earliest hit of the motion `p0 -> p1` and the least clearance from `p0` (for kinds that
+/// check paths) over `share` of a candidate list's leaves, from `found`.
+#[allow(clippy::too_many_arguments)]
 #[inline]
-fn list_blocks<K: LeafKind>(
+pub fn list_hits<K: LeafKind>(
     leaves: &[K::Leaf],
-    (list, base, count): (&[u32], usize, u32),
+    (list, base, count): CandidateList<'_>,
+    (first, stride): ListShare,
+    (p0, p1): (Vec3, Vec3),
+    thickness: f32,
+    left: Left,
+    (mut best, mut clearance): (Candidate, f32),
+) -> (Candidate, f32) {
+    let mut j = first;
+    while j < count {
+        let leaf = list[base + j as usize];
+        let l = leaves[leaf as usize];
+        let (t, key) = hit_relative::<K>(l, p0, p1, thickness, left);
+        best = consider(best, t, key, leaf);
+        clearance = lower_clearance::<K>(clearance, l, p0, left);
+        j += stride;
+    }
+    (best, clearance)
+}
+
+/// Whether the path `a -> b` crosses any leaf of `share` of a candidate list.
+#[inline]
+pub fn list_blocks<K: LeafKind>(
+    leaves: &[K::Leaf],
+    (list, base, count): CandidateList<'_>,
+    (first, stride): ListShare,
     (a, b): (Vec3, Vec3),
     thickness: f32,
     left: Left,
 ) -> bool {
-    let mut j = 0;
+    let mut j = first;
     while j < count {
         if blocks_relative::<K>(leaves[list[base + j as usize] as usize], a, b, thickness, left) {
             return true;
         }
-        j += 1;
+        j += stride;
     }
     false
 }
@@ -248,26 +282,17 @@ pub fn detect_candidates_at<K: LeafKind>(
     }
     let thickness = collider.thickness;
     let left = motion.left();
-    let base = i * MAX_CANDIDATES as usize;
-    let mut best: Candidate = NO_CANDIDATE;
+    let list = (candidates, i * MAX_CANDIDATES as usize, query.count);
     // A lower bound on the distance from p0 to every leaf (for kinds that check paths): the
     // least clearance of the listed leaves, and the thickness for the rest (no point of the
     // box comes within it of them). A path shorter than half of it needs no check, which
     // saves a second scan of the list for most particles resting on the surface.
-    let mut clearance = initial_clearance::<K>(thickness);
-    let mut j = 0;
-    while j < query.count {
-        let leaf = candidates[base + j as usize];
-        let l = leaves[leaf as usize];
-        let (t, key) = hit_relative::<K>(l, p0, p1, thickness, left);
-        best = consider(best, t, key, leaf);
-        clearance = lower_clearance::<K>(clearance, l, p0, left);
-        j += 1;
-    }
+    let none = (NO_CANDIDATE, initial_clearance::<K>(thickness));
+    let (best, clearance) = list_hits::<K>(leaves, list, (0, 1), (p0, p1), thickness, left, none);
     let target = target_of::<K>(best, clearance, leaves, (p0, p1), thickness, left);
     let blocked = target.check
         && if point_in_aabb(target.position, &region, 0.0) {
-            list_blocks::<K>(leaves, (candidates, base, query.count), (p0, target.position), thickness, left)
+            list_blocks::<K>(leaves, list, (0, 1), (p0, target.position), thickness, left)
         } else {
             // The path leaves the box, where the list is not complete.
             path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position, left)

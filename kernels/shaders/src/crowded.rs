@@ -20,11 +20,10 @@
 //! `NoContraction` forbids it fusing differently. The H100's final frames were the same.)
 
 use crate::atomics;
-use crate::candidates::{detect_candidates_particle, walks_tree};
+use crate::candidates::{detect_candidates_particle, list_blocks, list_hits, walks_tree};
 use crate::contact::{
-    Candidate, HitQuery, LeafKind, NO_CANDIDATE, PathQuery, blocks_relative, consider, hit_relative, initial_clearance,
-    local_motion, lower_clearance, path_blocked, point_in_aabb, respond_at, substep_motion, target_of,
-    traverse_with_clearance,
+    Candidate, HitQuery, LeafKind, NO_CANDIDATE, PathQuery, consider, initial_clearance, local_motion, path_blocked,
+    point_in_aabb, respond_at, substep_motion, target_of, traverse_with_clearance,
 };
 use crate::lbvh::TreeQuery;
 use drape_types::glam::{UVec4, Vec4, Vec4Swizzles};
@@ -225,24 +224,14 @@ pub fn detect_crowded_particle<K: LeafKind>(
     let walks = walks_tree(&query, (p0, p1));
     let (thickness, left) = (collider.thickness, motion.left());
     let tree = (nodes, aabbs, collider.leaf_count);
-    let base = i * MAX_CANDIDATES as usize;
+    let list = (candidates, i * MAX_CANDIDATES as usize, query.count);
     let no_find = (NO_CANDIDATE, initial_clearance::<K>(thickness));
     // The lanes' share of the earliest hit and the clearance (see `detect_candidates_at`).
     let (find, fitted) = if walks {
         let mut hits = HitQuery::<K> { leaves, p0, p1, thickness, left };
         shared_walk((lane, lanes), tree, &mut hits, no_find, shared)
     } else {
-        let (mut best, mut clearance) = no_find;
-        let mut j = lane;
-        while j < query.count {
-            let leaf = candidates[base + j as usize];
-            let l = leaves[leaf as usize];
-            let (t, key) = hit_relative::<K>(l, p0, p1, thickness, left);
-            best = consider(best, t, key, leaf);
-            clearance = lower_clearance::<K>(clearance, l, p0, left);
-            j += lanes;
-        }
-        ((best, clearance), true)
+        (list_hits::<K>(leaves, list, (lane, lanes), (p0, p1), thickness, left, no_find), true)
     };
     shared.finds[lane as usize] = pack(find);
     barrier();
@@ -267,13 +256,7 @@ pub fn detect_crowded_particle<K: LeafKind>(
     // The same in every lane, so every lane reaches the walk's barriers.
     if checked {
         if !walks && point_in_aabb(to, &region, 0.0) {
-            let mut blocked = false;
-            let mut j = lane;
-            while j < query.count && !blocked {
-                let leaf = candidates[base + j as usize];
-                blocked = blocks_relative::<K>(leaves[leaf as usize], p0, to, thickness, left);
-                j += lanes;
-            }
+            let blocked = list_blocks::<K>(leaves, list, (lane, lanes), (p0, to), thickness, left);
             count_blocked(blocked, shared);
         } else {
             // The path leaves the box, where the list is not complete: the tree's leaves.
