@@ -7,7 +7,7 @@ mod common;
 
 use common::{Rng, assert_fused_contact_equals_walk_and_cpu, assert_validation_clean, context};
 use drape::lbvh::{Lbvh, build_cpu, build_mesh_cpu, collider_params, mesh_collider_params};
-use drape::{ClothBuilder, ClothId, Collider, ContactSearch, CpuSolver, Mesh, Model, SimSettings, Solver};
+use drape::{Cloth, ClothBuilder, ClothId, Collider, ContactSearch, CpuSolver, Mesh, Model, SimSettings, Solver};
 use drape_kernels::candidates::{NarrowOutcome, broad_phase_at, detect_candidates_at};
 use drape_kernels::contact::{LeafKind, detect_brute_force_at};
 use drape_kernels::pose::SubstepMotion;
@@ -210,6 +210,25 @@ fn euler_commit_with_contact_equals_the_walk_and_the_cpu_twin() {
     assert_validation_clean(&ctx);
 }
 
+/// An `n` x `n` cloth thrown down at 4 m/s onto a dense torus (and `also`, when given): many
+/// of its particles crowded by the leaves within their reach.
+fn thrown_at_a_dense_torus(n: u32, also: Option<Collider>) -> (Cloth, Vec<Collider>) {
+    let cloth = ClothBuilder::new(n, n)
+        .size(0.9)
+        .velocity(Vec3::new(0.0, -4.0, 0.0))
+        .transform(Mat4::from_translation(Vec3::new(0.05, 0.3, 0.0)))
+        .build()
+        .unwrap();
+    let torus = Collider::mesh(&Mesh::torus(0.35, 0.12, 192, 96), 0.01).with_friction(0.3);
+    (cloth, std::iter::once(torus).chain(also).collect())
+}
+
+/// The scene with the crowded-contact setting `crowded` (`SimSettings::crowded_contact`).
+fn with_crowded_contact(cloth: &Cloth, colliders: &[Collider], crowded: Option<bool>) -> Model {
+    let settings = SimSettings::default().with_timestamps(false).with_crowded_contact(crowded);
+    Model::single(cloth, colliders, settings).unwrap()
+}
+
 /// Crowded particles (lists of `CROWDED_LIST` leaves or more, and walks of the tree) handed
 /// to a workgroup each give the contacts their lanes give, bit for bit: a cloth thrown at a
 /// dense torus, with a dense icosphere as a second collider (whose narrow phase is a pass of
@@ -220,19 +239,9 @@ fn euler_commit_with_contact_equals_the_walk_and_the_cpu_twin() {
 #[test]
 fn crowded_particles_get_their_lanes_contacts_from_a_workgroup() {
     let ctx = context();
-    let cloth = ClothBuilder::new(24, 24)
-        .size(0.9)
-        .velocity(Vec3::new(0.0, -4.0, 0.0))
-        .transform(Mat4::from_translation(Vec3::new(0.05, 0.3, 0.0)))
-        .build()
-        .unwrap();
-    let torus = Collider::mesh(&Mesh::torus(0.35, 0.12, 192, 96), 0.01).with_friction(0.3);
     let ball = Mesh::icosphere(0.15, 5).transformed(Mat4::from_translation(Vec3::new(0.0, -0.05, 0.0)));
-    let colliders = [torus, Collider::mesh(&ball, 0.01).with_friction(0.3)];
-    let model = |crowded: Option<bool>| {
-        let settings = SimSettings::default().with_timestamps(false).with_crowded_contact(crowded);
-        Model::single(&cloth, &colliders, settings).unwrap()
-    };
+    let (cloth, colliders) = thrown_at_a_dense_torus(24, Some(Collider::mesh(&ball, 0.01).with_friction(0.3)));
+    let model = |crowded| with_crowded_contact(&cloth, &colliders, crowded);
     let mut shared = Solver::new(&ctx, &model(Some(true))).unwrap();
     let mut automatic = Solver::new(&ctx, &model(None)).unwrap();
     let mut alone = Solver::new(&ctx, &model(Some(false))).unwrap();
@@ -274,17 +283,8 @@ fn crowded_particles_get_their_lanes_contacts_from_a_workgroup() {
 #[test]
 fn the_automatic_choice_switches_the_crowded_pass_on_and_off_with_the_same_frames() {
     let ctx = context();
-    let cloth = ClothBuilder::new(32, 32)
-        .size(0.9)
-        .velocity(Vec3::new(0.0, -4.0, 0.0))
-        .transform(Mat4::from_translation(Vec3::new(0.05, 0.3, 0.0)))
-        .build()
-        .unwrap();
-    let torus = [Collider::mesh(&Mesh::torus(0.35, 0.12, 192, 96), 0.01).with_friction(0.3)];
-    let model = |crowded: Option<bool>| {
-        let settings = SimSettings::default().with_timestamps(false).with_crowded_contact(crowded);
-        Model::single(&cloth, &torus, settings).unwrap()
-    };
+    let (cloth, torus) = thrown_at_a_dense_torus(32, None);
+    let model = |crowded| with_crowded_contact(&cloth, &torus, crowded);
     let mut automatic = Solver::new_as_gpu(&ctx, &model(None)).unwrap();
     let mut alone = Solver::new(&ctx, &model(Some(false))).unwrap();
     let mut handed = Vec::new();
