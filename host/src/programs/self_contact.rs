@@ -13,7 +13,7 @@ use super::contact::{ColliderBuffers, ColliderLeaves, substep_span};
 use super::empty_dispatch;
 use super::lbvh::LbvhBuffers;
 use super::self_failsafe::FailsafeBuffers;
-use crate::graph::{Dispatch, Handle, Resources, Step};
+use crate::graph::{BufferId, Dispatch, Handle, Resources, Step};
 use crate::kernels::self_contact::{
     APPLY_COLLIDER_PUSHES, APPLY_SELF_CONTACT, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
 };
@@ -624,19 +624,7 @@ impl SelfContactBuffers {
             steps.push(Step::run(
                 SELF_PAIRS_LABEL,
                 &SELF_TRIANGLE_CONTACT,
-                vec![
-                    t.collider.id(),
-                    t.nodes.id(),
-                    t.aabbs.id(),
-                    t.sorted_bounds.id(),
-                    self.sorted.id(),
-                    self.owned.id(),
-                    cloth.x.id(),
-                    self.start.id(),
-                    cloth.v.id(),
-                    self.delta.id(),
-                    self.velocity_changes.id(),
-                ],
+                self.pair_bindings(cloth, &[], &[]),
                 Dispatch::Threads(t.leaves),
             ));
         }
@@ -653,48 +641,31 @@ impl SelfContactBuffers {
         steps.push(Step::run(
             SELF_PAIRS_LABEL,
             &LISTED_SELF_PAIRS,
-            vec![
-                t.collider.id(),
-                t.nodes.id(),
-                t.aabbs.id(),
-                t.sorted_bounds.id(),
-                self.sorted.id(),
-                self.owned.id(),
-                cloth.x.id(),
-                self.start.id(),
-                cloth.v.id(),
-                self.escaped.id(),
-                self.strays.id(),
-                self.lists.id(),
-                self.counts.id(),
-                self.delta.id(),
-                self.velocity_changes.id(),
-            ],
+            self.pair_bindings(cloth, &[self.escaped.id(), self.strays.id(), self.lists.id(), self.counts.id()], &[]),
             Dispatch::Threads(t.leaves),
         ));
         steps.push(Step::run(
             SELF_WALKS_LABEL,
             &WALK_SELF_PAIRS,
-            vec![
-                t.collider.id(),
-                t.nodes.id(),
-                t.aabbs.id(),
-                t.sorted_bounds.id(),
-                self.sorted.id(),
-                self.owned.id(),
-                cloth.x.id(),
-                self.start.id(),
-                cloth.v.id(),
-                self.escaped.id(),
-                self.counts.id(),
-                self.walkers.id(),
-                self.walk_args.id(),
-                self.delta.id(),
-                self.velocity_changes.id(),
-                cloth.health.id(),
-            ],
+            self.pair_bindings(
+                cloth,
+                &[self.escaped.id(), self.counts.id(), self.walkers.id(), self.walk_args.id()],
+                &[cloth.health.id()],
+            ),
             Dispatch::Indirect(self.walk_args),
         ));
+    }
+
+    /// What a pass's pair search binds (`drape_kernels::self_pairs`): the tree and its
+    /// triangles, the pass's sweep (positions now and at its start, velocities), then `found_by`
+    /// (what finds the pairs: lists, walkers), the sums the pairs add to, then `after`.
+    fn pair_bindings(&self, cloth: &SelfContactCloth, found_by: &[BufferId], after: &[BufferId]) -> Vec<BufferId> {
+        let t = &self.tree;
+        let tree =
+            [t.collider.id(), t.nodes.id(), t.aabbs.id(), t.sorted_bounds.id(), self.sorted.id(), self.owned.id()];
+        let sweep = [cloth.x.id(), self.start.id(), cloth.v.id()];
+        let sums = [self.delta.id(), self.velocity_changes.id()];
+        [&tree[..], &sweep, found_by, &sums, after].concat()
     }
 
     /// The mean of the pass's corrections applied (which records the next pass's start).
