@@ -187,8 +187,12 @@ fn apply_pushes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let [params, x, v, pushes] = d.bindings()?;
     let p: SimParams = params.first()?;
     let (x, v, pushes) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>(), pushes.slice::<u32>());
-    for i in 0..threads.min(p.particle_count) {
-        apply_collider_push_at(i, x, v, pushes);
+    // Every thread strides over the particles (the dispatch covers the cloth's triangles, or
+    // nothing).
+    if threads > 0 {
+        for i in 0..p.particle_count {
+            apply_collider_push_at(i, x, v, pushes);
+        }
     }
     Ok(())
 }

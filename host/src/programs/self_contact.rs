@@ -605,14 +605,15 @@ impl SelfContactBuffers {
             // zeros they start as.
             steps.push(Step::fill(self.pushes, 0));
             steps.extend(features);
+            // The pushes move particles only when a collider listed a possibly sharp triangle
+            // this frame: then they are applied, the boxes and the walkers found after them,
+            // and the tree refit to them.
             steps.push(Step::run(
                 "self: collider pushes",
                 &APPLY_COLLIDER_PUSHES,
                 vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.pushes.id()],
-                Dispatch::Threads(self.particles),
+                Dispatch::Indirect(self.features_found),
             ));
-            // The pushes move particles only when a collider listed a possibly sharp triangle
-            // this frame: then the boxes and the walkers after them, and the tree refit to them.
             let find = if lists { FIND_WALKERS } else { 0 };
             self.triangle_bounds(cloth, (span, find), Dispatch::Indirect(self.features_found), steps);
             steps.extend(t.refit_sorted_again_steps(self.features_found));

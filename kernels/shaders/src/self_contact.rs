@@ -41,6 +41,7 @@
 //! through each other within one pass and ends farther apart than the search reach is
 //! missed).
 
+use crate::WORKGROUP_SIZE;
 use crate::atomics;
 use crate::contact::{reduce_bounds, substep_motion};
 use crate::lbvh::{PairWalk, WALK_BATCH, box_meets};
@@ -1726,18 +1727,25 @@ pub fn apply_self_contact(
     start[id.x as usize] = x[id.x as usize];
 }
 
+/// Each thread pushes particles `id, id + threads, ...`: dispatched like the passes' second run
+/// of the triangles' boxes (`sharp_features::arm_second_refit`), over the cloth's triangles when
+/// a collider listed a possibly sharp triangle this frame and over none when none did (no edge
+/// pushed then, and a zero push moves nothing).
 #[spirv(compute(threads(256)))]
 pub fn apply_collider_pushes(
     #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(num_workgroups)] groups: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] pushes: &[u32],
 ) {
-    if id.x >= params.particle_count {
-        return;
+    let threads = groups.x * WORKGROUP_SIZE;
+    let mut i = id.x;
+    while i < params.particle_count {
+        apply_collider_push_at(i, x, v, pushes);
+        i += threads;
     }
-    apply_collider_push_at(id.x, x, v, pushes);
 }
 
 #[cfg(test)]
