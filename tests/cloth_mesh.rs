@@ -262,6 +262,11 @@ fn bad_mesh_cloths_are_refused_and_loose_vertices_pinned() {
     assert!(no_area.to_string().contains("no area"), "{no_area}");
     let bad_box = ClothBuilder::from_mesh(mesh.clone()).pin_within(Vec3::ONE, Vec3::ZERO).build().unwrap_err();
     assert!(bad_box.to_string().contains("min <= max"), "{bad_box}");
+    // A box beside the cloth pins nothing: refused, with where the cloth is.
+    let empty_box =
+        ClothBuilder::from_mesh(mesh.clone()).pin_within(Vec3::splat(5.0), Vec3::splat(6.0)).build().unwrap_err();
+    assert!(matches!(empty_box, Error::InvalidParameter { name: "pin box", .. }), "{empty_box}");
+    assert!(empty_box.to_string().contains("holds none of the cloth's particles"), "{empty_box}");
     let mut loose = mesh;
     loose.vertices.push(Vec3::new(5.0, 5.0, 5.0));
     let cloth = ClothBuilder::from_mesh(loose).build().unwrap();
@@ -399,6 +404,58 @@ fn cli_cloth_mesh_drapes_a_mesh_cloth() {
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert!(stderr.contains("--pin-box") || stderr.contains("--grid"), "{bad:?}: {stderr}");
     }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+/// `drape --cloth-mesh` with a cloth that starts through itself (a sheet crossed by another
+/// standing through its middle): the run warns before its first frame, since no frame undoes a
+/// crossing it did not make; an untangled cloth gets no such warning.
+#[test]
+fn cli_warns_of_a_cloth_mesh_that_starts_crossed() {
+    let dir = temp_dir("starts-crossed");
+    let mut obj = String::new();
+    // Two 3 x 3 sheets of 2 x 2 cells: one flat (y = 0), one upright (z = 0.05, across the
+    // middle of the flat one's cells) from 5 cm below it to 15 cm above.
+    for sheet in 0..2 {
+        for i in 0..3 {
+            for j in 0..3 {
+                let (a, b) = (i as f32 * 0.1 - 0.1, j as f32 * 0.1 - 0.1);
+                let (x, y, z) = if sheet == 0 { (a, 0.0, b) } else { (a, b + 0.05, 0.05) };
+                obj += &format!("v {x} {y} {z}\n");
+            }
+        }
+    }
+    let flat_only = obj.clone();
+    for sheet in 0..2 {
+        for i in 0..2 {
+            for j in 0..2 {
+                let v = |di: u32, dj: u32| 9 * sheet + 3 * (i + di) + (j + dj) + 1;
+                obj += &format!("f {} {} {}\nf {} {} {}\n", v(0, 0), v(1, 0), v(1, 1), v(0, 0), v(1, 1), v(0, 1));
+            }
+        }
+    }
+    let run = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+            .args(["--cloth-mesh", path.to_str().unwrap(), "--self-collision", "on", "--frames", "1", "--quiet"])
+            .output()
+            .unwrap();
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        String::from_utf8_lossy(&output.stderr).into_owned()
+    };
+    let crossed = run("crossed.obj", &obj);
+    let pairs: usize = crossed
+        .split("the cloth starts crossed: ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no warning in\n{crossed}"));
+    assert!(pairs > 0 && !crossed.contains("lie exactly on earlier"), "{crossed}");
+    // The flat sheet alone (its 9 vertices and its 8 triangles, the first sheet's faces).
+    let faces: String = obj.lines().filter(|l| l.starts_with("f ")).take(8).map(|l| format!("{l}\n")).collect();
+    let clean = run("flat.obj", &(flat_only.lines().take(9).map(|l| format!("{l}\n")).collect::<String>() + &faces));
+    assert!(!clean.contains("starts crossed"), "{clean}");
     std::fs::remove_dir_all(dir).ok();
 }
 

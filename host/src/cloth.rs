@@ -248,10 +248,23 @@ impl ClothBuilder {
             }
             cloth.positions[i as usize].w = 0.0;
         }
+        let inside = |l: &Vec3, (lo, hi): (Vec3, Vec3)| l.cmpge(lo).all() && l.cmple(hi).all();
         for (p, l) in cloth.positions.iter_mut().zip(&local) {
-            if self.pin_boxes.iter().any(|&(lo, hi)| l.cmpge(lo).all() && l.cmple(hi).all()) {
+            if self.pin_boxes.iter().any(|&b| inside(l, b)) {
                 p.w = 0.0;
             }
+        }
+        // A box that pins nothing is a box in the wrong place, not a request for a free cloth.
+        if let Some(&(lo, hi)) = self.pin_boxes.iter().find(|&&b| !local.iter().any(|l| inside(l, b))) {
+            let (min, max) =
+                local.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), l| (a.min(*l), b.max(*l)));
+            return bad(
+                "pin box",
+                format!(
+                    "{lo} to {hi} holds none of the cloth's particles, which span {min} to {max} in its own \
+                     coordinates (before its transform): move or widen the box"
+                ),
+            );
         }
         cloth.self_collision = self.self_collision;
         cloth.self_friction = self.self_friction;
@@ -389,7 +402,8 @@ impl ClothBuilder {
             log::warn!(
                 "cloth mesh: {coincident} vertices lie exactly on earlier ones (the file splits the surface there, as \
                  exporters do at UV or normal seams): the cloth is not joined at them and comes apart there unless \
-                 that is meant; join them with `ClothMesh::weld_coincident` (CLI: --weld)"
+                 that is meant; join seams with `ClothMesh::weld_coincident` (CLI: --weld), and lay layers that lie \
+                 on each other at least the self-collision thickness apart (welded, they would be one)"
             );
         }
         // A mirroring transform turns the triangles inside out: keep the normals outward.

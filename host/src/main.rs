@@ -296,6 +296,19 @@ fn run(args: &Args) -> drape::Result<()> {
         }
         None => None,
     };
+    // The fail-safe undoes the crossings a frame makes, not those the cloth starts with: say so.
+    let solid = union_at(&scene_colliders, 0.0);
+    let at_start = count_intersections(&built.positions, &built.triangles, (&solid.vertices, &solid.triangles));
+    if at_start.total() > 0 {
+        log::warn!(
+            "the cloth starts crossed: {} pairs of its triangles through each other, {} of its edges through a \
+             collider, {} collider edges through it. No frame undoes a crossing it did not make (the fail-safe keeps \
+             those particles where they are): untangle the cloth mesh or move the cloth clear of the colliders",
+            at_start.cloth_cloth,
+            at_start.cloth_edges_through_collider,
+            at_start.collider_edges_through_cloth
+        );
+    }
     let mut worst = WorstIntersections::default();
     let mut report = TimingReport::default();
     let (mut ran, mut skipped, mut fallbacks, mut crowded, mut handed_over) = (0, 0, 0u64, 0u64, 0u64);
