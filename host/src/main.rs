@@ -312,7 +312,7 @@ fn run(args: &Args) -> drape::Result<()> {
     let mut worst = WorstIntersections::default();
     let mut report = TimingReport::default();
     let (mut ran, mut skipped, mut fallbacks, mut crowded, mut handed_over) = (0, 0, 0u64, 0u64, 0u64);
-    let (mut self_walks, mut self_triangle_passes) = (0u64, 0u64);
+    let (mut self_walks, mut self_triangle_passes, mut self_unlisted) = (0u64, 0u64, 0u64);
     let mut rollbacks = Rollbacks::default();
     let collider_ids: Vec<_> = model.collider_ids().collect();
     let frame_dt = sim.settings().frame_dt;
@@ -346,6 +346,7 @@ fn run(args: &Args) -> drape::Result<()> {
         handed_over += u64::from(r.collision_crowded);
         self_walks += u64::from(r.self_walks);
         self_triangle_passes += u64::from(r.self_triangle_passes);
+        self_unlisted += u64::from(r.self_passes_without_lists);
         rollbacks.record(&r, frame);
         progress.set(frame);
         let write_this = match args.obj_every {
@@ -405,13 +406,29 @@ fn run(args: &Args) -> drape::Result<()> {
     if self_triangle_passes > 0 {
         json.insert(
             "self_collision_pairs".into(),
-            json!({ "triangle_passes": self_triangle_passes, "walked_the_tree": self_walks }),
+            json!({
+                "triangle_passes": self_triangle_passes,
+                "walked_the_tree": self_walks,
+                "without_lists": self_unlisted
+            }),
         );
-        say!(
-            "self-collision pair lists: {self_walks} of {self_triangle_passes} triangle-passes walked the tree instead \
-             ({:.2} %: left their predicted region, or their list was full)",
-            100.0 * self_walks as f64 / self_triangle_passes as f64
-        );
+        if self_unlisted == self_triangle_passes {
+            say!(
+                "self-collision pair lists: none (the cloth's shortest triangle is under twice the thickness high, so \
+                 each list would hold its neighbours): all {self_triangle_passes} triangle-passes walked the tree"
+            );
+        } else {
+            let unlisted = if self_unlisted > 0 {
+                format!(", {self_unlisted} of them in frames without lists")
+            } else {
+                String::new()
+            };
+            say!(
+                "self-collision pair lists: {self_walks} of {self_triangle_passes} triangle-passes walked the tree \
+                 instead ({:.2} %: left their predicted region, or their list was full{unlisted})",
+                100.0 * self_walks as f64 / self_triangle_passes as f64
+            );
+        }
         json.insert("self_collision_failsafe".into(), rollbacks.json());
         say!("{}", rollbacks.line(args.frames, args.self_failsafe == OnOff::On));
     }

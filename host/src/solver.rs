@@ -46,6 +46,10 @@ pub struct FrameReport {
     /// full; `drape_kernels::self_pairs`).
     pub self_triangle_passes: u32,
     pub self_walks: u32,
+    /// Of `self_triangle_passes`, those of frames that ran no pair lists (a cloth whose
+    /// triangles are too small for them at its thickness: `programs::self_contact::lists_pay`),
+    /// where every triangle walks.
+    pub self_passes_without_lists: u32,
     /// Self-collision's fail-safe (`drape_kernels::self_failsafe`): particles put back where
     /// the frame started because a pair of the cloth's triangles, or one of them and a
     /// collider's triangle, crossed over it, and cloths put back whole
@@ -191,6 +195,7 @@ impl Solver {
                 report.self_walks += if plan.self_lists {
                     health.self_walks + health.self_full_lists * passes
                 } else {
+                    report.self_passes_without_lists += s.tree.leaves * passes;
                     s.tree.leaves * passes
                 };
             }
