@@ -459,6 +459,24 @@ fn cli_warns_of_a_cloth_mesh_that_starts_crossed() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// `drape --cloth-mesh` with triangles of no area (a corner twice, corners on one line) beside
+/// a good one: it runs, and warns how many it keeps that add nothing.
+#[test]
+fn cli_warns_of_a_cloth_mesh_with_flat_triangles() {
+    let dir = temp_dir("flat-triangles");
+    let path = dir.join("flat.obj");
+    let obj = "v 0 0 0\nv 0.1 0 0\nv 0 0 0.1\nv 0.2 0 0\nf 1 2 3\nf 1 2 2\nf 1 2 4\n";
+    std::fs::write(&path, obj).unwrap();
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+        .args(["--cloth-mesh", path.to_str().unwrap(), "--frames", "1", "--quiet"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("cloth mesh: 2 triangles have no area"), "{stderr}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
 /// `drape --scene pile`: a 64 x 16 strip falls upright onto the ground plane and piles up,
 /// with self-collision on by default; the run ends with the exact intersection counts of the
 /// final frame (cloth-cloth, and both ways between cloth and collider). `--self-collision off`

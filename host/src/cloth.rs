@@ -406,6 +406,20 @@ impl ClothBuilder {
                  on each other at least the self-collision thickness apart (welded, they would be one)"
             );
         }
+        let flat = mesh
+            .triangles
+            .iter()
+            .filter(|t| {
+                let [a, b, c] = t.map(|i| world[i as usize]);
+                (b - a).cross(c - a).length_squared() <= 0.0
+            })
+            .count();
+        if flat > 0 {
+            log::warn!(
+                "cloth mesh: {flat} triangles have no area (a corner twice, or corners on one line): they add no mass \
+                 and no surface to the cloth; remove them from the file unless they are meant"
+            );
+        }
         // A mirroring transform turns the triangles inside out: keep the normals outward.
         let triangles: Vec<[u32; 3]> = if self.transform.determinant() < 0.0 {
             mesh.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect()
