@@ -99,6 +99,44 @@ fn edges(triangles: &[[u32; 3]]) -> Vec<(u32, u32)> {
     out
 }
 
+/// How many of a cloth's particles (`positions`, xyz) lie within `distance` of one of its own
+/// triangles that does not have them as a corner: layers laid closer than a self-collision
+/// thickness, which the first passes push apart (and which, lying exactly on each other, have no
+/// side to be pushed to). `None` where the cloth's own triangles are less than twice `distance`
+/// high: there the faces beside a particle (not its own, one step across an edge) come that
+/// near on a flat cloth, so the count would not tell layers.
+pub fn particles_near_own_faces(positions: &[Vec4], triangles: &[[u32; 3]], distance: f32) -> Option<usize> {
+    let points: Vec<Vec3> = positions.iter().map(|p| p.truncate()).collect();
+    let lowest = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| points[i as usize]);
+            let longest = (b - a).length().max((c - a).length()).max((c - b).length());
+            if longest > 0.0 { (b - a).cross(c - a).length() / longest } else { f32::INFINITY }
+        })
+        .fold(f32::INFINITY, f32::min);
+    if lowest < 2.0 * distance {
+        return None;
+    }
+    let cloth = Soup::new(&points, triangles);
+    let reach = Vec3::splat(distance);
+    let near = (0..points.len())
+        .filter(|&i| {
+            let p = points[i];
+            let mut near = false;
+            cloth.overlapping(p - reach, p + reach, |j| {
+                let [a, b, c] = cloth.triangles[j as usize];
+                if !near && !triangles[j as usize].contains(&(i as u32)) {
+                    let (q, _) = drape_kernels::self_contact::closest_with_weights(p, a, b, c);
+                    near = (p - q).length() < distance;
+                }
+            });
+            near
+        })
+        .count();
+    Some(near)
+}
+
 /// Counts the intersections of a cloth (`positions`, xyz; `triangles`) with itself and with a
 /// collider mesh (`collider`: vertices and triangles, in the world; empty for none). Indices
 /// out of range are a caller's bug and panic.
@@ -146,6 +184,44 @@ mod tests {
     use super::*;
 
     const FLAT: [Vec3; 3] = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0)];
+
+    /// Two 2 x 2-cell sheets of 10 cm cells, `gap` apart in y (the second shifted half a cell):
+    /// every particle of each is within 5 mm of the other's faces at a 1 mm gap, none at 1 cm;
+    /// and a sheet of 1 mm cells cannot tell layers at 5 mm (its own faces beside each particle
+    /// come that near).
+    #[test]
+    fn particles_near_own_faces_counts_layers_laid_closer_than_the_distance() {
+        let sheets = |cell: f32, gap: f32| {
+            let mut positions = Vec::new();
+            let mut triangles = Vec::new();
+            for (layer, y) in [0.0, gap].into_iter().enumerate() {
+                let shift = 0.5 * cell * layer as f32;
+                let base = positions.len() as u32;
+                for i in 0..3 {
+                    for j in 0..3 {
+                        positions.push(Vec4::new(i as f32 * cell + shift, y, j as f32 * cell + shift, 1.0));
+                    }
+                }
+                for i in 0..2 {
+                    for j in 0..2 {
+                        let v = |di: u32, dj: u32| base + 3 * (i + di) + (j + dj);
+                        triangles.push([v(0, 0), v(1, 0), v(1, 1)]);
+                        triangles.push([v(0, 0), v(1, 1), v(0, 1)]);
+                    }
+                }
+            }
+            (positions, triangles)
+        };
+        let (positions, triangles) = sheets(0.1, 0.001);
+        // Each layer's particles over the other's faces: all but those beyond its edge (the
+        // shifted layer's far row and column, and the first layer's near ones).
+        let near = particles_near_own_faces(&positions, &triangles, 0.005).unwrap();
+        assert_eq!(near, 2 * 4, "{near}");
+        let (positions, triangles) = sheets(0.1, 0.01);
+        assert_eq!(particles_near_own_faces(&positions, &triangles, 0.005), Some(0));
+        let (positions, triangles) = sheets(0.001, 0.01);
+        assert_eq!(particles_near_own_faces(&positions, &triangles, 0.005), None);
+    }
 
     #[test]
     fn a_segment_through_the_interior_crosses_and_one_beside_it_does_not() {
