@@ -309,17 +309,16 @@ fn run(args: &Args) -> drape::Result<()> {
             at_start.collider_edges_through_cloth
         );
     }
-    if let Some(thickness) = built.self_collision {
-        if let Some(near) = particles_near_own_faces(&built.positions, &built.triangles, thickness)
-            && near > 0
-        {
-            log::warn!(
-                "the cloth starts with {near} particles within its self-collision thickness ({:.1} mm) of its own \
+    if let Some(thickness) = built.self_collision
+        && let Some(near) = particles_near_own_faces(&built.positions, &built.triangles, thickness)
+        && near > 0
+    {
+        log::warn!(
+            "the cloth starts with {near} particles within its self-collision thickness ({:.1} mm) of its own \
                  faces: its first passes push those layers apart, and layers that lie exactly on each other have no \
                  side to go to and may come out crossed; lay them at least the thickness apart",
-                1e3 * thickness
-            );
-        }
+            1e3 * thickness
+        );
     }
     let mut worst = WorstIntersections::default();
     let mut report = TimingReport::default();
