@@ -27,6 +27,7 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         (&["--stiffness", "1e30,1,1"], usage, "[0, 1000000]"),
         (&["--stiffness", "40"], usage, "K_STRUCT,K_SHEAR,K_BEND"),
         (&["--wind", "1,0"], usage, "X,Y,Z"),
+        (&["--velocity", "0,-1e9,0"], usage, "at most 1000 m/s"),
         (&["--substeps", "0"], usage, "1..=100000"),
         (&["--grid", "4096"], usage, "2..=2048"),
         (&["--grid", "8", "--grid", "9"], usage, "cannot be used multiple times"),

@@ -223,8 +223,9 @@ pub(crate) struct Args {
     /// scene).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0.3,0,0.5")]
     pub(crate) wind: Vec3,
-    /// The cloth's initial velocity (m/s) as X,Y,Z, e.g. `--velocity=0,-10,0` (a throw).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    /// The cloth's initial velocity (m/s) as X,Y,Z, e.g. `--velocity=0,-10,0` (a throw), at most
+    /// 1000 m/s.
+    #[arg(long, value_parser = parse_velocity, allow_hyphen_values = true)]
     pub(crate) velocity: Option<Vec3>,
     /// Skip vertex normals.
     #[arg(long)]
@@ -427,6 +428,23 @@ pub(crate) fn parse_vec3(text: &str) -> Result<Vec3, String> {
         [x, y, z] if values.iter().all(|v| v.is_finite()) => Ok(Vec3::new(x, y, z)),
         _ => Err(format!("expected three finite numbers X,Y,Z, got `{text}`")),
     }
+}
+
+/// The fastest initial velocity `--velocity` takes (m/s): faster than any cloth is thrown, and a
+/// frame at it moves the cloth further than its contact substeps can follow.
+const FASTEST_THROW: f32 = 1000.0;
+
+/// "X,Y,Z" (`parse_vec3`) no faster than `FASTEST_THROW`.
+pub(crate) fn parse_velocity(text: &str) -> Result<Vec3, String> {
+    let v = parse_vec3(text)?;
+    if v.length() > FASTEST_THROW {
+        return Err(format!(
+            "a throw of {} m/s: at most {FASTEST_THROW} m/s (a 1/60 s frame would move the cloth {} m)",
+            v.length(),
+            v.length() / 60.0
+        ));
+    }
+    Ok(v)
 }
 
 /// "MIN_X,MIN_Y,MIN_Z,MAX_X,MAX_Y,MAX_Z" (six finite numbers, min <= max) as a box.
