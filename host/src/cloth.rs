@@ -406,14 +406,7 @@ impl ClothBuilder {
                  on each other at least the self-collision thickness apart (welded, they would be one)"
             );
         }
-        let flat = mesh
-            .triangles
-            .iter()
-            .filter(|t| {
-                let [a, b, c] = t.map(|i| world[i as usize]);
-                (b - a).cross(c - a).length_squared() <= 0.0
-            })
-            .count();
+        let flat = mesh.triangles.iter().filter(|&&t| crate::cloth_mesh::triangle_area(&world, t) <= 0.0).count();
         if flat > 0 {
             log::warn!(
                 "cloth mesh: {flat} triangles have no area (a corner twice, or corners on one line): they add no mass \

@@ -140,7 +140,8 @@ impl ClothMesh {
     }
 }
 
-fn triangle_area(vertices: &[Vec3], [a, b, c]: [u32; 3]) -> f32 {
+/// The area of triangle `[a, b, c]` of `vertices`.
+pub(crate) fn triangle_area(vertices: &[Vec3], [a, b, c]: [u32; 3]) -> f32 {
     let (a, b, c) = (vertices[a as usize], vertices[b as usize], vertices[c as usize]);
     0.5 * (b - a).cross(c - a).length()
 }

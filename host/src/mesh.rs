@@ -520,3 +520,10 @@ fn check_index(index: i64, defined: usize, what: &str) -> std::result::Result<()
         Ok(())
     }
 }
+
+/// The height of triangle `a`, `b`, `c` from its longest side (a corner to the opposite side:
+/// its shortest height); `None` when its corners all coincide.
+pub(crate) fn triangle_height(a: Vec3, b: Vec3, c: Vec3) -> Option<f32> {
+    let longest = (b - a).length().max((c - a).length()).max((c - b).length());
+    (longest > 0.0).then(|| (b - a).cross(c - a).length() / longest)
+}

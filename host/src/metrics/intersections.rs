@@ -111,8 +111,7 @@ pub fn particles_near_own_faces(positions: &[Vec4], triangles: &[[u32; 3]], dist
         .iter()
         .map(|t| {
             let [a, b, c] = t.map(|i| points[i as usize]);
-            let longest = (b - a).length().max((c - a).length()).max((c - b).length());
-            if longest > 0.0 { (b - a).cross(c - a).length() / longest } else { f32::INFINITY }
+            crate::mesh::triangle_height(a, b, c).unwrap_or(f32::INFINITY)
         })
         .fold(f32::INFINITY, f32::min);
     if lowest < 2.0 * distance {

@@ -170,8 +170,7 @@ pub fn shortest_height(positions: &[Vec4], triangles: &[[u32; 3]]) -> f32 {
         .iter()
         .map(|t| {
             let [a, b, c] = t.map(|i| positions[i as usize].truncate());
-            let longest = (b - a).length().max((c - a).length()).max((c - b).length());
-            if longest > 0.0 { (b - a).cross(c - a).length() / longest } else { 0.0 }
+            crate::mesh::triangle_height(a, b, c).unwrap_or(0.0)
         })
         .fold(f32::INFINITY, f32::min)
 }
