@@ -51,8 +51,8 @@ pub struct FrameReport {
     /// where every triangle walks.
     pub self_passes_without_lists: u32,
     /// Self-collision's fail-safe (`drape_kernels::self_failsafe`): particles put back where
-    /// the frame started because a pair of the cloth's triangles, or one of them and a
-    /// collider's triangle, crossed over it, and cloths put back whole
+    /// the frame started (carried with a collider that moved) because a pair of the cloth's
+    /// triangles, or one of them and a collider's triangle, crossed over it, and cloths put back whole
     /// (its last round still found a crossing).
     pub self_rollbacks: u32,
     pub self_rollbacks_whole: u32,

@@ -38,9 +38,9 @@ impl WorstIntersections {
     }
 }
 
-/// Self-collision's fail-safe over the run: the particles put back where their frame started,
-/// the frames that put any back, the cloths put back whole, and the pairs found of a cloth
-/// triangle and a collider's (`drape_kernels::self_failsafe`).
+/// Self-collision's fail-safe over the run: the particles put back where their frame started (or
+/// carried with a moving collider), the frames that put any back, the cloths put back whole,
+/// and the pairs found of a cloth triangle and a collider's (`drape_kernels::self_failsafe`).
 #[derive(Default)]
 pub(crate) struct Rollbacks {
     particles: u64,
@@ -67,7 +67,8 @@ impl Rollbacks {
         }
         let first = self.first_frame.map_or(String::new(), |f| format!(", the first at frame {f}"));
         format!(
-            "self-collision fail-safe: {} particles put back where their frame started, in {} of {frames} frames{first}; \
+            "self-collision fail-safe: {} particles put back where their frame started (with a moving collider: \
+             carried with it), in {} of {frames} frames{first}; \
              whole cloth put back {} times; {} cloth triangles found through a collider's",
             self.particles, self.frames, self.whole, self.collider_pairs
         )

@@ -12,7 +12,9 @@ use super::self_contact::{SelfContactBuffers, SelfContactCloth};
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_failsafe::{FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_COLLIDER_CHECK, FAILSAFE_ROLL_BACK};
 use drape_kernels::WORKGROUP_SIZE;
-use drape_kernels::self_failsafe::{CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, WITH_LISTS};
+use drape_kernels::self_failsafe::{
+    CHECK_THREADS, COLLIDER_SHIFT, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, WITH_LISTS,
+};
 use drape_types::{DispatchArgs, FailsafePush};
 
 /// The timing table's line of the fail-safe's check (every round's).
@@ -25,8 +27,12 @@ pub const FAILSAFE_ROLL_BACK_LABEL: &str = "self: fail-safe roll-back";
 
 /// The buffers of one cloth's fail-safe.
 pub struct FailsafeBuffers {
-    /// Per particle: 1 when a pair found in the round puts it back.
+    /// Per particle: `GO_BACK` when a pair found in the round puts it back, `CARRIED` + a
+    /// collider's place when that collider's moving triangle found carries it.
     pub flags: Handle<u32>,
+    /// Per particle: where a moving collider carries it (`drape_kernels::self_failsafe::carry`;
+    /// read only where `flags` says so).
+    pub carried: Handle<glam::Vec4>,
     /// Per round: the pairs found and the particles put back (`FAILSAFE_COUNTER_WORDS`).
     pub counters: Handle<u32>,
     /// The check's and the roll-back's dispatches of rounds 1, 2, ... (the roll-back of the round
@@ -46,6 +52,7 @@ impl FailsafeBuffers {
             .collect();
         FailsafeBuffers {
             flags: resources.device(format!("{name}: fail-safe flags"), particles),
+            carried: resources.device(format!("{name}: fail-safe carried positions"), particles),
             counters: resources.device(format!("{name}: fail-safe counters"), FAILSAFE_COUNTER_WORDS),
             rounds,
         }
@@ -127,6 +134,7 @@ impl FailsafeBuffers {
                 check,
             ));
             for (index, collider) in colliders.iter().enumerate() {
+                let push = FailsafePush { flags: push.flags | (index as u32) << COLLIDER_SHIFT, ..push };
                 steps.extend(self.collider_check_step((own, cloth), (collider, index), push, check));
             }
             let (next_check, next_roll_back) = self.rounds[round as usize];
@@ -138,6 +146,7 @@ impl FailsafeBuffers {
                     cloth.x.id(),
                     cloth.v.id(),
                     own.anchors.id(),
+                    self.carried.id(),
                     self.flags.id(),
                     self.counters.id(),
                     next_check.id(),
@@ -184,6 +193,7 @@ impl FailsafeBuffers {
                 own.anchors.id(),
                 self.flags.id(),
                 self.counters.id(),
+                self.carried.id(),
                 cloth.health.id(),
             ],
             bytemuck::cast(push),

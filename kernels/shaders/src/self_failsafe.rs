@@ -1,7 +1,7 @@
 //! Self-collision's fail-safe: the frame's end is checked for cloth triangles that intersect
-//! each other or a triangle collider's (those the frame listed as possibly sharp, and that did
-//! not move), and the particles of any pair that did not at the frame's start are put back where
-//! the frame found them.
+//! each other or a triangle collider's (those the frame listed as possibly sharp, and whose
+//! corners did not deform), and the particles of any pair that did not at the frame's start are
+//! put back where the frame found them (relative to the collider, where it moved: `carry`).
 //!
 //! The passes (`self_contact`) push pairs within the thickness apart, each particle by the mean
 //! of its corrections. Where the cloth is squeezed (a layer pressed between the ground and the
@@ -18,7 +18,9 @@
 //!   where the frame ends (`check_collider_triangle_at`): a needle's tip that a cell slipped
 //!   over within a pass ends the pass on the wrong side, where no later pass sees it cross;
 //! - the particles of both triangles of each pair found (of the cloth's triangle, for a
-//!   collider's) go back to their positions at the frame's start, at rest.
+//!   collider's) go back to their positions at the frame's start, at rest; for a collider
+//!   whose pose moved over the frame, to those positions moved with it (`carry`), unless that
+//!   carries them more than `CARRY_REACH` of their triangle's sides.
 //!
 //! The state's end, not the straight path from its start: on a cloth folding over itself at
 //! 5-7 cm a frame (the 64^2 swing from frame 30), that path ran two layers a thickness apart
@@ -32,8 +34,8 @@
 //! some particles back and others moved is a new state, so the check runs again
 //! (`ROLLBACK_ROUNDS` rounds, each after the first dispatched only when the round before put a
 //! particle back). If the last round still finds a pair, the whole cloth goes back: the frame's
-//! start has no new crossing, so the frame's end has none either (against a collider triangle
-//! that did not move; one that moved is not checked).
+//! start has no new crossing, so the frame's end has none either (against colliders that did
+//! not move; one that moved may have swept into where the cloth started).
 //!
 //! A collider triangle is checked only when the frame listed it as possibly sharp for the cloth:
 //! where the surface folds too little to reach into a cloth cell, only a particle can cross it,
@@ -43,7 +45,7 @@
 
 use crate::atomics;
 use crate::lbvh::PairWalk;
-use crate::pose::to_world;
+use crate::pose::{to_local, to_world};
 use crate::self_contact::{LeafVisitor, walk_in_batches, walk_overlapping, within};
 use crate::self_pairs::{
     ANCHOR_WORDS, FRAME_START_WORD, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, escaped_at, may_touch,
@@ -198,17 +200,84 @@ pub struct Found<'a> {
     pub pairs: &'a mut u32,
 }
 
+/// `flags` of a particle that goes back where the frame found it.
+pub const GO_BACK: u32 = 1;
+/// `flags` of a particle carried with the model's `k`-th collider: `CARRIED + k` (where it
+/// started the frame, moved as that collider moved over it; `carry`). The largest flag wins, so
+/// a particle both a pair of the cloth's and a moving collider's triangle found is carried: the
+/// cloth cannot push the collider out of its way. Of two moving colliders, the later in the
+/// model wins; its check runs later and overwrites the other's carried position.
+pub const CARRIED: u32 = 2;
+
 impl Found<'_> {
     #[inline]
     fn mark(&mut self, a: UVec4, b: UVec4) {
         let corners = [a.x, a.y, a.z, b.x, b.y, b.z];
         let mut k = 0;
         while k < 6 {
-            atomics::max(&mut self.flags[corners[k] as usize], 1);
+            atomics::max(&mut self.flags[corners[k] as usize], GO_BACK);
             k += 1;
         }
         atomics::add(self.pairs, 1);
     }
+
+    /// Marks the particles `ids` of a cloth triangle (where they started the frame: `start`) to
+    /// be carried with a collider that moved by `pose` over the frame (`carrier`, its flag):
+    /// each goes where it started relative to the collider, into `carried`. Every thread that
+    /// marks a particle for one collider writes the same position.
+    #[inline]
+    fn mark_carried(
+        &mut self,
+        ids: UVec4,
+        start: [Vec3; 3],
+        (pose, carrier): (&ColliderPose, u32),
+        carried: &mut [Vec4],
+    ) {
+        let corners = [ids.x, ids.y, ids.z];
+        let mut k = 0;
+        while k < 3 {
+            let i = corners[k] as usize;
+            carried[i] = carry(pose, start[k]).extend(0.0);
+            atomics::max(&mut self.flags[i], carrier);
+            k += 1;
+        }
+        atomics::add(self.pairs, 1);
+    }
+}
+
+/// How far (a share of the triangle's shortest side) the fail-safe carries a cloth triangle's
+/// corners with a moving collider at most (`carries_gently`).
+pub const CARRY_REACH: f32 = 0.5;
+
+/// Whether a cloth triangle whose corners started the frame at `start` stays whole when carried
+/// with a collider that moved by `pose`: each corner moves at most `CARRY_REACH` of its
+/// shortest side. Its neighbours stay where the frame left them, so a longer carry stretches
+/// its edges past what the next round can mend: under a star prism spinning at 12 rad/s (its
+/// points 9 cm a frame, over 5 cm cells) each round carried a ring of cells whose edges then
+/// crossed the next ring, and the crossings grew from 52 to 672 in four frames. There the
+/// collider outruns the substeps, and the frame is left as the passes left it.
+#[inline]
+pub fn carries_gently(pose: &ColliderPose, start: [Vec3; 3]) -> bool {
+    let shortest2 = (start[1] - start[0])
+        .length_squared()
+        .min((start[2] - start[1]).length_squared())
+        .min((start[0] - start[2]).length_squared());
+    let reach2 = CARRY_REACH * CARRY_REACH * shortest2;
+    let mut k = 0;
+    while k < 3 {
+        if (carry(pose, start[k]) - start[k]).length_squared() > reach2 {
+            return false;
+        }
+        k += 1;
+    }
+    true
+}
+
+/// Point `p` moved as a collider moved over the frame (`pose`: from its previous pose to its
+/// current one): where it lies relative to the collider stays.
+#[inline]
+pub fn carry(pose: &ColliderPose, p: Vec3) -> Vec3 {
+    to_world(&pose.current, to_local(&pose.previous, p))
 }
 
 /// Triangles `a` and `b` at the frame's end: found when they share no particle, cross there and
@@ -378,6 +447,11 @@ pub fn check_frame_brute_force_at(
 /// boxes over the frame meet its box.
 struct ColliderFramePairs<'a> {
     corners: [Vec3; 3],
+    /// Its corners where the frame started (`corners` for a collider that did not move).
+    corners_then: [Vec3; 3],
+    /// Its collider's poses, and the flag of the particles of a cloth triangle found
+    /// (`GO_BACK` for a collider that did not move, else `CARRIED` + its place).
+    carrier: (ColliderPose, u32),
     /// Their box (`box_of`).
     bounds: (Vec3, Vec3),
     sorted: &'a [UVec4],
@@ -385,6 +459,7 @@ struct ColliderFramePairs<'a> {
     anchors: &'a [Vec4],
     separation: f32,
     found: Found<'a>,
+    carried: &'a mut [Vec4],
     /// Counts the pairs found (`Health::self_rollback_collider_pairs`; atomically, through the
     /// pointer: a count kept in the visitor makes it a value the walk's loop carries, a
     /// pointer-holding phi, `tests/engine.rs`).
@@ -394,91 +469,126 @@ struct ColliderFramePairs<'a> {
 impl LeafVisitor for ColliderFramePairs<'_> {
     fn visit(&mut self, leaf: u32) {
         let cloth = EndTriangle::load(self.sorted[leaf as usize], self.x);
-        let c = self.corners;
-        if !within(cloth.end_box(), self.bounds, self.separation) {
+        if !within(cloth.end_box(), self.bounds, self.separation) || !triangles_cross(cloth.now, self.corners) {
             return;
         }
-        if triangles_cross(cloth.now, c) && !triangles_cross(cloth.start(self.anchors), c) {
-            self.found.mark(cloth.ids, cloth.ids);
-            atomics::add(&mut self.health.self_rollback_collider_pairs, 1);
+        let start = cloth.start(self.anchors);
+        if triangles_cross(start, self.corners_then) {
+            return; // crossed at the frame's start too: going back cannot help
         }
+        if self.carrier.1 == GO_BACK {
+            self.found.mark(cloth.ids, cloth.ids);
+        } else if carries_gently(&self.carrier.0, start) {
+            self.found.mark_carried(cloth.ids, start, (&self.carrier.0, self.carrier.1), self.carried);
+        } else {
+            return;
+        }
+        atomics::add(&mut self.health.self_rollback_collider_pairs, 1);
     }
 }
 
 /// Collider triangle `triangle` (`indices` into its mesh's local `vertices`, placed by its
-/// pose where the frame ends) against the cloth's triangles at the frame's end: a cloth
-/// triangle that crosses it there, and would not with its particles back where the frame found
-/// them, has them marked to go back. That is a collider's vertex or edge through a cloth cell
-/// (a needle's tip that a cell slipped over within a pass, which no later pass sees again, as
-/// it starts on the wrong side), or a cloth edge through the collider's face. Against where the
-/// collider ends, not where it started: going back undoes only what the cloth's own motion
-/// did, and a collider that swept into where the cloth was is left to the next frame's contact.
-/// So a triangle that moved over the frame (its collider's pose, or its corners as the collider
-/// deforms: `previous` against `vertices`) is not checked: the cloth put back would lie where
-/// it is now (a star prism spinning at 6 rad/s, checked, put the whole cloth back in 42 of 90
-/// frames and left 20 times the crossings).
+/// pose where the frame ends; the model's `collider`-th) against the cloth's triangles at the
+/// frame's end: a cloth triangle that crosses it there, and would not with its particles back
+/// where the frame found them, has them marked to go back. That is a collider's vertex or edge
+/// through a cloth cell (a needle's tip that a cell slipped over within a pass, which no later
+/// pass sees again, as it starts on the wrong side), or a cloth edge through the collider's
+/// face. Against where the collider ends: going back undoes only what the cloth's own motion
+/// did. So where the collider's pose moved over the frame, "back" is relative to it: the
+/// particles go where they started the frame, moved as the collider moved (`carry`), and the
+/// pair is found when the cloth at its start crossed the collider at its start. Put back in
+/// the world instead, a cloth would lie where the collider now is (a star prism spinning at 6
+/// rad/s put the whole cloth back in 42 of 90 frames and left 20 times the crossings); carried,
+/// the garment's coarse skirt (10 around) no longer hangs through its turning body. A
+/// triangle whose corners move in the collider's own frame (a deforming collider: `previous`
+/// against `vertices`) is not checked: no one motion carries the cloth near it.
 pub fn check_collider_triangle_at(
-    triangle: u32,
+    (triangle, collider): (u32, u32),
     (vertices, previous, indices, pose): (&[Vec4], &[Vec4], &[u32], &ColliderPose),
     self_params: &ColliderParams,
     (nodes, aabbs, leaf_bounds, sorted): (&[BvhNode], &[Aabb], &[Aabb], &[UVec4]),
     (x, anchors): (&[Vec4], &[Vec4]),
-    (found, health): (Found, &mut Health),
+    (found, carried, health): (Found, &mut [Vec4], &mut Health),
 ) {
     let i = 3 * triangle as usize;
     let (ia, ib, ic) = (indices[i] as usize, indices[i + 1] as usize, indices[i + 2] as usize);
-    let still_pose =
-        pose.previous.rotation == pose.current.rotation && pose.previous.translation == pose.current.translation;
-    if !still_pose || vertices[ia] != previous[ia] || vertices[ib] != previous[ib] || vertices[ic] != previous[ic] {
+    if vertices[ia] != previous[ia] || vertices[ib] != previous[ib] || vertices[ic] != previous[ic] {
         return;
     }
-    let corners = [
-        to_world(&pose.current, vertices[ia].xyz()),
-        to_world(&pose.current, vertices[ib].xyz()),
-        to_world(&pose.current, vertices[ic].xyz()),
-    ];
+    let local = [vertices[ia].xyz(), vertices[ib].xyz(), vertices[ic].xyz()];
+    let corners =
+        [to_world(&pose.current, local[0]), to_world(&pose.current, local[1]), to_world(&pose.current, local[2])];
+    let still = stood_still(pose);
+    let (corners_then, carrier) = if still {
+        (corners, GO_BACK)
+    } else {
+        let then = &pose.previous;
+        ([to_world(then, local[0]), to_world(then, local[1]), to_world(then, local[2])], CARRIED + collider)
+    };
     let separation = SEPARATION * self_params.thickness;
     let reach = Vec3::splat(separation);
     let (lo, hi) = box_of(corners);
-    let mut pairs = ColliderFramePairs { corners, bounds: (lo, hi), sorted, x, anchors, separation, found, health };
+    let mut pairs = ColliderFramePairs {
+        corners,
+        corners_then,
+        carrier: (*pose, carrier),
+        bounds: (lo, hi),
+        sorted,
+        x,
+        anchors,
+        separation,
+        found,
+        carried,
+        health,
+    };
     walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo - reach, hi + reach), &mut pairs);
+}
+
+/// Whether a collider's pose did not change over the frame.
+#[inline]
+pub fn stood_still(pose: &ColliderPose) -> bool {
+    pose.previous.rotation == pose.current.rotation && pose.previous.translation == pose.current.translation
 }
 
 /// `FailsafePush::flags`: this round is the last (a pair it finds puts the whole cloth back).
 pub const LAST_ROUND: u32 = 1;
 /// `FailsafePush::flags`: the frame built pair lists (`check_frame_at` takes them).
 pub const WITH_LISTS: u32 = 2;
+/// `FailsafePush::flags` of a collider's check: from this bit, the collider's place in the
+/// model (the flag of the particles its moving triangles carry: `CARRIED`).
+pub const COLLIDER_SHIFT: u32 = 8;
 
-/// Particle `i` after a round of checks: if a pair marked it, back to where the frame started,
-/// at rest (its sleep flag kept); on the last round, every particle when the round found any
-/// pair. Pinned particles stay (their motion is the caller's). Counts the particles that moved
-/// back (into the round's counter and the frame's health); the first of a round that is not the
-/// last dispatches the next round (`next_check`, `next_rollback`).
+/// Particle `i` after a round of checks: if a pair marked it, back to where the frame started
+/// (or, marked by a moving collider, to where that collider carried it: `carried`), at rest
+/// (its sleep flag kept); on the last round, every particle back to where the frame started
+/// when the round found any pair. Pinned particles stay (their motion is the caller's). Counts
+/// the particles that moved back (into the round's counter and the frame's health); the first
+/// of a round that is not the last dispatches the next round (`next_check`, `next_rollback`).
 #[allow(clippy::too_many_arguments)]
 pub fn roll_back_at(
     i: u32,
     push: &FailsafePush,
     (x, v): (&mut [Vec4], &mut [Vec4]),
-    anchors: &[Vec4],
+    (anchors, carried): (&[Vec4], &[Vec4]),
     flags: &mut [u32],
     counters: &mut [u32],
     (next_check, next_rollback): (&mut DispatchArgs, &mut DispatchArgs),
     health: &mut Health,
 ) {
-    let flagged = flags[i as usize] != 0;
+    let flag = flags[i as usize];
     flags[i as usize] = 0;
     let round = push.round;
     let last = push.flags & LAST_ROUND != 0;
     let everything = last && counters[(2 * round) as usize] != 0;
     let p = x[i as usize];
-    if !(flagged || everything) || p.w <= 0.0 {
+    if !(flag != 0 || everything) || p.w <= 0.0 {
         return;
     }
-    let start = frame_start_of(anchors, i);
-    if p.xyz() == start {
+    let target = if flag >= CARRIED && !everything { carried[i as usize].xyz() } else { frame_start_of(anchors, i) };
+    if p.xyz() == target {
         return;
     }
-    x[i as usize] = start.extend(p.w);
+    x[i as usize] = target.extend(p.w);
     v[i as usize] = Vec3::ZERO.extend(v[i as usize].w);
     atomics::add(&mut health.self_rollbacks, 1);
     if atomics::add(&mut counters[(2 * round + 1) as usize], 1) == 0 && !last {
@@ -575,7 +685,8 @@ pub fn failsafe_collider_check(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] anchors: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] flags: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] counters: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] carried: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] health: &mut Health,
 ) {
     let stride = push.check_groups * CHECK_THREADS;
     let mut listed = id.x;
@@ -583,12 +694,12 @@ pub fn failsafe_collider_check(
         let found = Found { flags: &mut *flags, pairs: &mut counters[(2 * push.round) as usize] };
         let tree = (nodes, aabbs, leaf_bounds, sorted);
         check_collider_triangle_at(
-            sharp[listed as usize],
+            (sharp[listed as usize], push.flags >> COLLIDER_SHIFT),
             (vertices, previous, indices, pose),
             self_params,
             tree,
             (x, anchors),
-            (found, &mut *health),
+            (found, &mut *carried, &mut *health),
         );
         listed += stride;
     }
@@ -604,16 +715,18 @@ pub fn failsafe_roll_back(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] anchors: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] flags: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] counters: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] next_check: &mut DispatchArgs,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] next_rollback: &mut DispatchArgs,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] carried: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] flags: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] counters: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] next_check: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] next_rollback: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] health: &mut Health,
 ) {
     if id.x == 0 {
         note_everything(push, counters, health);
     }
     if id.x < params.particle_count {
-        roll_back_at(id.x, push, (x, v), anchors, flags, counters, (next_check, next_rollback), health);
+        let starts = (anchors, carried);
+        roll_back_at(id.x, push, (x, v), starts, flags, counters, (next_check, next_rollback), health);
     }
 }
