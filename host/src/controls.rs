@@ -7,7 +7,9 @@
 use crate::error::{Error, Result};
 use crate::graph::{Handle, Step};
 use crate::model::{ClothId, ColliderId};
-use crate::motion::{ClothMotion, FEATURE_SUBSTEPS_LIMIT, FeatureContact, Proximity, SELF_SUBSTEPS_LIMIT};
+use crate::motion::{
+    ClothMotion, FEATURE_SUBSTEPS_LIMIT, FeatureContact, MOVING_FEATURE_SUBSTEPS_LIMIT, Proximity, SELF_SUBSTEPS_LIMIT,
+};
 use crate::program::SolverProgram;
 use crate::programs::cloth::FramePlan;
 use crate::programs::contact::Crowded;
@@ -725,7 +727,10 @@ impl Controls {
             self.colliders.iter().filter(|c| c.swept_contact).map(|c| c.params.thickness).reduce(f32::min);
         for c in &mut self.cloths {
             let most = SELF_SUBSTEPS_LIMIT * c.base_stability.substeps;
-            let features_most = FEATURE_SUBSTEPS_LIMIT * c.base_stability.substeps;
+            let features_most = (
+                FEATURE_SUBSTEPS_LIMIT * c.base_stability.substeps,
+                MOVING_FEATURE_SUBSTEPS_LIMIT * c.base_stability.substeps,
+            );
             let proximity = Proximity {
                 collider: collider_thickness,
                 self_collision: c.self_collision.map(|t| (t, most)),

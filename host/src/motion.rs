@@ -7,7 +7,7 @@
 //!   neither test sees (an edge against an edge). Triangle contact needs no bound: it sweeps each
 //!   particle's path against the moving triangles; but a self-colliding cloth also meets the
 //!   triangle colliders' vertices and edges by proximity, so while one moves, its motion against
-//!   the cloth's counts too (up to `FEATURE_SUBSTEPS_LIMIT`). The stability bound knows
+//!   the cloth's counts too (up to `MOVING_FEATURE_SUBSTEPS_LIMIT`). The stability bound knows
 //!   nothing of motion, so a frame's substeps are at least enough that the last frame's fastest
 //!   particle, plus the colliders' fastest surface point this frame, moves at most
 //!   `CONTACT_REACH` thicknesses per substep. Raised at once, lowered only after `LOWER_AFTER`
@@ -141,13 +141,14 @@ pub(crate) struct Proximity {
 
 /// A self-colliding cloth's contact with the triangle colliders' vertices and edges, found by
 /// proximity: the thinnest such collider's thickness, the fastest surface point of those that
-/// move this frame (m/s; 0 when none does), and the most substeps they may ask for
-/// (`FEATURE_SUBSTEPS_LIMIT`).
+/// move this frame (m/s; 0 when none does), and the most substeps they may ask for: for a
+/// vertex's push (`FEATURE_SUBSTEPS_LIMIT`) and for a moving collider's motion
+/// (`MOVING_FEATURE_SUBSTEPS_LIMIT`).
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 pub(crate) struct FeatureContact {
     pub thickness: f32,
     pub speed: f32,
-    pub most: u32,
+    pub most: (u32, u32),
 }
 
 /// Self-collision raises a frame's substeps to at most this many times the stability bound's.
@@ -170,10 +171,19 @@ pub const SELF_SUBSTEPS_LIMIT: u32 = 2;
 /// a constant pull the push shrinks with the square of the substep.
 pub const FEATURE_PUSH_REACH: f32 = 1.0;
 
-/// Collider features raise a frame's substeps to at most this many times the stability bound's.
-/// The cone's 64^2 cloth was pierced at 18 and 24 substeps (4-11 mm pushes per pass at 24) and
-/// held at 30 and 40 (the bound takes 10).
+/// Collider features' pushes raise a frame's substeps to at most this many times the stability
+/// bound's. The cone's 64^2 cloth was pierced at 18 and 24 substeps (4-11 mm pushes per pass at
+/// 24) and held at 30 and 40 (the bound takes 10).
 pub const FEATURE_SUBSTEPS_LIMIT: u32 = 4;
+
+/// A moving triangle collider's motion against a self-colliding cloth raises a frame's substeps
+/// to at most this many times the stability bound's. Its edges find the cloth's by proximity
+/// alone, so the budget decides how fast a collider can move through the cloth without cutting
+/// it. A star prism spinning under the falling 32^2 cloth (the bound takes 5; 90 frames): with
+/// 4 (20 substeps), held at 6 rad/s (its points at 2.8 m/s) and cut in 82 of 90 frames at 8
+/// rad/s (3.8 m/s); with fixed substeps, 8 rad/s held at 30, 40 and 60. With 8, both hold (up
+/// to 40 substeps); at 12 rad/s (5.6 m/s) 40 cut it too.
+pub const MOVING_FEATURE_SUBSTEPS_LIMIT: u32 = 8;
 
 /// Substeps under which a collider vertex's push stays within `FEATURE_PUSH_REACH`, from the
 /// last frame's largest push `push` at `substeps_run` substeps (the push scales with the square
@@ -311,10 +321,10 @@ impl ClothMotion {
         // proximity alone: a star prism spinning at 6 rad/s, its knife edges at 2.8 m/s, cut
         // the falling 32^2 cloth at its 11 substeps and held it at 15).
         let features = proximity.collider_features.and_then(|f| {
-            let pushed = substeps_for_push(self.feature_push, self.substeps_run);
+            let pushed = substeps_for_push(self.feature_push, self.substeps_run).map(|n| n.min(f.most.0.max(1)));
             let motion = (self.last_speed + f.speed) * frame_dt;
             let moving = if f.speed > 0.0 { substeps_for(motion, f.thickness) } else { None };
-            Some(pushed.max(moving)?.min(f.most.max(1)))
+            pushed.max(moving.map(|n| n.min(f.most.1.max(1))))
         });
         // The passes test the cloth's pairs and the collider features, not the sphere colliders.
         let passes = self_collision.max(features);
@@ -461,9 +471,10 @@ mod tests {
         assert_eq!(m.contact_substeps, 1);
     }
 
-    /// Triangle colliders' features at 5 mm, moving at `speed`, up to 40 substeps.
+    /// Triangle colliders' features at 5 mm, moving at `speed`, up to 40 substeps for their
+    /// pushes and 80 for their motion.
     fn feature_contact(speed: f32) -> Proximity {
-        let f = FeatureContact { thickness: 0.005, speed, most: 40 };
+        let f = FeatureContact { thickness: 0.005, speed, most: (40, 80) };
         Proximity { collider_features: Some(f), ..Default::default() }
     }
 
@@ -481,7 +492,7 @@ mod tests {
         assert!(m.plan_frame(feature_contact(2.8), (2.8, true), 1.0 / 60.0, None).substeps);
         assert_eq!(m.contact_substeps, 10);
         m.plan_frame(feature_contact(28.0), (28.0, true), 1.0 / 60.0, None);
-        assert_eq!(m.contact_substeps, 40);
+        assert_eq!(m.contact_substeps, 80, "the motion's own limit, above the pushes' (40)");
         let mut m = ClothMotion::new();
         m.plan_frame(Proximity::default(), (28.0, true), 1.0 / 60.0, None);
         assert_eq!(m.contact_substeps, 1);
