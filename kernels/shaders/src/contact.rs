@@ -68,6 +68,11 @@ pub trait LeafKind {
     fn relative(_leaf: Self::Leaf, p: Vec3, _left: f32) -> Vec3 {
         p
     }
+    /// How far `leaf` still moves when `left` of the frame (a fraction) is to come (what
+    /// `relative` adds; nothing for leaves that do not move).
+    fn still_to_move(_leaf: Self::Leaf, _left: f32) -> Vec3 {
+        Vec3::ZERO
+    }
     /// A finer test of one leaf whose box passed `may_touch_region` (the same guarantee: false
     /// only when no motion inside `region` can hit `leaf`).
     fn may_touch_leaf_region(_leaf: Self::Leaf, _region: &Aabb, _thickness: f32) -> bool {
@@ -291,7 +296,10 @@ fn surface_of<K: LeafKind>(
     let leaf = leaves[best.leaf as usize];
     let (q0, q1) = (K::relative(leaf, p0, left.0), K::relative(leaf, p1, left.1));
     let (position, normal) = K::surface(leaf, q0, q1, best.t, thickness);
-    (position - (q1 - p1), normal, p0 + (p1 - p0) * best.t)
+    // Back by the leaf's remaining motion itself, not `q1 - p1`: Mesa's NIR, taking float math
+    // as reassociable, folds that to the motion, which the CPU's rounding does not (a deforming
+    // collider's contacts parted the GPU from its CPU twin by an f32 step).
+    (position - K::still_to_move(leaf, left.1), normal, p0 + (p1 - p0) * best.t)
 }
 
 /// The contact record of `best` at `position` (`Contact::NONE` for no contact).

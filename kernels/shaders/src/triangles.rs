@@ -418,7 +418,12 @@ impl LeafKind for Triangles {
     /// now.
     #[inline]
     fn relative(t: Triangle, p: Vec3, left: f32) -> Vec3 {
-        p + t.sweep.xyz() * left
+        p + Self::still_to_move(t, left)
+    }
+
+    #[inline]
+    fn still_to_move(t: Triangle, left: f32) -> Vec3 {
+        t.sweep.xyz() * left
     }
 
     #[inline]
