@@ -6,8 +6,8 @@
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::self_failsafe::{
-    CHECK_THREADS, COLLIDER_SHIFT, Found, WITH_LISTS, Walkers, check_collider_triangle_at, check_frame_at,
-    frame_box_at, note_everything, roll_back_at,
+    CHECK_THREADS, Found, WITH_LISTS, Walkers, check_collider_triangle_at, check_frame_at, frame_box_at,
+    note_everything, roll_back_at,
 };
 use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health};
 use glam::{UVec4, Vec4};
@@ -97,7 +97,7 @@ pub static FAILSAFE_ROLL_BACK: Kernel = Kernel {
             write("x"),
             write("v"),
             read("anchors"),
-            read("carried"),
+            write("carried"),
             write("flags"),
             write("counters"),
             write("next_check"),
@@ -175,7 +175,7 @@ fn collider_check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (flags, counters) = (flags.slice_mut::<u32>(), counters.slice_mut::<u32>());
     let pairs = counters.get_mut(2 * push.round as usize).ok_or("fail-safe round out of range")?;
     let (sharp, listed) = (sharp.slice::<u32>(), sharp_args.first::<DispatchArgs>()?._pad);
-    let (carried, health) = (carried.slice_mut::<Vec4>(), health.first_mut::<Health>()?);
+    let (carried, health) = (carried.slice_mut::<u32>(), health.first_mut::<Health>()?);
     // The kernel's threads stride over the whole list: every listed triangle, whatever the count.
     for i in 0..listed {
         let t = *sharp.get(i as usize).ok_or("the sharp triangles' count runs past their list")?;
@@ -184,7 +184,7 @@ fn collider_check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         }
         let found = Found { flags: &mut *flags, pairs: &mut *pairs };
         let marks = (found, &mut *carried, &mut *health);
-        check_collider_triangle_at((t, push.flags >> COLLIDER_SHIFT), mesh, &c, tree, (x, anchors), marks);
+        check_collider_triangle_at(t, mesh, &c, tree, (x, anchors), marks);
     }
     Ok(())
 }
@@ -195,7 +195,7 @@ fn roll_back_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let [params, x, v, anchors, carried, flags, counters, next_check, next_rollback, health] = d.bindings()?;
     let p: drape_types::SimParams = params.first()?;
     let (x, v) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>());
-    let starts = (anchors.slice::<Vec4>(), carried.slice::<Vec4>());
+    let (anchors, carried) = (anchors.slice::<Vec4>(), carried.slice_mut::<u32>());
     let (flags, counters) = (flags.slice_mut::<u32>(), counters.slice_mut::<u32>());
     let (next_check, next_rollback) =
         (next_check.first_mut::<DispatchArgs>()?, next_rollback.first_mut::<DispatchArgs>()?);
@@ -205,7 +205,7 @@ fn roll_back_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     }
     for i in 0..threads.min(p.particle_count) {
         let next = (&mut *next_check, &mut *next_rollback);
-        roll_back_at(i, &push, (&mut *x, &mut *v), starts, flags, counters, next, health);
+        roll_back_at(i, &push, (&mut *x, &mut *v), (anchors, &mut *carried), flags, counters, next, health);
     }
     Ok(())
 }

@@ -12,9 +12,7 @@ use super::self_contact::{SelfContactBuffers, SelfContactCloth};
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_failsafe::{FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_COLLIDER_CHECK, FAILSAFE_ROLL_BACK};
 use drape_kernels::WORKGROUP_SIZE;
-use drape_kernels::self_failsafe::{
-    CHECK_THREADS, COLLIDER_SHIFT, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, WITH_LISTS,
-};
+use drape_kernels::self_failsafe::{CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, WITH_LISTS};
 use drape_types::{DispatchArgs, FailsafePush};
 
 /// The timing table's line of the fail-safe's check (every round's).
@@ -27,12 +25,12 @@ pub const FAILSAFE_ROLL_BACK_LABEL: &str = "self: fail-safe roll-back";
 
 /// The buffers of one cloth's fail-safe.
 pub struct FailsafeBuffers {
-    /// Per particle: `GO_BACK` when a pair found in the round puts it back, `CARRIED` + a
-    /// collider's place when that collider's moving triangle found carries it.
+    /// Per particle: `GO_BACK` when a pair found in the round puts it back, `CARRIED` when a
+    /// moving collider's triangle found carries it.
     pub flags: Handle<u32>,
-    /// Per particle: where a moving collider carries it (`drape_kernels::self_failsafe::carry`;
-    /// read only where `flags` says so).
-    pub carried: Handle<glam::Vec4>,
+    /// Per particle: the fixed-point sum of its carries and their count (4 words;
+    /// `drape_kernels::self_failsafe::surface_motion`), cleared as the roll-back reads them.
+    pub carried: Handle<u32>,
     /// Per round: the pairs found and the particles put back (`FAILSAFE_COUNTER_WORDS`).
     pub counters: Handle<u32>,
     /// The check's and the roll-back's dispatches of rounds 1, 2, ... (the roll-back of the round
@@ -52,7 +50,7 @@ impl FailsafeBuffers {
             .collect();
         FailsafeBuffers {
             flags: resources.device(format!("{name}: fail-safe flags"), particles),
-            carried: resources.device(format!("{name}: fail-safe carried positions"), particles),
+            carried: resources.device(format!("{name}: fail-safe carries"), 4 * particles),
             counters: resources.device(format!("{name}: fail-safe counters"), FAILSAFE_COUNTER_WORDS),
             rounds,
         }
@@ -70,6 +68,7 @@ impl FailsafeBuffers {
     ) {
         let t = &own.tree;
         steps.push(Step::fill(self.flags, 0));
+        steps.push(Step::fill(self.carried, 0));
         steps.push(Step::fill(self.counters, 0));
         for &(check, roll_back) in &self.rounds {
             steps.push(empty_dispatch(check));
@@ -134,7 +133,6 @@ impl FailsafeBuffers {
                 check,
             ));
             for (index, collider) in colliders.iter().enumerate() {
-                let push = FailsafePush { flags: push.flags | (index as u32) << COLLIDER_SHIFT, ..push };
                 steps.extend(self.collider_check_step((own, cloth), (collider, index), push, check));
             }
             let (next_check, next_roll_back) = self.rounds[round as usize];

@@ -1666,7 +1666,7 @@ fn displace(i: usize, x: &mut [Vec4], v: &mut [Vec4], d: Vec3) {
 /// The mean of particle `i`'s fixed-point sums (words `4i..4i + 3`, `scale` units per unit),
 /// or `None` when nothing was added.
 #[inline]
-fn mean_of(sums: &[u32], i: usize, scale: f32) -> Option<Vec3> {
+pub fn mean_of(sums: &[u32], i: usize, scale: f32) -> Option<Vec3> {
     let base = 4 * i;
     let count = sums[base + 3];
     if count == 0 {

@@ -1,7 +1,7 @@
 //! Self-collision's fail-safe: the frame's end is checked for cloth triangles that intersect
-//! each other or a triangle collider's (those the frame listed as possibly sharp, and whose
-//! corners did not deform), and the particles of any pair that did not at the frame's start are
-//! put back where the frame found them (relative to the collider, where it moved: `carry`).
+//! each other or a triangle collider's (those the frame listed as possibly sharp), and the
+//! particles of any pair that did not at the frame's start are put back where the frame found
+//! them (relative to the collider's surface, where it moved: `surface_motion`).
 //!
 //! The passes (`self_contact`) push pairs within the thickness apart, each particle by the mean
 //! of its corrections. Where the cloth is squeezed (a layer pressed between the ground and the
@@ -19,8 +19,9 @@
 //!   over within a pass ends the pass on the wrong side, where no later pass sees it cross;
 //! - the particles of both triangles of each pair found (of the cloth's triangle, for a
 //!   collider's) go back to their positions at the frame's start, at rest; for a collider
-//!   whose pose moved over the frame, to those positions moved with it (`carry`), unless that
-//!   carries them more than `CARRY_REACH` of their triangle's sides.
+//!   triangle that moved over the frame, to those positions carried as its surface moved
+//!   (`surface_motion`), unless that carries them more than `CARRY_REACH` of their triangle's
+//!   sides.
 //!
 //! The state's end, not the straight path from its start: on a cloth folding over itself at
 //! 5-7 cm a frame (the 64^2 swing from frame 30), that path ran two layers a thickness apart
@@ -45,8 +46,10 @@
 
 use crate::atomics;
 use crate::lbvh::PairWalk;
-use crate::pose::{to_local, to_world};
-use crate::self_contact::{LeafVisitor, walk_in_batches, walk_overlapping, within};
+use crate::pose::to_world;
+use crate::self_contact::{
+    FIXED_SCALE, LeafVisitor, accumulate, longest_side2, mean_of, walk_in_batches, walk_overlapping, within,
+};
 use crate::self_pairs::{
     ANCHOR_WORDS, FRAME_START_WORD, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, escaped_at, may_touch,
 };
@@ -202,11 +205,12 @@ pub struct Found<'a> {
 
 /// `flags` of a particle that goes back where the frame found it.
 pub const GO_BACK: u32 = 1;
-/// `flags` of a particle carried with the model's `k`-th collider: `CARRIED + k` (where it
-/// started the frame, moved as that collider moved over it; `carry`). The largest flag wins, so
-/// a particle both a pair of the cloth's and a moving collider's triangle found is carried: the
-/// cloth cannot push the collider out of its way. Of two moving colliders, the later in the
-/// model wins; its check runs later and overwrites the other's carried position.
+/// `flags` of a particle carried with a moving collider: where it started the frame, moved as
+/// the collider's surface under it moved (`surface_motion`; the mean of those of every moving
+/// collider triangle that found it, summed as fixed-point integers in `carried`, so the order of
+/// the threads changes nothing). The largest flag wins, so a particle both a pair of the
+/// cloth's and a moving collider's triangle found is carried: the cloth cannot push the
+/// collider out of its way.
 pub const CARRIED: u32 = 2;
 
 impl Found<'_> {
@@ -221,24 +225,15 @@ impl Found<'_> {
         atomics::add(self.pairs, 1);
     }
 
-    /// Marks the particles `ids` of a cloth triangle (where they started the frame: `start`) to
-    /// be carried with a collider that moved by `pose` over the frame (`carrier`, its flag):
-    /// each goes where it started relative to the collider, into `carried`. Every thread that
-    /// marks a particle for one collider writes the same position.
+    /// Marks the particles `ids` of a cloth triangle to be carried by `moves` (each corner's
+    /// carry), adding them to their sums in `carried` (`self_contact::accumulate`'s words).
     #[inline]
-    fn mark_carried(
-        &mut self,
-        ids: UVec4,
-        start: [Vec3; 3],
-        (pose, carrier): (&ColliderPose, u32),
-        carried: &mut [Vec4],
-    ) {
+    fn mark_carried(&mut self, ids: UVec4, moves: [Vec3; 3], carried: &mut [u32]) {
         let corners = [ids.x, ids.y, ids.z];
         let mut k = 0;
         while k < 3 {
-            let i = corners[k] as usize;
-            carried[i] = carry(pose, start[k]).extend(0.0);
-            atomics::max(&mut self.flags[i], carrier);
+            accumulate(carried, corners[k], moves[k]);
+            atomics::max(&mut self.flags[corners[k] as usize], CARRIED);
             k += 1;
         }
         atomics::add(self.pairs, 1);
@@ -246,38 +241,48 @@ impl Found<'_> {
 }
 
 /// How far (a share of the triangle's shortest side) the fail-safe carries a cloth triangle's
-/// corners with a moving collider at most (`carries_gently`).
+/// corners with a moving collider at most (`gentle`).
 pub const CARRY_REACH: f32 = 0.5;
 
-/// Whether a cloth triangle whose corners started the frame at `start` stays whole when carried
-/// with a collider that moved by `pose`: each corner moves at most `CARRY_REACH` of its
-/// shortest side. Its neighbours stay where the frame left them, so a longer carry stretches
-/// its edges past what the next round can mend: under a star prism spinning at 12 rad/s (its
-/// points 9 cm a frame, over 5 cm cells) each round carried a ring of cells whose edges then
-/// crossed the next ring, and the crossings grew from 52 to 672 in four frames. There the
-/// collider outruns the substeps, and the frame is left as the passes left it.
+/// Whether carrying a cloth triangle whose corners started the frame at `start` by `moves`
+/// keeps it whole: each corner moves at most `CARRY_REACH` of its shortest side. Its
+/// neighbours stay where the frame left them, so a longer carry stretches its edges past what
+/// the next round can mend: under a star prism spinning at 12 rad/s (its points 9 cm a frame,
+/// over 5 cm cells) each round carried a ring of cells whose edges then crossed the next ring,
+/// and the crossings grew from 52 to 672 in four frames. There the collider outruns the
+/// substeps, and the frame is left as the passes left it.
 #[inline]
-pub fn carries_gently(pose: &ColliderPose, start: [Vec3; 3]) -> bool {
+pub fn gentle(start: [Vec3; 3], moves: [Vec3; 3]) -> bool {
     let shortest2 = (start[1] - start[0])
         .length_squared()
         .min((start[2] - start[1]).length_squared())
         .min((start[0] - start[2]).length_squared());
     let reach2 = CARRY_REACH * CARRY_REACH * shortest2;
-    let mut k = 0;
-    while k < 3 {
-        if (carry(pose, start[k]) - start[k]).length_squared() > reach2 {
-            return false;
-        }
-        k += 1;
-    }
-    true
+    moves[0].length_squared() <= reach2 && moves[1].length_squared() <= reach2 && moves[2].length_squared() <= reach2
 }
 
-/// Point `p` moved as a collider moved over the frame (`pose`: from its previous pose to its
-/// current one): where it lies relative to the collider stays.
+/// How far a collider triangle that moved from `then` to `now` over the frame carries point `p`
+/// (where it was then): `p` in the triangle's frame then (its first corner, its two edges from
+/// there and their cross product: `p = a + u ab + v ac + w n`), placed in its frame now. A
+/// rigid motion carries it rigidly, however far it lies from the triangle (the far corners of
+/// a coarse cloth cell a collider's vertex went through); a deformation stretches the frame
+/// with the triangle, and the offset off its plane with its area. No square root: both sides
+/// compute the same bits. A triangle with no area: its centroid's motion.
 #[inline]
-pub fn carry(pose: &ColliderPose, p: Vec3) -> Vec3 {
-    to_world(&pose.current, to_local(&pose.previous, p))
+pub fn surface_motion(p: Vec3, then: [Vec3; 3], now: [Vec3; 3]) -> Vec3 {
+    let [a, b, c] = then;
+    let (ab, ac) = (b - a, c - a);
+    let normal = ab.cross(ac);
+    let area2 = normal.length_squared();
+    let longest = longest_side2(a, b, c);
+    if area2 <= 1e-8 * longest * longest {
+        return (now[0] + now[1] + now[2] - (a + b + c)) * (1.0 / 3.0);
+    }
+    let d = p - a;
+    let scale = 1.0 / area2;
+    let (u, v, w) = (d.cross(ac).dot(normal) * scale, ab.cross(d).dot(normal) * scale, d.dot(normal) * scale);
+    let (ab1, ac1) = (now[1] - now[0], now[2] - now[0]);
+    now[0] + ab1 * u + ac1 * v + ab1.cross(ac1) * w - p
 }
 
 /// Triangles `a` and `b` at the frame's end: found when they share no particle, cross there and
@@ -447,11 +452,9 @@ pub fn check_frame_brute_force_at(
 /// boxes over the frame meet its box.
 struct ColliderFramePairs<'a> {
     corners: [Vec3; 3],
-    /// Its corners where the frame started (`corners` for a collider that did not move).
-    corners_then: [Vec3; 3],
-    /// Its collider's poses, and the flag of the particles of a cloth triangle found
-    /// (`GO_BACK` for a collider that did not move, else `CARRIED` + its place).
-    carrier: (ColliderPose, u32),
+    /// Its corners where the frame started (`corners` for a triangle that did not move), and
+    /// whether it moved.
+    corners_then: ([Vec3; 3], bool),
     /// Their box (`box_of`).
     bounds: (Vec3, Vec3),
     sorted: &'a [UVec4],
@@ -459,7 +462,7 @@ struct ColliderFramePairs<'a> {
     anchors: &'a [Vec4],
     separation: f32,
     found: Found<'a>,
-    carried: &'a mut [Vec4],
+    carried: &'a mut [u32],
     /// Counts the pairs found (`Health::self_rollback_collider_pairs`; atomically, through the
     /// pointer: a count kept in the visitor makes it a value the walk's loop carries, a
     /// pointer-holding phi, `tests/engine.rs`).
@@ -473,65 +476,63 @@ impl LeafVisitor for ColliderFramePairs<'_> {
             return;
         }
         let start = cloth.start(self.anchors);
-        if triangles_cross(start, self.corners_then) {
+        let (then, moved) = self.corners_then;
+        if triangles_cross(start, then) {
             return; // crossed at the frame's start too: going back cannot help
         }
-        if self.carrier.1 == GO_BACK {
+        if !moved {
             self.found.mark(cloth.ids, cloth.ids);
-        } else if carries_gently(&self.carrier.0, start) {
-            self.found.mark_carried(cloth.ids, start, (&self.carrier.0, self.carrier.1), self.carried);
         } else {
-            return;
+            let now = self.corners;
+            let moves = [
+                surface_motion(start[0], then, now),
+                surface_motion(start[1], then, now),
+                surface_motion(start[2], then, now),
+            ];
+            if !gentle(start, moves) {
+                return;
+            }
+            self.found.mark_carried(cloth.ids, moves, self.carried);
         }
         atomics::add(&mut self.health.self_rollback_collider_pairs, 1);
     }
 }
 
 /// Collider triangle `triangle` (`indices` into its mesh's local `vertices`, placed by its
-/// pose where the frame ends; the model's `collider`-th) against the cloth's triangles at the
-/// frame's end: a cloth triangle that crosses it there, and would not with its particles back
-/// where the frame found them, has them marked to go back. That is a collider's vertex or edge
-/// through a cloth cell (a needle's tip that a cell slipped over within a pass, which no later
-/// pass sees again, as it starts on the wrong side), or a cloth edge through the collider's
-/// face. Against where the collider ends: going back undoes only what the cloth's own motion
-/// did. So where the collider's pose moved over the frame, "back" is relative to it: the
-/// particles go where they started the frame, moved as the collider moved (`carry`), and the
-/// pair is found when the cloth at its start crossed the collider at its start. Put back in
-/// the world instead, a cloth would lie where the collider now is (a star prism spinning at 6
-/// rad/s put the whole cloth back in 42 of 90 frames and left 20 times the crossings); carried,
-/// the garment's coarse skirt (10 around) no longer hangs through its turning body. A
-/// triangle whose corners move in the collider's own frame (a deforming collider: `previous`
-/// against `vertices`) is not checked: no one motion carries the cloth near it.
+/// pose where the frame ends) against the cloth's triangles at the frame's end: a cloth
+/// triangle that crosses it there, and did not where both started the frame, has its particles
+/// marked to go back. That is a collider's vertex or edge through a cloth cell (a needle's tip
+/// that a cell slipped over within a pass, which no later pass sees again, as it starts on the
+/// wrong side), or a cloth edge through the collider's face. Going back undoes only what the
+/// cloth's own motion did, so where the triangle moved over the frame (its collider's pose, or
+/// its corners as the collider deforms: `previous` against `vertices`), "back" is relative to
+/// its surface: the particles go where they started, carried as the surface under them moved
+/// (`surface_motion`). Put back in the world instead, a cloth would lie where the collider now
+/// is (a star prism spinning at 6 rad/s put the whole cloth back in 42 of 90 frames and left 20
+/// times the crossings); carried, the garment's coarse skirt (10 around) no longer hangs
+/// through its turning body.
 pub fn check_collider_triangle_at(
-    (triangle, collider): (u32, u32),
+    triangle: u32,
     (vertices, previous, indices, pose): (&[Vec4], &[Vec4], &[u32], &ColliderPose),
     self_params: &ColliderParams,
     (nodes, aabbs, leaf_bounds, sorted): (&[BvhNode], &[Aabb], &[Aabb], &[UVec4]),
     (x, anchors): (&[Vec4], &[Vec4]),
-    (found, carried, health): (Found, &mut [Vec4], &mut Health),
+    (found, carried, health): (Found, &mut [u32], &mut Health),
 ) {
     let i = 3 * triangle as usize;
     let (ia, ib, ic) = (indices[i] as usize, indices[i + 1] as usize, indices[i + 2] as usize);
-    if vertices[ia] != previous[ia] || vertices[ib] != previous[ib] || vertices[ic] != previous[ic] {
-        return;
-    }
-    let local = [vertices[ia].xyz(), vertices[ib].xyz(), vertices[ic].xyz()];
+    let (now, then) = (&pose.current, &pose.previous);
     let corners =
-        [to_world(&pose.current, local[0]), to_world(&pose.current, local[1]), to_world(&pose.current, local[2])];
-    let still = stood_still(pose);
-    let (corners_then, carrier) = if still {
-        (corners, GO_BACK)
-    } else {
-        let then = &pose.previous;
-        ([to_world(then, local[0]), to_world(then, local[1]), to_world(then, local[2])], CARRIED + collider)
-    };
+        [to_world(now, vertices[ia].xyz()), to_world(now, vertices[ib].xyz()), to_world(now, vertices[ic].xyz())];
+    let corners_then =
+        [to_world(then, previous[ia].xyz()), to_world(then, previous[ib].xyz()), to_world(then, previous[ic].xyz())];
+    let moved = corners_then[0] != corners[0] || corners_then[1] != corners[1] || corners_then[2] != corners[2];
     let separation = SEPARATION * self_params.thickness;
     let reach = Vec3::splat(separation);
     let (lo, hi) = box_of(corners);
     let mut pairs = ColliderFramePairs {
         corners,
-        corners_then,
-        carrier: (*pose, carrier),
+        corners_then: (corners_then, moved),
         bounds: (lo, hi),
         sorted,
         x,
@@ -544,22 +545,14 @@ pub fn check_collider_triangle_at(
     walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo - reach, hi + reach), &mut pairs);
 }
 
-/// Whether a collider's pose did not change over the frame.
-#[inline]
-pub fn stood_still(pose: &ColliderPose) -> bool {
-    pose.previous.rotation == pose.current.rotation && pose.previous.translation == pose.current.translation
-}
-
 /// `FailsafePush::flags`: this round is the last (a pair it finds puts the whole cloth back).
 pub const LAST_ROUND: u32 = 1;
 /// `FailsafePush::flags`: the frame built pair lists (`check_frame_at` takes them).
 pub const WITH_LISTS: u32 = 2;
-/// `FailsafePush::flags` of a collider's check: from this bit, the collider's place in the
-/// model (the flag of the particles its moving triangles carry: `CARRIED`).
-pub const COLLIDER_SHIFT: u32 = 8;
 
 /// Particle `i` after a round of checks: if a pair marked it, back to where the frame started
-/// (or, marked by a moving collider, to where that collider carried it: `carried`), at rest
+/// (or, marked by a moving collider, to there carried by the mean of its carries: `carried`,
+/// which it clears), at rest
 /// (its sleep flag kept); on the last round, every particle back to where the frame started
 /// when the round found any pair. Pinned particles stay (their motion is the caller's). Counts
 /// the particles that moved back (into the round's counter and the frame's health); the first
@@ -569,7 +562,7 @@ pub fn roll_back_at(
     i: u32,
     push: &FailsafePush,
     (x, v): (&mut [Vec4], &mut [Vec4]),
-    (anchors, carried): (&[Vec4], &[Vec4]),
+    (anchors, carried): (&[Vec4], &mut [u32]),
     flags: &mut [u32],
     counters: &mut [u32],
     (next_check, next_rollback): (&mut DispatchArgs, &mut DispatchArgs),
@@ -580,11 +573,13 @@ pub fn roll_back_at(
     let round = push.round;
     let last = push.flags & LAST_ROUND != 0;
     let everything = last && counters[(2 * round) as usize] != 0;
+    let carry = if flag >= CARRIED { take_carry(carried, i) } else { Vec3::ZERO };
     let p = x[i as usize];
     if !(flag != 0 || everything) || p.w <= 0.0 {
         return;
     }
-    let target = if flag >= CARRIED && !everything { carried[i as usize].xyz() } else { frame_start_of(anchors, i) };
+    let start = frame_start_of(anchors, i);
+    let target = if everything { start } else { start + carry };
     if p.xyz() == target {
         return;
     }
@@ -595,6 +590,19 @@ pub fn roll_back_at(
         next_check.x = push.check_groups;
         next_rollback.x = push.rollback_groups;
     }
+}
+
+/// Particle `i`'s carry (the mean of its sums in `carried`), its sums cleared for the next
+/// round.
+#[inline]
+fn take_carry(carried: &mut [u32], i: u32) -> Vec3 {
+    let carry = mean_of(carried, i as usize, FIXED_SCALE).unwrap_or(Vec3::ZERO);
+    let base = 4 * i as usize;
+    carried[base] = 0;
+    carried[base + 1] = 0;
+    carried[base + 2] = 0;
+    carried[base + 3] = 0;
+    carry
 }
 
 /// The health's record of a whole cloth put back (the last round found a pair).
@@ -685,7 +693,7 @@ pub fn failsafe_collider_check(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] anchors: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] flags: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] counters: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] carried: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] carried: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] health: &mut Health,
 ) {
     let stride = push.check_groups * CHECK_THREADS;
@@ -694,7 +702,7 @@ pub fn failsafe_collider_check(
         let found = Found { flags: &mut *flags, pairs: &mut counters[(2 * push.round) as usize] };
         let tree = (nodes, aabbs, leaf_bounds, sorted);
         check_collider_triangle_at(
-            (sharp[listed as usize], push.flags >> COLLIDER_SHIFT),
+            sharp[listed as usize],
             (vertices, previous, indices, pose),
             self_params,
             tree,
@@ -715,7 +723,7 @@ pub fn failsafe_roll_back(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] anchors: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] carried: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] carried: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] flags: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] counters: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] next_check: &mut DispatchArgs,

@@ -303,8 +303,7 @@ pub struct SelfListPush {
 }
 
 /// Push constants of a round of self-collision's fail-safe (`drape_kernels::self_failsafe`):
-/// which round, its flags (`drape_kernels::self_failsafe::LAST_ROUND`, `WITH_LISTS`; for a
-/// collider's check, the collider's place in the model from `COLLIDER_SHIFT`), and the
+/// which round, its flags (`drape_kernels::self_failsafe::LAST_ROUND`, `WITH_LISTS`), and the
 /// workgroups of the next round's boxes and check, and of its roll-back (dispatched only when
 /// this round put a particle back).
 #[repr(C)]
