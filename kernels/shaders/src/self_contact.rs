@@ -234,6 +234,14 @@ pub fn closest_with_weights(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Vec3) 
     (a + ab * v + ac * w, Vec3::new(va * denom, v, w))
 }
 
+/// Whether a triangle has collapsed (a segment or a point, within f32's reach): its sides' cross
+/// product has squared length `area2` and its longest side squared length `longest2`. No
+/// closest point or side can be measured from it.
+#[inline]
+pub fn collapsed(area2: f32, longest2: f32) -> bool {
+    area2 <= 1e-8 * longest2 * longest2
+}
+
 /// A vertex-triangle pair's correction: the displacement of the vertex and of each corner
 /// (zero when the pair does not touch). `wp` and `w` (the corners') are the pin weights.
 #[derive(Copy, Clone, Debug, PartialEq)]
@@ -330,7 +338,7 @@ pub fn pair_correction_within(
     let normal = (b - a).cross(c - a);
     let area2 = normal.length_squared();
     let longest = longest_side2(a, b, c);
-    if area2 <= 1e-8 * longest * longest {
+    if collapsed(area2, longest) {
         return None; // a collapsed triangle has no side to keep
     }
     // Written with the unnormalised normal (length L = sqrt(area2)) and no reciprocal of a

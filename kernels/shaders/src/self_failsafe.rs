@@ -48,14 +48,14 @@ use crate::atomics;
 use crate::lbvh::PairWalk;
 use crate::pose::to_world;
 use crate::self_contact::{
-    FIXED_SCALE, LeafVisitor, accumulate, longest_side2, mean_of, walk_in_batches, walk_overlapping, within,
+    FIXED_SCALE, LeafVisitor, accumulate, collapsed, longest_side2, mean_of, walk_in_batches, walk_overlapping, within,
 };
 use crate::self_pairs::{
     ANCHOR_WORDS, FRAME_START_WORD, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, escaped_at, may_touch,
 };
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
-    Aabb, BvhNode, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health, SelfPassPush, SimParams,
+    Aabb, BvhNode, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health, RigidPose, SelfPassPush, SimParams,
 };
 use spirv_std::spirv;
 
@@ -273,13 +273,11 @@ pub fn surface_motion(p: Vec3, then: [Vec3; 3], now: [Vec3; 3]) -> Vec3 {
     let [a, b, c] = then;
     let (ab, ac) = (b - a, c - a);
     let normal = ab.cross(ac);
-    let area2 = normal.length_squared();
-    let longest = longest_side2(a, b, c);
-    if area2 <= 1e-8 * longest * longest {
+    if collapsed(normal.length_squared(), longest_side2(a, b, c)) {
         return (now[0] + now[1] + now[2] - (a + b + c)) * (1.0 / 3.0);
     }
     let d = p - a;
-    let scale = 1.0 / area2;
+    let scale = 1.0 / normal.length_squared();
     let (u, v, w) = (d.cross(ac).dot(normal) * scale, ab.cross(d).dot(normal) * scale, d.dot(normal) * scale);
     let (ab1, ac1) = (now[1] - now[0], now[2] - now[0]);
     now[0] + ab1 * u + ac1 * v + ab1.cross(ac1) * w - p
@@ -521,11 +519,8 @@ pub fn check_collider_triangle_at(
 ) {
     let i = 3 * triangle as usize;
     let (ia, ib, ic) = (indices[i] as usize, indices[i + 1] as usize, indices[i + 2] as usize);
-    let (now, then) = (&pose.current, &pose.previous);
-    let corners =
-        [to_world(now, vertices[ia].xyz()), to_world(now, vertices[ib].xyz()), to_world(now, vertices[ic].xyz())];
-    let corners_then =
-        [to_world(then, previous[ia].xyz()), to_world(then, previous[ib].xyz()), to_world(then, previous[ic].xyz())];
+    let ids = [ia, ib, ic];
+    let (corners, corners_then) = (placed(&pose.current, vertices, ids), placed(&pose.previous, previous, ids));
     let moved = corners_then[0] != corners[0] || corners_then[1] != corners[1] || corners_then[2] != corners[2];
     let separation = SEPARATION * self_params.thickness;
     let reach = Vec3::splat(separation);
@@ -543,6 +538,12 @@ pub fn check_collider_triangle_at(
         health,
     };
     walk_overlapping((nodes, aabbs, leaf_bounds), self_params.leaf_count, (lo - reach, hi + reach), &mut pairs);
+}
+
+/// The corners `ids` of a collider's local `points`, placed in the world by pose `at`.
+#[inline]
+fn placed(at: &RigidPose, points: &[Vec4], [a, b, c]: [usize; 3]) -> [Vec3; 3] {
+    [to_world(at, points[a].xyz()), to_world(at, points[b].xyz()), to_world(at, points[c].xyz())]
 }
 
 /// `FailsafePush::flags`: this round is the last (a pair it finds puts the whole cloth back).

@@ -35,7 +35,7 @@ use crate::atomics;
 use crate::lbvh::{PairBoxes, PairWalk, WALK_BATCH};
 use crate::self_contact::{
     Corners, LeafVisitor, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights,
-    frame_of, longest_side2, pair_mask, self_triangle_contact_at, triangle_pair, walk_in_batches,
+    collapsed, frame_of, longest_side2, pair_mask, self_triangle_contact_at, triangle_pair, walk_in_batches,
 };
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
@@ -487,7 +487,7 @@ fn vertex_face_pair(vertex: &AnchoredTriangle, k: usize, face: &AnchoredTriangle
     let area2 = (b.start - a.start).cross(c.start - a.start).length_squared();
     let side2 = longest_side2(a.start, b.start, c.start);
     let moves = [p.motion - a.motion, p.motion - b.motion, p.motion - c.motion, p.motion - c.motion];
-    if area2 <= 1e-8 * side2 * side2 {
+    if collapsed(area2, side2) {
         // No closest point to measure from a collapsed face: kept.
         let motion = longest(moves);
         return KeptPair { gap: f32::NEG_INFINITY, motion: PairMotion { motion, approach: motion } };
