@@ -682,3 +682,35 @@ fn cli_crowded_contact_hands_crowded_particles_over_with_the_same_result() {
     assert!(auto.0 == on.0 && handed, "auto: {} crowded, {} handed over", auto.0, auto.1);
     assert!(on.2 == off.2 && on.2 == auto.2, "the final frames differ");
 }
+
+/// `--one-workgroup-substeps`: `on` runs the swinging cloth's substeps as one dispatch a frame
+/// (the timing table's "substeps in one workgroup", no RK4 stage of its own), `off` and `auto`
+/// (on lavapipe, a CPU driver) a dispatch a stage; the cloth ends bit for bit the same.
+#[test]
+fn cli_one_workgroup_substeps_runs_the_frame_as_one_dispatch_with_the_same_result() {
+    let dir = std::env::temp_dir().join(format!("drape-one-workgroup-{}", std::process::id()));
+    let run = |choice: &str| {
+        let (json, objs) = (dir.join(format!("{choice}.json")), dir.join(choice));
+        std::fs::create_dir_all(&objs).unwrap();
+        let args =
+            ["--scene", "swing", "--grid", "20", "--frames", "12", "--quiet", "--one-workgroup-substeps", choice];
+        let output =
+            drape(&[&args[..], &["--json", json.to_str().unwrap(), "--obj-dir", objs.to_str().unwrap()]].concat());
+        assert!(output.status.success(), "{choice}: {}", String::from_utf8_lossy(&output.stderr));
+        let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let passes = report["timings"]["passes"].as_array().unwrap_or_else(|| panic!("{choice}: no passes"));
+        let ran = |label: &str| passes.iter().any(|p| p["pass"] == label);
+        let on_cpu = report["device"].to_string().contains("llvmpipe");
+        (ran("substeps in one workgroup"), ran("rk4: k1"), std::fs::read(objs.join("frame_00012.obj")).unwrap(), on_cpu)
+    };
+    let (on, off, auto) = (run("on"), run("off"), run("auto"));
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(on.0 && !on.1, "on: one dispatch a frame, no stage of its own");
+    assert!(!off.0 && off.1, "off: a dispatch a stage");
+    // On a GPU the automatic choice takes one workgroup for this 400-particle cloth.
+    assert!(if auto.3 { !auto.0 && auto.1 } else { auto.0 && !auto.1 }, "auto chose {:?}", (auto.0, auto.1));
+    // Bit for bit where both kernels round alike (lavapipe; NVIDIA contracts them differently).
+    if on.3 {
+        assert!(on.2 == off.2 && on.2 == auto.2, "the final frames differ");
+    }
+}

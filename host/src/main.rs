@@ -198,7 +198,8 @@ fn run(args: &Args) -> drape::Result<()> {
         .with_tile_sleep(args.tile_sleep == OnOff::On)
         .with_self_failsafe(args.self_failsafe == OnOff::On)
         .with_self_list_windows(args.self_list_windows == OnOff::On)
-        .with_crowded_contact(args.crowded_contact.forced());
+        .with_crowded_contact(args.crowded_contact.forced())
+        .with_one_workgroup_substeps(args.one_workgroup_substeps.forced());
     let search = match (args.brute_force, args.search) {
         (true, _) | (_, SearchArg::BruteForce) => ContactSearch::BruteForce,
         (_, SearchArg::Lists) => ContactSearch::CandidateLists,

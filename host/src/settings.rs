@@ -8,6 +8,12 @@ use crate::programs::contact::Crowded;
 use crate::stability::{self, BoundInputs, DEFAULT_SAFETY, Stability};
 use drape_types::{Health, SimParams, integrator};
 
+/// The most particles whose frame the automatic `SimSettings::one_workgroup_substeps` runs in
+/// one workgroup on a GPU: one a lane. Measured on an H200 (the swinging cloth, GPU span a
+/// frame, stagewise -> one workgroup): 16^2 154 -> 78 µs, 32^2 265 -> 217, but 48^2 390 -> 728
+/// and 64^2 535 -> 1574 (one multiprocessor's arithmetic outgrows the dispatches it spares).
+pub const ONE_WORKGROUP_PARTICLES: u32 = 32 * 32;
+
 /// Time integration scheme.
 #[non_exhaustive]
 #[derive(Copy, Clone, Debug, PartialEq, Eq)]
@@ -71,6 +77,14 @@ pub struct SimSettings {
     /// they save); never on a CPU driver (lavapipe), where a workgroup's lanes run one after
     /// another.
     pub crowded_contact: Option<bool>,
+    /// A frame whose substeps run nothing between their stages (no collider, no
+    /// self-collision) runs them in one workgroup, one dispatch for the frame
+    /// (`drape_kernels::substeps`): the same frame, bit for bit on lavapipe. `None` (automatic):
+    /// on a GPU for a cloth of at most `ONE_WORKGROUP_PARTICLES` particles, where a dispatch
+    /// and its barrier cost more than a stage's arithmetic on one multiprocessor; never on a
+    /// CPU driver, where a workgroup's lanes run on one core (lavapipe, 64^2: 36 ms a frame
+    /// against 19).
+    pub one_workgroup_substeps: Option<bool>,
     /// The device is a GPU (`on_device`): the automatic `crowded_contact` may hand crowded
     /// particles over; on a CPU driver it only counts them.
     pub(crate) device_is_gpu: bool,
@@ -92,6 +106,7 @@ impl Default for SimSettings {
             self_failsafe: true,
             self_list_windows: true,
             crowded_contact: None,
+            one_workgroup_substeps: None,
             device_is_gpu: true,
         }
     }
@@ -153,6 +168,12 @@ impl SimSettings {
     /// see `crowded_contact`).
     pub fn with_crowded_contact(mut self, on: Option<bool>) -> Self {
         self.crowded_contact = on;
+        self
+    }
+    /// Whether a frame's substeps run in one workgroup when nothing runs between their stages
+    /// (`None`: automatic, see `one_workgroup_substeps`).
+    pub fn with_one_workgroup_substeps(mut self, on: Option<bool>) -> Self {
+        self.one_workgroup_substeps = on;
         self
     }
     /// Whether these settings run on a GPU (false: a CPU driver, or the CPU twin): where the
@@ -280,6 +301,9 @@ impl SimSettings {
                 Some(false) => Crowded::Ignored,
                 None => Crowded::Counted,
             },
+            one_workgroup: self
+                .one_workgroup_substeps
+                .unwrap_or(self.device_is_gpu && params.particle_count <= ONE_WORKGROUP_PARTICLES),
         }
     }
 

@@ -2,8 +2,9 @@
 
 use crate::graph::{BindingSpec, HostBuffer, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
-use drape_kernels::integrate::{GridSprings, SpringList, StageBuffers, integrate_stage_at};
-use drape_types::{ParticleSprings, SimParams, Spring, StagePush};
+use drape_kernels::integrate::{ClothForces, GridSprings, SpringList, StageBuffers, integrate_stage_at};
+use drape_kernels::substeps::{FrameBuffers, SUBSTEPS_THREADS, frame_substeps};
+use drape_types::{ParticleSprings, SimParams, Spring, StagePush, SubstepsPush};
 
 const fn read(name: &'static str) -> BindingSpec {
     BindingSpec::read(name)
@@ -94,5 +95,85 @@ fn integrate_springs_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     for i in 0..threads.min(p.particle_count) {
         integrate_stage_at(&p, push.stage, i, &mut b, &forces);
     }
+    Ok(())
+}
+
+/// The bindings of both one-workgroup integrator kernels (`drape_kernels::substeps`), then
+/// `$extra`: the state, both ping-pong pairs, the sums and the substep's start.
+macro_rules! substeps_bindings {
+    ($($extra:expr),*) => {
+        &[
+            read("params"),
+            write("x"),
+            write("v"),
+            write("xa"),
+            write("va"),
+            write("xb"),
+            write("vb"),
+            write("acc_x"),
+            write("acc_v"),
+            write("x_prev"),
+            $($extra),*
+        ]
+    };
+}
+
+/// A grid cloth's frame of substeps in one workgroup; push constants: `SubstepsPush`.
+pub static INTEGRATE_SUBSTEPS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "substeps::integrate_substeps",
+        bindings: substeps_bindings!(),
+        push_constant_size: size_of::<SubstepsPush>() as u32,
+        workgroup_size: SUBSTEPS_THREADS,
+    },
+    cpu: integrate_substeps_cpu,
+};
+
+/// `INTEGRATE_SUBSTEPS` for a spring-list cloth.
+pub static INTEGRATE_SUBSTEPS_SPRINGS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "substeps::integrate_substeps_springs",
+        bindings: substeps_bindings!(read("particles"), read("springs")),
+        push_constant_size: size_of::<SubstepsPush>() as u32,
+        workgroup_size: SUBSTEPS_THREADS,
+    },
+    cpu: integrate_substeps_springs_cpu,
+};
+
+/// The frame's buffers (bindings 1..=9 of both one-workgroup kernels) over host buffers.
+fn frame_buffers([x, v, xa, va, xb, vb, acc_x, acc_v, x_prev]: [&mut HostBuffer; 9]) -> FrameBuffers<'_> {
+    FrameBuffers {
+        x: x.slice_mut(),
+        v: v.slice_mut(),
+        xa: xa.slice_mut(),
+        va: va.slice_mut(),
+        xb: xb.slice_mut(),
+        vb: vb.slice_mut(),
+        acc_x: acc_x.slice_mut(),
+        acc_v: acc_v.slice_mut(),
+        x_prev: x_prev.slice_mut(),
+    }
+}
+
+/// The one workgroup's lanes one after another: each stage's particles in order, as the
+/// stage-per-dispatch frame's twin runs them.
+fn run_substeps(p: &SimParams, push: SubstepsPush, f: &mut FrameBuffers, forces: &impl ClothForces) {
+    frame_substeps(p, push.substeps, (0, 1), f, forces, || {});
+}
+
+fn integrate_substeps_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: SubstepsPush = d.push_as();
+    let [params, x, v, xa, va, xb, vb, acc_x, acc_v, x_prev] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    run_substeps(&p, push, &mut frame_buffers([x, v, xa, va, xb, vb, acc_x, acc_v, x_prev]), &GridSprings);
+    Ok(())
+}
+
+fn integrate_substeps_springs_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: SubstepsPush = d.push_as();
+    let [params, x, v, xa, va, xb, vb, acc_x, acc_v, x_prev, particles, springs] = d.bindings()?;
+    let p: SimParams = params.first()?;
+    let forces = SpringList { particles: particles.slice::<ParticleSprings>(), springs: springs.slice::<Spring>() };
+    run_substeps(&p, push, &mut frame_buffers([x, v, xa, va, xb, vb, acc_x, acc_v, x_prev]), &forces);
     Ok(())
 }

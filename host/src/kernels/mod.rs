@@ -19,9 +19,11 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 55] = [
+pub const ALL: [&Kernel; 57] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
+    &integrate::INTEGRATE_SUBSTEPS,
+    &integrate::INTEGRATE_SUBSTEPS_SPRINGS,
     &normals::NORMALS_AND_HEALTH,
     &normals::MESH_NORMALS_AND_HEALTH,
     &normals::CHECK_HEALTH,

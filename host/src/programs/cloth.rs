@@ -8,9 +8,11 @@ use super::self_contact::{SelfContactBuffers, SelfContactCloth, pass_due, window
 use super::tiles::TileBuffers;
 use crate::cloth::{Cloth, ClothTopology};
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
-use crate::kernels::integrate::{INTEGRATE_STAGE, INTEGRATE_STAGE_SPRINGS};
+use crate::kernels::integrate::{
+    INTEGRATE_STAGE, INTEGRATE_STAGE_SPRINGS, INTEGRATE_SUBSTEPS, INTEGRATE_SUBSTEPS_SPRINGS,
+};
 use crate::kernels::normals::{CHECK_HEALTH, CHECK_HEALTH_SPRINGS, MESH_NORMALS_AND_HEALTH, NORMALS_AND_HEALTH};
-use drape_types::{Health, ParticleSprings, SimParams, Spring, StagePush, integrator};
+use drape_types::{Health, ParticleSprings, SimParams, Spring, StagePush, SubstepsPush, integrator};
 use glam::Vec4;
 
 /// The spring list of a cloth that is not a grid (`SpringTopology`).
@@ -138,6 +140,28 @@ impl ClothBuffers {
         Step::run_with(label, kernel, bindings, bytemuck::cast(push), Dispatch::Threads(self.particles))
     }
 
+    /// The frame's `substeps` substeps in one workgroup (`drape_kernels::substeps`): the stages'
+    /// math and buffers, a workgroup barrier between stages instead of a dispatch.
+    fn substeps_in_one_workgroup(&self, substeps: u32) -> Step {
+        let push = SubstepsPush { substeps, _pad: [0; 3] };
+        let kernel: &'static Kernel =
+            if self.springs.is_some() { &INTEGRATE_SUBSTEPS_SPRINGS } else { &INTEGRATE_SUBSTEPS };
+        let mut bindings = vec![
+            self.params.id(),
+            self.x.id(),
+            self.v.id(),
+            self.xa.id(),
+            self.va.id(),
+            self.xb.id(),
+            self.vb.id(),
+            self.acc_x.id(),
+            self.acc_v.id(),
+            self.x_prev.id(),
+        ];
+        bindings.extend(self.spring_bindings().into_iter().flatten());
+        Step::run_with(SUBSTEPS_LABEL, kernel, bindings, bytemuck::cast(push), Dispatch::Workgroups(1))
+    }
+
     /// The frame's last pass: the blow-up check, with the vertex normals in the same dispatch
     /// when `normals` (both read the final state; neither reads what the other writes).
     fn frame_end(&self, normals: bool) -> Step {
@@ -201,7 +225,14 @@ pub struct FramePlan {
     /// (`drape_kernels::crowded`; `SimSettings::crowded_contact`), or counts them, or nothing.
     /// The same contacts.
     pub crowded: Crowded,
+    /// The frame's substeps may run in one workgroup, one dispatch for them all, when nothing
+    /// else runs between their stages (no collider, no self-collision): `drape_kernels::substeps`,
+    /// `SimSettings::one_workgroup_substeps`. The same frame.
+    pub one_workgroup: bool,
 }
+
+/// The timing table's line of a frame's substeps run in one workgroup.
+pub const SUBSTEPS_LABEL: &str = "substeps in one workgroup";
 
 /// The timing table's line of the frame's last pass with vertex normals on.
 pub const NORMALS_AND_HEALTH_LABEL: &str = "normals + health check";
@@ -242,11 +273,18 @@ pub fn frame_steps(
     }
     // The substep after the last self-collision pass: where the next pass's sweep begins.
     let mut pass_from = 0;
+    // Nothing runs between the stages: one dispatch for the frame's substeps.
+    let one_workgroup = plan.one_workgroup && colliders.is_empty() && cloth.self_contact.is_none();
+    if one_workgroup {
+        steps.push(cloth.substeps_in_one_workgroup(plan.substeps));
+        steps.push(Step::Skip { label: CONTACT_LABEL });
+    }
+    let stagewise_substeps = if one_workgroup { 0 } else { plan.substeps };
     // The first collider's narrow phase runs inside the last stage when it can (one pass
     // instead of the stage, a culling pass and a detect pass); the others after it.
     let fused = colliders.first().filter(|(_, contact)| contact.fuses_with_update());
     let separate = &colliders[usize::from(fused.is_some())..];
-    for substep in 0..plan.substeps {
+    for substep in 0..stagewise_substeps {
         // The crowded pass's queue emptied before the stages (its write waits on the last
         // substep's crowded pass with the stages' own barrier).
         if let Some((_, contact)) = fused {

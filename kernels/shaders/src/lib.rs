@@ -25,6 +25,7 @@ pub mod self_pairs;
 pub mod sharp_features;
 pub mod sort;
 pub mod spheres;
+pub mod substeps;
 pub mod tiles;
 pub mod triangles;
 pub mod update_contact;

@@ -58,6 +58,17 @@ pub struct StagePush {
     pub _pad: [u32; 3],
 }
 
+/// Per-dispatch constants of the one-workgroup integrator (`integrate::integrate_substeps`):
+/// a frame's substeps in one dispatch.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct SubstepsPush {
+    /// Substeps to run, each all of its integrator's stages.
+    pub substeps: u32,
+    pub _pad: [u32; 3],
+}
+
 /// Blow-up detector, written by the `check_health` kernel once per frame (atomics).
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
@@ -151,6 +162,7 @@ const _: () = assert!(core::mem::size_of::<SimParams>() == 96);
 const _: () = assert!(core::mem::size_of::<Spring>() == 16);
 const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
+const _: () = assert!(core::mem::size_of::<SubstepsPush>() == 16);
 const _: () = assert!(core::mem::size_of::<Health>() == 60);
 const _: () = assert!(core::mem::size_of::<FailsafePush>() == 16);
 const _: () = assert!(core::mem::size_of::<TileParams>() == 32);
