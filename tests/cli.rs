@@ -654,6 +654,18 @@ fn a_scene_file_finds_its_meshes_beside_it() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A quiet run with `args` writing its JSON report and its OBJ frames under `dir` (in files named
+/// after `name`): the report and the final frame `frame`'s OBJ.
+fn report_and_final_obj(dir: &std::path::Path, name: &str, args: &[&str], frame: u32) -> (serde_json::Value, Vec<u8>) {
+    let (json, objs) = (dir.join(format!("{name}.json")), dir.join(name));
+    std::fs::create_dir_all(&objs).unwrap();
+    let output =
+        drape(&[args, &["--quiet", "--json", json.to_str().unwrap(), "--obj-dir", objs.to_str().unwrap()]].concat());
+    assert!(output.status.success(), "{name}: {}", String::from_utf8_lossy(&output.stderr));
+    let report = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    (report, std::fs::read(objs.join(format!("frame_{frame:05}.obj"))).unwrap())
+}
+
 /// `--crowded-contact`: `on` hands the crowded particles of a cloth thrown at the dense torus
 /// to a workgroup each, `off` counts none, and `auto` counts them without handing any over on
 /// a CPU driver (lavapipe); the cloth ends bit for bit the same (the final frame's OBJ).
@@ -661,15 +673,9 @@ fn a_scene_file_finds_its_meshes_beside_it() {
 fn cli_crowded_contact_hands_crowded_particles_over_with_the_same_result() {
     let dir = std::env::temp_dir().join(format!("drape-crowded-{}", std::process::id()));
     let run = |choice: &str| {
-        let (json, objs) = (dir.join(format!("{choice}.json")), dir.join(choice));
-        std::fs::create_dir_all(&objs).unwrap();
-        let args = ["--mesh", "torus", "--grid", "24", "--frames", "40", "--quiet", "--crowded-contact", choice];
-        let output =
-            drape(&[&args[..], &["--json", json.to_str().unwrap(), "--obj-dir", objs.to_str().unwrap()]].concat());
-        assert!(output.status.success(), "{choice}: {}", String::from_utf8_lossy(&output.stderr));
-        let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let args = ["--mesh", "torus", "--grid", "24", "--frames", "40", "--crowded-contact", choice];
+        let (report, obj) = report_and_final_obj(&dir, choice, &args, 40);
         let count = |key: &str| report["collision"][key].as_u64().unwrap_or_else(|| panic!("{choice}: no {key}"));
-        let obj = std::fs::read(objs.join("frame_00040.obj")).unwrap();
         let on_cpu = report["device"].to_string().contains("llvmpipe");
         (count("crowded_particle_substeps"), count("crowded_handed_to_workgroups"), obj, on_cpu)
     };
@@ -690,18 +696,12 @@ fn cli_crowded_contact_hands_crowded_particles_over_with_the_same_result() {
 fn cli_one_workgroup_substeps_runs_the_frame_as_one_dispatch_with_the_same_result() {
     let dir = std::env::temp_dir().join(format!("drape-one-workgroup-{}", std::process::id()));
     let run = |choice: &str| {
-        let (json, objs) = (dir.join(format!("{choice}.json")), dir.join(choice));
-        std::fs::create_dir_all(&objs).unwrap();
-        let args =
-            ["--scene", "swing", "--grid", "20", "--frames", "12", "--quiet", "--one-workgroup-substeps", choice];
-        let output =
-            drape(&[&args[..], &["--json", json.to_str().unwrap(), "--obj-dir", objs.to_str().unwrap()]].concat());
-        assert!(output.status.success(), "{choice}: {}", String::from_utf8_lossy(&output.stderr));
-        let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let args = ["--scene", "swing", "--grid", "20", "--frames", "12", "--one-workgroup-substeps", choice];
+        let (report, obj) = report_and_final_obj(&dir, choice, &args, 12);
         let passes = report["timings"]["passes"].as_array().unwrap_or_else(|| panic!("{choice}: no passes"));
         let ran = |label: &str| passes.iter().any(|p| p["pass"] == label);
         let on_cpu = report["device"].to_string().contains("llvmpipe");
-        (ran("substeps in one workgroup"), ran("rk4: k1"), std::fs::read(objs.join("frame_00012.obj")).unwrap(), on_cpu)
+        (ran("substeps in one workgroup"), ran("rk4: k1"), obj, on_cpu)
     };
     let (on, off, auto) = (run("on"), run("off"), run("auto"));
     std::fs::remove_dir_all(&dir).ok();
