@@ -812,6 +812,49 @@ fn a_spinning_star_s_knife_edges_do_not_cut_the_cloth() {
     assert_validation_clean(&ctx);
 }
 
+/// A collider that spins far from a self-colliding cloth (the spinning star's scene, the star
+/// 3 m aside) does not raise its substeps: after the first frame, which cannot know where the
+/// cloth is, every frame runs the stability bound's substeps, as with the star standing still
+/// there, and ends where that run ends; the same star spinning under the cloth raises them
+/// (the rule this keeps to the colliders that may meet the cloth).
+#[test]
+fn a_collider_spinning_far_from_the_cloth_leaves_its_substeps_alone() {
+    use drape::ColliderId;
+    use glam::Quat;
+    let ctx = context();
+    let scene = drape::scenes::DrapeScene::standard(&star_prism(), 32);
+    let (lo, hi) = scene.mesh.bounds();
+    let centre = 0.5 * (lo + hi);
+    let cloth = scene.cloth.clone().self_collision(Some(0.005)).build().unwrap();
+    let settings = SimSettings::default().with_timestamps(false);
+    // The star stands still for the first frame (the cloth's place is not known before it),
+    // then spins at `rate` about its own axis, `aside` m along x.
+    let run = |aside: f32, rate: f32| {
+        let shift = Vec3::new(aside, 0.0, 0.0);
+        let collider = scene.triangle_collider().with_pose(Quat::IDENTITY, shift);
+        let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap();
+        let mut sim = Solver::new(&ctx, &model).unwrap();
+        let bound = sim.stability(CLOTH).unwrap().substeps;
+        let mut substeps = Vec::new();
+        for frame in 1..=20 {
+            let turn = Quat::from_rotation_y(rate * (frame - 1) as f32 / 60.0);
+            sim.set_collider_pose(ColliderId::new(0), turn, centre - turn * centre + shift).unwrap();
+            sim.step().unwrap();
+            substeps.push(sim.stability(CLOTH).unwrap().substeps);
+        }
+        (bound, substeps, sim.positions(CLOTH).unwrap())
+    };
+    let (bound, near, _) = run(0.0, 8.0);
+    let (_, far, far_x) = run(3.0, 8.0);
+    let (_, still, still_x) = run(3.0, 0.0);
+    println!("bound {bound}; spinning under the cloth {near:?}; 3 m aside {far:?}; still there {still:?}");
+    assert!(near.iter().any(|&n| n > bound), "the star spinning under the cloth must raise its substeps");
+    assert_eq!(far, still, "a star spinning 3 m away changed the substeps");
+    assert!(far.iter().all(|&n| n == bound), "substeps above the bound's {bound}: {far:?}");
+    assert!(far_x == still_x, "the same schedule must end in the same place");
+    assert_validation_clean(&ctx);
+}
+
 /// The garment scene at 10 particles around: the skirt's waist ring is stretched round the
 /// turning body, and its 13 cm edges sag over it nearly a thickness, so the body's vertices
 /// and edges come through its cells (without the fail-safe, in some frames). The fail-safe

@@ -714,8 +714,6 @@ impl Controls {
                 Some((speed, c.swept_contact, (lo - reach, hi + reach)))
             })
             .collect();
-        let collider_speed = moving.iter().map(|m| m.0).fold(0.0, f32::max);
-        let triangle_speed = moving.iter().filter(|m| m.1).map(|m| m.0).fold(0.0, f32::max);
         // Triangle contact sweeps each particle's path against the moving triangles (CCD): any
         // substep length is safe. Sphere contact and self-collision test proximity at substep
         // ends only.
@@ -726,6 +724,18 @@ impl Controls {
         let feature_thickness =
             self.colliders.iter().filter(|c| c.swept_contact).map(|c| c.params.thickness).reduce(f32::min);
         for c in &mut self.cloths {
+            // The moving colliders that may meet this cloth over the frame: only their surface
+            // speed moves its contact substeps.
+            let lightest = c.bound.profile.lightest_inverse_mass(&c.params);
+            let acceleration =
+                c.params.gravity.truncate().length() + c.params.external_force.truncate().length() * lightest;
+            let meeting: Vec<(f32, bool)> = moving
+                .iter()
+                .filter(|m| c.motion.may_meet(m.2, settings.frame_dt, acceleration))
+                .map(|m| (m.0, m.1))
+                .collect();
+            let collider_speed = meeting.iter().map(|m| m.0).fold(0.0, f32::max);
+            let triangle_speed = meeting.iter().filter(|m| m.1).map(|m| m.0).fold(0.0, f32::max);
             let most = SELF_SUBSTEPS_LIMIT * c.base_stability.substeps;
             let features_most = (
                 FEATURE_SUBSTEPS_LIMIT * c.base_stability.substeps,

@@ -9,9 +9,10 @@
 //!   triangle colliders' vertices and edges by proximity, so while one moves, its motion against
 //!   the cloth's counts too (up to `MOVING_FEATURE_SUBSTEPS_LIMIT`). The stability bound knows
 //!   nothing of motion, so a frame's substeps are at least enough that the last frame's fastest
-//!   particle, plus the colliders' fastest surface point this frame, moves at most
-//!   `CONTACT_REACH` thicknesses per substep. Raised at once, lowered only after `LOWER_AFTER`
-//!   frames that need fewer.
+//!   particle, plus the fastest surface point this frame of the colliders that may meet the
+//!   cloth (`ClothMotion::may_meet`: a self-colliding cloth reports its box every frame; a
+//!   collider moving elsewhere changes nothing), moves at most `CONTACT_REACH` thicknesses per
+//!   substep. Raised at once, lowered only after `LOWER_AFTER` frames that need fewer.
 //! - **Self-collision passes.** While a cloth does not touch itself, its passes follow the same
 //!   need of its pairs and the collider features, from the last frame alone
 //!   (`ClothMotion::self_passes`); while it does, it runs one every substep.
@@ -76,6 +77,14 @@ pub fn max_speed(health: &Health) -> f32 {
     f32::from_bits(health.max_speed_bits)
 }
 
+/// The self-colliding cloth's box over the frame (`Health::self_scene_low`), where the frame
+/// wrote one.
+fn scene_of(health: &Health) -> Option<(Vec3, Vec3)> {
+    let (lo, hi) = (health.self_scene_low, health.self_scene_high);
+    let (low, high) = (Vec3::new(lo[0], lo[1], lo[2]), Vec3::new(hi[0], hi[1], hi[2]));
+    (lo[3] == 1.0 && low.is_finite() && high.is_finite() && low.cmple(high).all()).then_some((low, high))
+}
+
 /// The largest distance a particle moved over the frame's last substep, per second (m/s).
 pub fn max_motion(health: &Health, substep: f32) -> f32 {
     f32::from_bits(health.max_moved_bits) / substep
@@ -124,6 +133,12 @@ pub struct ClothMotion {
     /// Where the sleeping cloth lies (its particles' box), when the solver could read it: a
     /// collider moving outside it (grown by the contact reach) does not wake the cloth.
     pub(crate) resting_bounds: Option<(Vec3, Vec3)>,
+    /// Where the self-colliding cloth was at the start of the last frame observed and where its
+    /// velocities carried it over that frame (`Health::self_scene_low`), and the frames planned
+    /// since: which moving colliders may meet it (`may_meet`). `None`: not known (no
+    /// self-collision, or no frame observed yet).
+    scene: Option<(Vec3, Vec3)>,
+    frames_since_scene: u32,
 }
 
 /// The contact a cloth is in that finds its pairs by proximity at substep ends (so a substep
@@ -239,6 +254,8 @@ impl ClothMotion {
             _ => false,
         };
         self.last_speed = max_speed(health);
+        self.scene = scene_of(health);
+        self.frames_since_scene = 0;
         self.feature_push = f32::from_bits(health.collider_feature_push_bits);
         self.substeps_run = substeps;
         self.self_contact = health.self_contacts > 0;
@@ -287,6 +304,28 @@ impl ClothMotion {
         }
     }
 
+    /// Whether a collider sweeping through `bounds` over the frame about to run (its swept
+    /// box, grown by its contact reach) may meet the cloth: yes unless the cloth's last known
+    /// box (`scene`), grown by twice as far as its fastest particle, and an acceleration of
+    /// `acceleration` (m/s^2: gravity and the external force), could carry it from there by
+    /// this frame's end, lies apart from it. A collider that may not moves the cloth's
+    /// substeps no more than one at rest (a moving collider anywhere in the scene used to raise
+    /// every self-colliding cloth's substeps up to 8 times).
+    pub(crate) fn may_meet(&self, (lo, hi): (Vec3, Vec3), frame_dt: f32, acceleration: f32) -> bool {
+        let Some((cloth_lo, cloth_hi)) = self.scene else {
+            return true;
+        };
+        // The frames since the box was taken: those planned since it was observed, this one,
+        // and the observed one's own (the box predicts it, not what its contact did).
+        let t = frame_dt * (self.frames_since_scene + 2) as f32;
+        let reach = 2.0 * (self.last_speed * t + 0.5 * acceleration * t * t);
+        if !reach.is_finite() {
+            return true;
+        }
+        let (cloth_lo, cloth_hi) = (cloth_lo - Vec3::splat(reach), cloth_hi + Vec3::splat(reach));
+        lo.cmple(cloth_hi).all() && hi.cmpge(cloth_lo).all()
+    }
+
     /// At a frame's start: the contact the cloth is in that tests proximity (`Proximity`), the
     /// colliders' fastest surface speed this frame, whether a moving collider comes near the
     /// cloth, the frame's length and the sleep policy.
@@ -298,6 +337,7 @@ impl ClothMotion {
         sleep: Option<Sleep>,
     ) -> Change {
         let mut change = Change::default();
+        self.frames_since_scene += 1;
         if collider_near {
             change.sleep |= self.wake();
         }
@@ -360,6 +400,34 @@ mod tests {
     /// Contact with a sphere collider of `thickness`.
     fn collider(thickness: f32) -> Proximity {
         Proximity { collider: Some(thickness), ..Default::default() }
+    }
+
+    /// A frame's health that reports the cloth's box `lo..hi` (self-collision's scene box).
+    fn health_in(lo: Vec3, hi: Vec3, speed: f32) -> Health {
+        Health { self_scene_low: lo.extend(1.0).into(), self_scene_high: hi.extend(1.0).into(), ..health(speed) }
+    }
+
+    /// A collider may meet the cloth unless the cloth's last box, grown by twice its reach
+    /// since, lies apart from the collider's swept box; the reach grows with the frames planned
+    /// since the box was observed; an unknown box, or one not written, meets everything.
+    #[test]
+    fn a_collider_meets_the_cloth_only_within_its_reach() {
+        let dt = 1.0 / 60.0;
+        let collider = |x: f32| (Vec3::new(x, 0.0, 0.0), Vec3::new(x + 0.1, 0.1, 0.1));
+        let mut m = ClothMotion::new();
+        assert!(m.may_meet(collider(5.0), dt, 9.81), "no frame observed: the cloth may be anywhere");
+        m.observe(&health(3.0), (H, 10), None, (false, None, 10));
+        assert!(m.may_meet(collider(5.0), dt, 9.81), "a frame without self-collision's box");
+        // At 3 m/s, two frames (the observed one and the next) reach 2 x (0.1 + 0.005) m.
+        m.observe(&health_in(Vec3::ZERO, Vec3::ONE, 3.0), (H, 10), None, (false, None, 10));
+        assert!(m.may_meet(collider(1.15), dt, 9.81));
+        assert!(!m.may_meet(collider(1.3), dt, 9.81));
+        // Two frames planned without news of the cloth: four frames' reach.
+        m.plan_frame(Proximity::default(), (0.0, false), dt, None);
+        m.plan_frame(Proximity::default(), (0.0, false), dt, None);
+        assert!(m.may_meet(collider(1.3), dt, 9.81));
+        assert!(!m.may_meet(collider(1.6), dt, 9.81));
+        assert!(m.may_meet(collider(1.6), dt, f32::INFINITY), "no bound on the acceleration");
     }
 
     #[test]

@@ -9,7 +9,8 @@ use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::contact::substep_motion;
 use drape_kernels::self_contact::{
     PairResponse, SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, collider_feature_contact_at,
-    copy_start, count_self_contact, frame_of, gather_cloth_triangle, longest_edge2, tested_features, write_scene,
+    copy_start, count_self_contact, frame_of, gather_cloth_triangle, longest_edge2, report_scene, tested_features,
+    write_scene,
 };
 use drape_kernels::self_pairs::anchor_particles;
 use drape_types::{
@@ -42,6 +43,7 @@ pub static SELF_SCENE_BOUNDS: Kernel = Kernel {
             write("self_params"),
             write("start"),
             write("anchors"),
+            write("health"),
         ],
         push_constant_size: size_of::<SelfAnchorPush>() as u32,
         workgroup_size: SCENE_THREADS,
@@ -132,7 +134,7 @@ pub static APPLY_COLLIDER_PUSHES: Kernel = Kernel {
 /// The lanes' bounds reduced (min/max is exact in any order), as the kernel does.
 fn scene_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let push: SelfAnchorPush = d.push_as();
-    let [params, x, v, indices, self_params, start, anchors] = d.bindings()?;
+    let [params, x, v, indices, self_params, start, anchors, health] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = self_params.first()?;
     let triangles = c.leaf_count;
@@ -149,7 +151,9 @@ fn scene_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         })
         .reduce(|a, b| Aabb { min: a.min.min(b.min), max: a.max.max(b.max) })
         .ok_or("self scene bounds: no lanes")?;
-    write_scene(self_params.first_mut::<ColliderParams>()?, &bounds);
+    let scene = self_params.first_mut::<ColliderParams>()?;
+    write_scene(scene, &bounds);
+    report_scene(scene, health.first_mut::<Health>()?);
     Ok(())
 }
 

@@ -395,6 +395,7 @@ impl SelfContactBuffers {
                 t.collider.id(),
                 self.start.id(),
                 self.anchors.id(),
+                cloth.health.id(),
             ],
             bytemuck::cast(SelfAnchorPush { window_substeps: horizon, frame_substeps: substeps, _pad: [0; 2] }),
             Dispatch::Workgroups(1),

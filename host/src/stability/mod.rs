@@ -96,6 +96,16 @@ impl SpringProfile {
         });
         SpringProfile::Listed(classes)
     }
+
+    /// 1 / the lightest particle's mass (1/kg): what a force accelerates most. 0 for a grid
+    /// whose `p.particle_mass` is not positive.
+    pub fn lightest_inverse_mass(&self, p: &SimParams) -> f32 {
+        match self {
+            SpringProfile::Grid if p.particle_mass > 0.0 => 1.0 / p.particle_mass,
+            SpringProfile::Grid => 0.0,
+            SpringProfile::Listed(classes) => classes.iter().map(|c| c.1).fold(0.0, f32::max),
+        }
+    }
 }
 
 /// Gershgorin's omega_max and gamma_max for a cloth's parameters and springs.

@@ -93,6 +93,7 @@ pub fn self_scene_bounds(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] self_params: &mut ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] start: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] anchors: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] health: &mut Health,
     #[spirv(workgroup)] lows: &mut [Vec4; 256],
     #[spirv(workgroup)] highs: &mut [Vec4; 256],
 ) {
@@ -107,6 +108,7 @@ pub fn self_scene_bounds(
     let bounds = reduce_bounds(lane, own, lows, highs);
     if lane == 0 {
         write_scene(self_params, &bounds);
+        report_scene(self_params, health);
     }
 }
 
@@ -150,6 +152,14 @@ pub fn write_scene(self_params: &mut ColliderParams, bounds: &Aabb) {
     let grow = Vec3::splat(self_params.thickness);
     self_params.scene_min = (bounds.min.xyz() - grow).extend(0.0);
     self_params.scene_max = (bounds.max.xyz() + grow).extend(bounds.max.w);
+}
+
+/// Puts the scene box `write_scene` wrote in the cloth's health (`Health::self_scene_low`),
+/// which the host reads every frame.
+pub fn report_scene(self_params: &ColliderParams, health: &mut Health) {
+    let (lo, hi) = (self_params.scene_min, self_params.scene_max);
+    health.self_scene_low = [lo.x, lo.y, lo.z, 1.0];
+    health.self_scene_high = [hi.x, hi.y, hi.z, 1.0];
 }
 
 /// Sorted leaf `s`'s corners (xyz) and its triangle index (w), in the tree's order.

@@ -127,6 +127,13 @@ pub struct Health {
     /// `ContactPush::crowded`; counted only where the frame asks): what the host's choice of
     /// handing them to a workgroup each follows (`SimSettings::crowded_contact`).
     pub crowded_contacts: u32,
+    /// The box around a self-colliding cloth at the frame's start and where its velocities
+    /// carry it over the frame, grown by its thickness (the self-collision tree's Morton box,
+    /// `ColliderParams::scene_min`/`scene_max`): xyz, with w = 1 where the frame wrote it (0: a
+    /// cloth without self-collision). The host tells by it which moving colliders come near the
+    /// cloth.
+    pub self_scene_low: [f32; 4],
+    pub self_scene_high: [f32; 4],
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
@@ -163,7 +170,7 @@ const _: () = assert!(core::mem::size_of::<Spring>() == 16);
 const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
 const _: () = assert!(core::mem::size_of::<SubstepsPush>() == 16);
-const _: () = assert!(core::mem::size_of::<Health>() == 60);
+const _: () = assert!(core::mem::size_of::<Health>() == 92);
 const _: () = assert!(core::mem::size_of::<FailsafePush>() == 16);
 const _: () = assert!(core::mem::size_of::<TileParams>() == 32);
 
