@@ -227,6 +227,8 @@ pub(crate) struct Controls {
     /// A cloth's schedule changed (substeps, self-collision passes, sleep) since the frame was
     /// last planned.
     replan: bool,
+    /// Frames begun (`begin_frame`): the number of the frame being planned, from 1.
+    frames_begun: u64,
 }
 
 /// Cloth `c`'s frame schedule under `settings`.
@@ -307,7 +309,7 @@ impl Controls {
                 deformed: None,
             })
             .collect();
-        Controls { settings, cloths, colliders, replan: false }
+        Controls { settings, cloths, colliders, replan: false, frames_begun: 0 }
     }
 
     /// Each cloth's frame schedule for the current values.
@@ -373,8 +375,10 @@ impl Controls {
         Ok(())
     }
 
-    /// After a frame: cloth `index`'s health check (its speed drives contact substeps and sleep).
-    pub fn observe(&mut self, index: usize, health: &Health) {
+    /// After frame `frame` (numbered as `begin_frame` plans them, from 1): cloth `index`'s
+    /// health check (its speed drives contact substeps and sleep, its box which moving
+    /// colliders may meet it).
+    pub fn observe(&mut self, index: usize, health: &Health, frame: u64) {
         let sleep = self.settings.sleep;
         if let Some(c) = self.cloths.get_mut(index) {
             let (substep, substep_count) = (c.stability.substep, c.stability.substeps);
@@ -412,6 +416,7 @@ impl Controls {
                 walks / (c.triangles.max(1) as f32 * passes as f32)
             });
             c.motion.observe(health, (substep, c.stability.substeps), sleep, (pairs_listed, walked, passes));
+            c.motion.locate(health, frame);
             if c.motion.list_windows != windows && self.settings.self_list_windows {
                 log::debug!(
                     "cloth {index}: self-collision lists built {} a frame ({:.1} % of the last frame's triangle-passes \
@@ -638,6 +643,7 @@ impl Controls {
     /// The writes (and refits) the next frame starts with; empty when nothing changed. Marks
     /// everything published.
     pub fn begin_frame(&mut self, program: &SolverProgram) -> Vec<Step> {
+        self.frames_begun += 1;
         let moving = self.plan_motion();
         for c in self.cloths.iter_mut().filter(|c| c.self_collision.is_some() && !c.motion.asleep) {
             self.replan |= c.self_tree.next_frame();
@@ -703,7 +709,7 @@ impl Controls {
     /// moving colliders' swept boxes, grown by their contact reach (what wakes the tiles near
     /// them).
     fn plan_motion(&mut self) -> Vec<(Vec3, Vec3)> {
-        let settings = self.settings;
+        let (settings, frames_begun) = (self.settings, self.frames_begun);
         // Each moving collider's surface speed and swept box, grown by its contact reach.
         let moving: Vec<(f32, bool, (Vec3, Vec3))> = self
             .colliders
@@ -731,7 +737,7 @@ impl Controls {
                 c.params.gravity.truncate().length() + c.params.external_force.truncate().length() * lightest;
             let meeting: Vec<(f32, bool)> = moving
                 .iter()
-                .filter(|m| c.motion.may_meet(m.2, settings.frame_dt, acceleration))
+                .filter(|m| c.motion.may_meet(m.2, (frames_begun, settings.frame_dt), acceleration))
                 .map(|m| (m.0, m.1))
                 .collect();
             let collider_speed = meeting.iter().map(|m| m.0).fold(0.0, f32::max);
@@ -1101,7 +1107,7 @@ mod tests {
         let substeps = gpu.cloths[0].stability.substeps;
         let frame = |controls: &mut Controls, per_substep: u32| {
             let health = Health { crowded_contacts: per_substep * substeps, ..Health::default() };
-            controls.observe(0, &health);
+            controls.observe(0, &health, 1);
             (controls.plans()[0].crowded, controls.take_replan())
         };
         assert_eq!(gpu.plans()[0].crowded, Crowded::Counted, "the first frame counts");

@@ -53,7 +53,7 @@ impl CpuSolver {
             }
             let health: Health = self.executor.read(cloth.health, 1)?[0];
             check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i])?;
-            self.controls.observe(i, &health);
+            self.controls.observe(i, &health, self.frames_done);
         }
         Ok(())
     }

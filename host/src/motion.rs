@@ -134,11 +134,10 @@ pub struct ClothMotion {
     /// collider moving outside it (grown by the contact reach) does not wake the cloth.
     pub(crate) resting_bounds: Option<(Vec3, Vec3)>,
     /// Where the self-colliding cloth was at the start of the last frame observed and where its
-    /// velocities carried it over that frame (`Health::self_scene_low`), and the frames planned
-    /// since: which moving colliders may meet it (`may_meet`). `None`: not known (no
+    /// velocities carried it over that frame (`Health::self_scene_low`), and that frame's
+    /// number: which moving colliders may meet it (`may_meet`). `None`: not known (no
     /// self-collision, or no frame observed yet).
-    scene: Option<(Vec3, Vec3)>,
-    frames_since_scene: u32,
+    scene: Option<((Vec3, Vec3), u64)>,
 }
 
 /// The contact a cloth is in that finds its pairs by proximity at substep ends (so a substep
@@ -254,8 +253,6 @@ impl ClothMotion {
             _ => false,
         };
         self.last_speed = max_speed(health);
-        self.scene = scene_of(health);
-        self.frames_since_scene = 0;
         self.feature_push = f32::from_bits(health.collider_feature_push_bits);
         self.substeps_run = substeps;
         self.self_contact = health.self_contacts > 0;
@@ -304,20 +301,29 @@ impl ClothMotion {
         }
     }
 
-    /// Whether a collider sweeping through `bounds` over the frame about to run (its swept
-    /// box, grown by its contact reach) may meet the cloth: yes unless the cloth's last known
-    /// box (`scene`), grown by twice as far as its fastest particle, and an acceleration of
+    /// Frame `frame`'s health reported where the cloth was (`Health::self_scene_low`; frames
+    /// are numbered as they are planned, from 1). A sleeping cloth's is its last awake frame's,
+    /// where it still lies.
+    pub(crate) fn locate(&mut self, health: &Health, frame: u64) {
+        if let Some(scene) = scene_of(health) {
+            self.scene = Some((scene, frame));
+        }
+    }
+
+    /// Whether a collider sweeping through `bounds` over frame `frame`, about to run (its swept
+    /// box, grown by its contact reach), may meet the cloth: yes unless the cloth's last known
+    /// box (`locate`), grown by twice as far as its fastest particle, and an acceleration of
     /// `acceleration` (m/s^2: gravity and the external force), could carry it from there by
     /// this frame's end, lies apart from it. A collider that may not moves the cloth's
     /// substeps no more than one at rest (a moving collider anywhere in the scene used to raise
     /// every self-colliding cloth's substeps up to 8 times).
-    pub(crate) fn may_meet(&self, (lo, hi): (Vec3, Vec3), frame_dt: f32, acceleration: f32) -> bool {
-        let Some((cloth_lo, cloth_hi)) = self.scene else {
+    pub(crate) fn may_meet(&self, (lo, hi): (Vec3, Vec3), (frame, frame_dt): (u64, f32), acceleration: f32) -> bool {
+        let Some(((cloth_lo, cloth_hi), located)) = self.scene else {
             return true;
         };
-        // The frames since the box was taken: those planned since it was observed, this one,
-        // and the observed one's own (the box predicts it, not what its contact did).
-        let t = frame_dt * (self.frames_since_scene + 2) as f32;
+        // The frames from the located one (its box predicts it, not what its contact did) to
+        // this one's end.
+        let t = frame_dt * (frame.saturating_sub(located) + 1) as f32;
         let reach = 2.0 * (self.last_speed * t + 0.5 * acceleration * t * t);
         if !reach.is_finite() {
             return true;
@@ -337,7 +343,6 @@ impl ClothMotion {
         sleep: Option<Sleep>,
     ) -> Change {
         let mut change = Change::default();
-        self.frames_since_scene += 1;
         if collider_near {
             change.sleep |= self.wake();
         }
@@ -415,19 +420,20 @@ mod tests {
         let dt = 1.0 / 60.0;
         let collider = |x: f32| (Vec3::new(x, 0.0, 0.0), Vec3::new(x + 0.1, 0.1, 0.1));
         let mut m = ClothMotion::new();
-        assert!(m.may_meet(collider(5.0), dt, 9.81), "no frame observed: the cloth may be anywhere");
+        assert!(m.may_meet(collider(5.0), (1, dt), 9.81), "no frame observed: the cloth may be anywhere");
         m.observe(&health(3.0), (H, 10), None, (false, None, 10));
-        assert!(m.may_meet(collider(5.0), dt, 9.81), "a frame without self-collision's box");
-        // At 3 m/s, two frames (the observed one and the next) reach 2 x (0.1 + 0.005) m.
-        m.observe(&health_in(Vec3::ZERO, Vec3::ONE, 3.0), (H, 10), None, (false, None, 10));
-        assert!(m.may_meet(collider(1.15), dt, 9.81));
-        assert!(!m.may_meet(collider(1.3), dt, 9.81));
-        // Two frames planned without news of the cloth: four frames' reach.
-        m.plan_frame(Proximity::default(), (0.0, false), dt, None);
-        m.plan_frame(Proximity::default(), (0.0, false), dt, None);
-        assert!(m.may_meet(collider(1.3), dt, 9.81));
-        assert!(!m.may_meet(collider(1.6), dt, 9.81));
-        assert!(m.may_meet(collider(1.6), dt, f32::INFINITY), "no bound on the acceleration");
+        m.locate(&health(3.0), 1);
+        assert!(m.may_meet(collider(5.0), (2, dt), 9.81), "a frame without self-collision's box");
+        // Frame 1 located at 3 m/s: by frame 2's end, two frames' reach, 2 x (0.1 + 0.005) m.
+        let located = health_in(Vec3::ZERO, Vec3::ONE, 3.0);
+        m.observe(&located, (H, 10), None, (false, None, 10));
+        m.locate(&located, 1);
+        assert!(m.may_meet(collider(1.15), (2, dt), 9.81));
+        assert!(!m.may_meet(collider(1.3), (2, dt), 9.81));
+        // Frame 4, with no news of the cloth since frame 1 (frames in flight): four frames' reach.
+        assert!(m.may_meet(collider(1.3), (4, dt), 9.81));
+        assert!(!m.may_meet(collider(1.6), (4, dt), 9.81));
+        assert!(m.may_meet(collider(1.6), (4, dt), f32::INFINITY), "no bound on the acceleration");
     }
 
     #[test]

@@ -200,7 +200,7 @@ impl Solver {
                 };
             }
             check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i])?;
-            self.controls.observe(i, &health);
+            self.controls.observe(i, &health, self.frames_done);
             for contact in contacts {
                 let status: CollisionStatus = self.engine.read_mapped(contact.status)?;
                 report.collision_ran += status.ran;
@@ -284,7 +284,7 @@ impl Solver {
                 if let Some(health) = take(size_of::<Health>()) {
                     let health: Health = bytemuck::pod_read_unaligned(health);
                     check_health(&health, frame, i, &self.controls.settings, &self.controls.cloths[i])?;
-                    self.controls.observe(i, &health);
+                    self.controls.observe(i, &health, frame);
                 }
             }
         }
