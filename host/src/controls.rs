@@ -337,6 +337,8 @@ impl Controls {
         let settings = self.settings;
         if let Some(c) = self.cloths.get_mut(index) {
             c.motion = motion;
+            // Its place was the saved frame's, numbered by the solver that ran it.
+            c.motion.forget_place();
             c.apply_contact(&settings);
             c.tiles_woken = !tiles_restored;
             self.replan = true;
@@ -357,10 +359,12 @@ impl Controls {
         }
     }
 
-    /// Wakes one cloth.
+    /// Wakes one cloth (a change that could move it: its place is not known until its next
+    /// frame is read).
     pub fn wake(&mut self, cloth: ClothId) -> Result<()> {
         let c = self.cloth_mut(cloth)?;
         c.tiles_woken = true;
+        c.motion.forget_place();
         let woke = c.motion.wake();
         self.replan |= woke;
         Ok(())

@@ -310,6 +310,12 @@ impl ClothMotion {
         }
     }
 
+    /// The cloth may have been moved (its state set, a pin moved): where it is is not known
+    /// until a frame reports it.
+    pub(crate) fn forget_place(&mut self) {
+        self.scene = None;
+    }
+
     /// Whether a collider sweeping through `bounds` over frame `frame`, about to run (its swept
     /// box, grown by its contact reach), may meet the cloth: yes unless the cloth's last known
     /// box (`locate`), grown by twice as far as its fastest particle, and an acceleration of
@@ -434,6 +440,8 @@ mod tests {
         assert!(m.may_meet(collider(1.3), (4, dt), 9.81));
         assert!(!m.may_meet(collider(1.6), (4, dt), 9.81));
         assert!(m.may_meet(collider(1.6), (4, dt), f32::INFINITY), "no bound on the acceleration");
+        m.forget_place();
+        assert!(m.may_meet(collider(5.0), (2, dt), 9.81), "a cloth moved by hand may be anywhere");
     }
 
     #[test]
