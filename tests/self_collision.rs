@@ -764,6 +764,15 @@ fn star_prism() -> drape::Mesh {
     drape::Mesh { vertices, triangles }
 }
 
+/// The star prism (`star_prism`) under a falling 32^2 self-colliding cloth (the drape scene),
+/// the star's centre (its spin axis runs through it) and the cloth.
+fn star_under_a_cloth() -> (drape::scenes::DrapeScene, Vec3, drape::Cloth) {
+    let scene = drape::scenes::DrapeScene::standard(&star_prism(), 32);
+    let (lo, hi) = scene.mesh.bounds();
+    let cloth = scene.cloth.clone().self_collision(Some(0.005)).build().unwrap();
+    (scene, 0.5 * (lo + hi), cloth)
+}
+
 /// A star prism spinning at 8 rad/s under the falling cloth (32 x 32, the standard scene): its
 /// knife edges (3.8 m/s at the points) find the cloth's edges by proximity alone, so a substep
 /// must not move them much more than the thickness against the cloth. With contact substeps
@@ -777,10 +786,7 @@ fn a_spinning_star_s_knife_edges_do_not_cut_the_cloth() {
     use drape::ColliderId;
     use glam::Quat;
     let ctx = context();
-    let scene = drape::scenes::DrapeScene::standard(&star_prism(), 32);
-    let (lo, hi) = scene.mesh.bounds();
-    let centre = 0.5 * (lo + hi);
-    let cloth = scene.cloth.clone().self_collision(Some(0.005)).build().unwrap();
+    let (scene, centre, cloth) = star_under_a_cloth();
     let collider = scene.triangle_collider();
     let run = |contact_substeps: bool| {
         let settings = SimSettings::default().with_timestamps(false).with_contact_substeps(contact_substeps);
@@ -813,19 +819,16 @@ fn a_spinning_star_s_knife_edges_do_not_cut_the_cloth() {
 }
 
 /// A collider that spins far from a self-colliding cloth (the spinning star's scene, the star
-/// 3 m aside) does not raise its substeps: after the first frame, which cannot know where the
-/// cloth is, every frame runs the stability bound's substeps, as with the star standing still
-/// there, and ends where that run ends; the same star spinning under the cloth raises them
-/// (the rule this keeps to the colliders that may meet the cloth).
+/// 3 m aside, still in the first frame, before which the cloth's place is not known) does not
+/// raise its substeps: every frame runs the stability bound's substeps, as with the star
+/// standing still there, and ends where that run ends; the same star spinning under the cloth
+/// raises them (the rule this keeps to the colliders that may meet the cloth).
 #[test]
 fn a_collider_spinning_far_from_the_cloth_leaves_its_substeps_alone() {
     use drape::ColliderId;
     use glam::Quat;
     let ctx = context();
-    let scene = drape::scenes::DrapeScene::standard(&star_prism(), 32);
-    let (lo, hi) = scene.mesh.bounds();
-    let centre = 0.5 * (lo + hi);
-    let cloth = scene.cloth.clone().self_collision(Some(0.005)).build().unwrap();
+    let (scene, centre, cloth) = star_under_a_cloth();
     let settings = SimSettings::default().with_timestamps(false);
     // The star stands still for the first frame (the cloth's place is not known before it),
     // then spins at `rate` about its own axis, `aside` m along x.
