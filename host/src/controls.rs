@@ -1090,6 +1090,33 @@ mod tests {
         assert!(frame(&mut controls, None).0 > COVER_LIMIT * 0.005);
     }
 
+    /// A small cloth with nothing between its stages runs its substeps in one workgroup on a
+    /// GPU that runs workgroups of `SUBSTEPS_THREADS`, not on one that runs narrower ones (nor on
+    /// a CPU driver); asking for it there is an error that names the limit and the way out.
+    #[test]
+    fn substeps_run_in_one_workgroup_only_where_the_device_fits_it() {
+        use crate::{ClothBuilder, Error, Model};
+        use drape_kernels::substeps::SUBSTEPS_THREADS;
+        let cloth = ClothBuilder::new(16, 16).build().unwrap();
+        let plan = |forced: Option<bool>, gpu: bool, max_workgroup: u32| {
+            let settings = SimSettings::default().with_one_workgroup_substeps(forced);
+            let model = Model::single(&cloth, &[], settings).unwrap();
+            crate::program::SolverProgram::with_controls_on(&model, gpu, max_workgroup)
+                .map(|(_, controls)| controls.plans()[0].one_workgroup)
+        };
+        assert!(plan(None, true, SUBSTEPS_THREADS).unwrap(), "a GPU that fits it");
+        assert!(!plan(None, true, SUBSTEPS_THREADS / 2).unwrap(), "a GPU with narrower workgroups");
+        assert!(!plan(None, false, u32::MAX).unwrap(), "a CPU driver");
+        assert!(plan(Some(true), false, u32::MAX).unwrap(), "forced on a CPU driver");
+        match plan(Some(true), true, 256) {
+            Err(Error::InvalidParameter { name, problem }) => {
+                assert_eq!(name, "one_workgroup_substeps");
+                assert!(problem.contains("256") && problem.contains("auto"), "{problem}");
+            }
+            other => panic!("forced on a narrow device: {other:?}"),
+        }
+    }
+
     /// The automatic choice hands a cloth's crowded particles to a workgroup each once a frame
     /// has `CROWDED_ON` a substep, keeps doing so while frames have `CROWDED_OFF`, and stops
     /// below (replanning the frame at each change); on a CPU driver it only counts them, and a
@@ -1105,7 +1132,7 @@ mod tests {
         let controls = |crowded: Option<bool>, gpu: bool| {
             let settings = SimSettings::default().with_crowded_contact(crowded);
             let model = Model::single(&cloth, std::slice::from_ref(&ball), settings).unwrap();
-            crate::program::SolverProgram::with_controls_on(&model, gpu).unwrap().1
+            crate::program::SolverProgram::with_controls_on(&model, gpu, u32::MAX).unwrap().1
         };
         let mut gpu = controls(None, true);
         let substeps = gpu.cloths[0].stability.substeps;

@@ -47,13 +47,14 @@ impl SolverProgram {
     /// The program of `model`, and the host-side controls holding its starting values (what
     /// both solvers start from).
     pub fn with_controls(model: &Model) -> Result<(Self, Controls)> {
-        Self::with_controls_on(model, false)
+        Self::with_controls_on(model, false, u32::MAX)
     }
 
     /// `with_controls` for a device that `is_gpu` (or a CPU driver): the settings' automatic
     /// choices that depend on the device made for it (`SimSettings::on_device`).
-    pub fn with_controls_on(model: &Model, is_gpu: bool) -> Result<(Self, Controls)> {
-        let settings = model.settings().on_device(is_gpu);
+    pub fn with_controls_on(model: &Model, is_gpu: bool, max_workgroup: u32) -> Result<(Self, Controls)> {
+        let settings = model.settings().on_device(is_gpu, max_workgroup);
+        settings.check_device()?;
         let mut resolved = Vec::new();
         for (cloth, bound) in model.cloths().iter().zip(model.bounds()) {
             let (params, stability) = settings.resolve_params(&cloth.params, bound)?;

@@ -81,13 +81,17 @@ pub struct SimSettings {
     /// self-collision) runs them in one workgroup, one dispatch for the frame
     /// (`drape_kernels::substeps`): the same frame, bit for bit on lavapipe. `None` (automatic):
     /// on a GPU for a cloth of at most `ONE_WORKGROUP_PARTICLES` particles, where a dispatch
-    /// and its barrier cost more than a stage's arithmetic on one multiprocessor; never on a
+    /// and its barrier cost more than a stage's arithmetic on one multiprocessor, if the GPU
+    /// runs workgroups of `SUBSTEPS_THREADS` (on is an error where it does not); never on a
     /// CPU driver, where a workgroup's lanes run on one core (lavapipe, 64^2: 36 ms a frame
     /// against 19).
     pub one_workgroup_substeps: Option<bool>,
     /// The device is a GPU (`on_device`): the automatic `crowded_contact` may hand crowded
     /// particles over; on a CPU driver it only counts them.
     pub(crate) device_is_gpu: bool,
+    /// The most invocations the device runs in one workgroup (along x, and in all): the
+    /// automatic `one_workgroup_substeps` needs `SUBSTEPS_THREADS`.
+    pub(crate) device_max_workgroup: u32,
 }
 
 impl Default for SimSettings {
@@ -108,6 +112,7 @@ impl Default for SimSettings {
             crowded_contact: None,
             one_workgroup_substeps: None,
             device_is_gpu: true,
+            device_max_workgroup: u32::MAX,
         }
     }
 }
@@ -176,6 +181,27 @@ impl SimSettings {
         self.one_workgroup_substeps = on;
         self
     }
+    /// Whether the device runs a workgroup as wide as the one-workgroup integrator's.
+    fn one_workgroup_fits(&self) -> bool {
+        self.device_max_workgroup >= drape_kernels::substeps::SUBSTEPS_THREADS
+    }
+
+    /// An error where `one_workgroup_substeps` is on and the device cannot run its workgroup.
+    pub(crate) fn check_device(&self) -> Result<()> {
+        if self.one_workgroup_substeps == Some(true) && !self.one_workgroup_fits() {
+            return Err(Error::InvalidParameter {
+                name: "one_workgroup_substeps",
+                problem: format!(
+                    "this device runs at most {} invocations in a workgroup and the one-workgroup integrator needs {}; \
+                     leave it automatic (--one-workgroup-substeps auto) or turn it off",
+                    self.device_max_workgroup,
+                    drape_kernels::substeps::SUBSTEPS_THREADS
+                ),
+            });
+        }
+        Ok(())
+    }
+
     /// Whether these settings run on a GPU (false: a CPU driver, or the CPU twin): where the
     /// automatic `crowded_contact` may hand crowded particles over.
     pub fn device_is_gpu(&self) -> bool {
@@ -183,8 +209,9 @@ impl SimSettings {
     }
     /// These settings on a device that `is_gpu` (or a CPU driver, where the automatic
     /// `crowded_contact` never hands crowded particles over).
-    pub(crate) fn on_device(mut self, is_gpu: bool) -> Self {
+    pub(crate) fn on_device(mut self, is_gpu: bool, max_workgroup: u32) -> Self {
         self.device_is_gpu = is_gpu;
+        self.device_max_workgroup = max_workgroup;
         self
     }
     /// Whether self-collision's frames end with the check for crossed pairs (and put their
@@ -301,9 +328,9 @@ impl SimSettings {
                 Some(false) => Crowded::Ignored,
                 None => Crowded::Counted,
             },
-            one_workgroup: self
-                .one_workgroup_substeps
-                .unwrap_or(self.device_is_gpu && params.particle_count <= ONE_WORKGROUP_PARTICLES),
+            one_workgroup: self.one_workgroup_substeps.unwrap_or(
+                self.device_is_gpu && params.particle_count <= ONE_WORKGROUP_PARTICLES && self.one_workgroup_fits(),
+            ),
         }
     }
 

@@ -106,7 +106,8 @@ impl Solver {
     }
 
     fn on_device(ctx: &Arc<Context>, model: &Model, is_gpu: bool) -> Result<Self> {
-        let (program, controls) = SolverProgram::with_controls_on(model, is_gpu)?;
+        let max_workgroup = ctx.info().max_workgroup_invocations;
+        let (program, controls) = SolverProgram::with_controls_on(model, is_gpu, max_workgroup)?;
         let mut engine = Engine::new(ctx)?;
         engine.allocate(&program.resources)?;
         for (id, data) in &program.initial {

@@ -192,8 +192,8 @@ pub(crate) struct Args {
     /// Run a frame's substeps in one workgroup, one dispatch for the frame, when nothing runs
     /// between their stages (no collider, no self-collision): the same frame, bit for bit on
     /// lavapipe (auto: on a GPU for a cloth of at most 1024 particles, where a dispatch costs
-    /// more than a stage's arithmetic on one multiprocessor; never on a CPU driver, where a
-    /// workgroup runs on one core).
+    /// more than a stage's arithmetic on one multiprocessor, if its workgroups hold 1024
+    /// invocations; never on a CPU driver, where a workgroup runs on one core).
     #[arg(long, value_enum, default_value = "auto")]
     pub(crate) one_workgroup_substeps: AutoOnOff,
     /// Print nothing on stdout and draw no progress bar (errors and warnings still go to

@@ -50,6 +50,8 @@ pub struct DeviceInfo {
     /// Valid bits of the compute queue's timestamps (0 = no timestamps).
     pub timestamp_valid_bits: u32,
     pub max_workgroup_count_x: u32,
+    /// The most invocations of a 1-D workgroup: the least of its limits along x and in all.
+    pub max_workgroup_invocations: u32,
 }
 
 /// Instance, device, queue and allocator.
@@ -588,6 +590,10 @@ pub(crate) fn device_info(instance: &ash::Instance, pd: vk::PhysicalDevice, time
         timestamp_period_ns: properties.limits.timestamp_period,
         timestamp_valid_bits,
         max_workgroup_count_x: properties.limits.max_compute_work_group_count[0],
+        max_workgroup_invocations: properties
+            .limits
+            .max_compute_work_group_invocations
+            .min(properties.limits.max_compute_work_group_size[0]),
     }
 }
 
