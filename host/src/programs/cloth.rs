@@ -146,18 +146,8 @@ impl ClothBuffers {
         let push = SubstepsPush { substeps, _pad: [0; 3] };
         let kernel: &'static Kernel =
             if self.springs.is_some() { &INTEGRATE_SUBSTEPS_SPRINGS } else { &INTEGRATE_SUBSTEPS };
-        let mut bindings = vec![
-            self.params.id(),
-            self.x.id(),
-            self.v.id(),
-            self.xa.id(),
-            self.va.id(),
-            self.xb.id(),
-            self.vb.id(),
-            self.acc_x.id(),
-            self.acc_v.id(),
-            self.x_prev.id(),
-        ];
+        // The stage bindings with A as input and B as output: the kernel's A and B pairs.
+        let mut bindings = self.stage_bindings((self.xa, self.va), (self.xb, self.vb));
         bindings.extend(self.spring_bindings().into_iter().flatten());
         Step::run_with(SUBSTEPS_LABEL, kernel, bindings, bytemuck::cast(push), Dispatch::Workgroups(1))
     }
@@ -277,7 +267,6 @@ pub fn frame_steps(
     let one_workgroup = plan.one_workgroup && colliders.is_empty() && cloth.self_contact.is_none();
     if one_workgroup {
         steps.push(cloth.substeps_in_one_workgroup(plan.substeps));
-        steps.push(Step::Skip { label: CONTACT_LABEL });
     }
     let stagewise_substeps = if one_workgroup { 0 } else { plan.substeps };
     // The first collider's narrow phase runs inside the last stage when it can (one pass
@@ -331,10 +320,10 @@ pub fn frame_steps(
                 s.window_start_steps(&own, (window.1, plan.substeps), &mut steps);
             }
         }
-        // A skipped pass is listed once, not once per substep.
-        if colliders.is_empty() && substep == 0 {
-            steps.push(Step::Skip { label: CONTACT_LABEL });
-        }
+    }
+    // A skipped pass is listed once, not once per substep.
+    if colliders.is_empty() {
+        steps.push(Step::Skip { label: CONTACT_LABEL });
     }
     if let Some(s) = cloth.self_contact.as_ref().filter(|_| plan.self_failsafe) {
         let collider_buffers: Vec<_> = colliders.iter().map(|(collider, _)| *collider).collect();
