@@ -214,9 +214,11 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
         let words = 4 * n as usize;
         let mut tree_walk: Option<(Vec<u32>, Vec<u32>)> = None;
         // One pass over the whole frame, to where the solver took the cloth: without collider
-        // features, and with features whose frame listed no sharp triangle (the walkers are
-        // found in the first run of the boxes, the second is dispatched over nothing) and with
-        // one that did (the second run finds them); the features' stand-in pushes nothing.
+        // features, and with features whose edges pushed nothing (the walkers are found in the
+        // first run of the boxes, the second is dispatched over nothing) and with one that
+        // pushed (the pushes forget the first run's walkers and the second run finds them
+        // again: kept, they would walk twice); the features' stand-in pushes nothing but arms
+        // the second run as a push does.
         for features in [None, Some(false), Some(true)] {
             cpu.upload(own.x, &x).unwrap();
             cpu.upload(own.v, &v).unwrap();
@@ -227,8 +229,7 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
                 Some(armed) => {
                     let groups = if armed { t.div_ceil(drape_kernels::WORKGROUP_SIZE) } else { 0 };
                     let args = drape_types::DispatchArgs { x: groups, y: 1, z: 1, _pad: 0 };
-                    cpu.upload(s.features_found, &[args]).unwrap();
-                    vec![drape::graph::Step::fill(s.pushes, 0)]
+                    vec![drape::graph::Step::write(s.features_found, 0, &[args])]
                 }
             };
             let mut steps = vec![];

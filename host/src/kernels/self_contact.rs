@@ -8,9 +8,9 @@ use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::contact::substep_motion;
 use drape_kernels::self_contact::{
-    PairResponse, SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, collider_feature_contact_at,
-    copy_start, count_self_contact, frame_of, gather_cloth_triangle, longest_edge2, report_scene, tested_features,
-    write_scene,
+    PairResponse, SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, arm_second_refit,
+    collider_feature_contact_at, copy_start, count_self_contact, forget_walkers, frame_of, gather_cloth_triangle,
+    longest_edge2, report_scene, tested_features, write_scene,
 };
 use drape_kernels::self_pairs::anchor_particles;
 use drape_types::{
@@ -96,6 +96,7 @@ pub static COLLIDER_FEATURE_CONTACT: Kernel = Kernel {
             read("sharp"),
             read("sharp_args"),
             write("health"),
+            write("features_found"),
         ],
         push_constant_size: size_of::<ContactPush>() as u32,
         workgroup_size: CONTACT_THREADS,
@@ -121,11 +122,12 @@ pub static APPLY_SELF_CONTACT: Kernel = Kernel {
     cpu: apply_cpu,
 };
 
-/// The collider edges' pushes moved into the positions, before the pass's pair search.
+/// The collider edges' pushes moved into the positions, before the pass's pair search (the
+/// pass's walkers emptied: the boxes' second run finds them anew).
 pub static APPLY_COLLIDER_PUSHES: Kernel = Kernel {
     spec: spec(
         "self_contact::apply_collider_pushes",
-        &[read("params"), write("x"), write("v"), read("pushes")],
+        &[read("params"), write("x"), write("v"), read("pushes"), write("walk_args")],
         WORKGROUP_SIZE,
     ),
     cpu: apply_pushes_cpu,
@@ -188,12 +190,13 @@ fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn apply_pushes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [params, x, v, pushes] = d.bindings()?;
+    let [params, x, v, pushes, walk_args] = d.bindings()?;
     let p: SimParams = params.first()?;
     let (x, v, pushes) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>(), pushes.slice::<u32>());
     // Every thread strides over the particles (the dispatch covers the cloth's triangles, or
     // nothing).
     if threads > 0 {
+        forget_walkers(walk_args.first_mut::<DispatchArgs>()?);
         for i in 0..p.particle_count {
             apply_collider_push_at(i, x, v, pushes);
         }
@@ -227,6 +230,7 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
         sharp,
         sharp_args,
         health,
+        features_found,
     ] = d.bindings()?;
     let p: SimParams = params.first()?;
     let c: ColliderParams = self_params.first()?;
@@ -240,6 +244,7 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
     let velocity_changes = velocity_changes.slice_mut::<u32>();
     let (sharp, listed) = (sharp.slice::<u32>(), sharp_args.first::<DispatchArgs>()?._pad);
     let health = health.first_mut::<Health>()?;
+    let features_found = features_found.first_mut::<DispatchArgs>()?;
     for i in 0..threads.min(listed) {
         let t = *sharp.get(i as usize).ok_or("the sharp features' count runs past their list")?;
         let mine = *features.get(t as usize).ok_or("a listed sharp feature is past the collider's triangles")?;
@@ -251,7 +256,7 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
             delta: &mut *delta,
             velocity_changes: &mut *velocity_changes,
         };
-        collider_feature_contact_at(
+        let pushed = collider_feature_contact_at(
             t,
             mine,
             mesh,
@@ -262,6 +267,9 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
             (x, x_prev),
             (out, &mut *pushes, &mut *health),
         );
+        if pushed {
+            arm_second_refit(&c, features_found);
+        }
     }
     Ok(())
 }

@@ -9,8 +9,8 @@ use drape_kernels::self_contact::PairResponse;
 use drape_kernels::self_contact::frame_of;
 use drape_kernels::self_contact::self_triangle_contact_at;
 use drape_kernels::self_pairs::{
-    LIST_OVERFLOWED, WALK_THREADS, anchor_window_at, cloth_triangle_bounds_at, count_full_list, escaped_at,
-    finds_walkers, list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion, pack_walk_node_at,
+    FIND_WALKERS, LIST_OVERFLOWED, WALK_THREADS, anchor_window_at, cloth_triangle_bounds_at, count_full_list,
+    escaped_at, list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion, pack_walk_node_at,
     triangle_start_at, walk_self_pairs_at,
 };
 use drape_types::{
@@ -63,9 +63,9 @@ pub static CLOTH_TRIANGLE_STARTS: Kernel = Kernel {
     cpu: starts_cpu,
 };
 
-/// Each triangle's box over the pass and, in the run that finds them (`SelfPassPush`'s
-/// `find_walkers`, with the second run's dispatch), whether it escaped its region and the pass's
-/// walkers (escaped, or with an overflowed list); push constants: `SelfPassPush`.
+/// Each triangle's box over the pass and, in a run that finds them (`SelfPassPush`'s
+/// `find_walkers`), whether it escaped its region and the pass's walkers (escaped, or with an
+/// overflowed list); push constants: `SelfPassPush`.
 pub static CLOTH_TRIANGLE_BOUNDS: Kernel = Kernel {
     spec: KernelSpec {
         entry: "self_pairs::cloth_triangle_bounds",
@@ -81,7 +81,6 @@ pub static CLOTH_TRIANGLE_BOUNDS: Kernel = Kernel {
             write("strays"),
             write("walkers"),
             write("walk_args"),
-            read("features_found"),
         ],
         push_constant_size: size_of::<SelfPassPush>() as u32,
         workgroup_size: WORKGROUP_SIZE,
@@ -232,27 +231,15 @@ fn starts_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let span: SelfPassPush = d.push_as();
     let threads = d.invocations();
-    let [
-        self_params,
-        x,
-        x_prev,
-        indices,
-        anchors,
-        leaf_of,
-        leaf_bounds,
-        escaped,
-        strays,
-        walkers,
-        walk_args,
-        features_found,
-    ] = d.bindings()?;
+    let [self_params, x, x_prev, indices, anchors, leaf_of, leaf_bounds, escaped, strays, walkers, walk_args] =
+        d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let (x, x_prev, anchors) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), anchors.slice::<Vec4>());
     let (indices, leaf_of) = (indices.slice::<u32>(), leaf_of.slice::<u32>());
     let (leaf_bounds, escaped, strays) =
         (leaf_bounds.slice_mut::<Aabb>(), escaped.slice_mut::<u32>(), strays.slice_mut::<f32>());
     let (walkers, walk_args) = (walkers.slice_mut::<u32>(), walk_args.first_mut::<DispatchArgs>()?);
-    let find_walkers = finds_walkers(span.find_walkers, &features_found.first::<DispatchArgs>()?);
+    let find_walkers = span.find_walkers == FIND_WALKERS;
     for t in 0..threads.min(c.leaf_count) {
         let leaf = *leaf_of.get(t as usize).ok_or("leaf_of shorter than the triangles")?;
         let slot = leaf_bounds.get_mut(leaf as usize).ok_or("leaf_of names a leaf past the tree")?;

@@ -5,7 +5,7 @@
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::self_contact::tested_features;
-use drape_kernels::sharp_features::{arm_second_refit, frame_threshold, list_sharp, may_be_sharp};
+use drape_kernels::sharp_features::{frame_threshold, list_sharp, may_be_sharp};
 use drape_types::{ColliderParams, DispatchArgs};
 use glam::{UVec4, Vec4};
 
@@ -21,7 +21,6 @@ pub static LIST_SHARP_FEATURES: Kernel = Kernel {
             BindingSpec::read("features"),
             BindingSpec::write("sharp"),
             BindingSpec::write("sharp_args"),
-            BindingSpec::write("features_found"),
         ],
         WORKGROUP_SIZE,
     ),
@@ -30,19 +29,16 @@ pub static LIST_SHARP_FEATURES: Kernel = Kernel {
 
 fn list_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, collider, vertices, previous, indices, features, sharp, sharp_args, features_found] =
-        d.bindings()?;
+    let [self_params, collider, vertices, previous, indices, features, sharp, sharp_args] = d.bindings()?;
     let self_params = self_params.first::<ColliderParams>()?;
     let collider = collider.first::<ColliderParams>()?;
     let (longest2, thickness) = frame_threshold(&self_params, &collider);
     let mesh = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
     let features = features.slice::<UVec4>();
     let (list, args) = (sharp.slice_mut::<u32>(), sharp_args.first_mut::<DispatchArgs>()?);
-    let found = features_found.first_mut::<DispatchArgs>()?;
     for t in 0..threads.min(features.len() as u32) {
         if may_be_sharp(t, tested_features(features[t as usize], &collider), mesh, longest2, thickness) {
             list_sharp(t, list, args);
-            arm_second_refit(&self_params, found);
         }
     }
     Ok(())

@@ -23,9 +23,7 @@ use crate::kernels::self_pairs::{
 };
 use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
 use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
-use drape_kernels::self_pairs::{
-    ANCHOR_WORDS, FIND_WALKERS, FIND_WALKERS_UNLESS_FEATURES, LIST_ENTRY_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS,
-};
+use drape_kernels::self_pairs::{ANCHOR_WORDS, FIND_WALKERS, LIST_ENTRY_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS};
 use drape_types::{
     Aabb, ColliderParams, ContactPush, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
     WalkNode,
@@ -76,9 +74,9 @@ pub struct SelfContactBuffers {
     /// indirect dispatch (count in `_pad`).
     pub walkers: Handle<u32>,
     pub walk_args: Handle<DispatchArgs>,
-    /// The passes' second run of the triangle boxes and refit, after the collider features'
-    /// pushes: dispatched over the triangles when a collider listed a possibly sharp triangle
-    /// in the frame, else over none (`drape_kernels::sharp_features::arm_second_refit`).
+    /// A pass's second run of the triangle boxes and refit, after the collider features'
+    /// pushes: dispatched over the triangles when a collider edge pushed a cloth edge in the
+    /// pass, else over none (`drape_kernels::self_contact::arm_second_refit`).
     pub features_found: Handle<DispatchArgs>,
     /// The frame's closing check for crossings (`super::self_failsafe`).
     pub failsafe: FailsafeBuffers,
@@ -317,7 +315,6 @@ impl SelfContactBuffers {
                 features.id(),
                 sharp.list.id(),
                 sharp.args.id(),
-                self.features_found.id(),
             ],
             Dispatch::Threads(count),
         ));
@@ -335,9 +332,9 @@ impl SelfContactBuffers {
         ColliderParams { leaf_count: triangles, thickness, friction, ..Default::default() }
     }
 
-    /// The triangles' boxes over the pass spanning `span` and, as `find_walkers` says
-    /// (`drape_kernels::self_pairs::finds_walkers`), whether each escaped its region and the
-    /// pass's walkers, over `dispatch`.
+    /// The triangles' boxes over the pass spanning `span` and, when `find_walkers` is
+    /// `drape_kernels::self_pairs::FIND_WALKERS`, whether each escaped its region and the pass's
+    /// walkers, over `dispatch`.
     fn triangle_bounds(
         &self,
         cloth: &SelfContactCloth,
@@ -362,7 +359,6 @@ impl SelfContactBuffers {
                 self.strays.id(),
                 self.walkers.id(),
                 self.walk_args.id(),
-                self.features_found.id(),
             ],
             bytemuck::cast(push),
             dispatch,
@@ -382,8 +378,6 @@ impl SelfContactBuffers {
         steps: &mut Vec<Step>,
     ) {
         let t = &self.tree;
-        // No collider has listed a possibly sharp triangle yet.
-        steps.push(empty_dispatch(self.features_found));
         steps.push(Step::run_with(
             "self: cloth bounds",
             &SELF_SCENE_BOUNDS,
@@ -551,6 +545,7 @@ impl SelfContactBuffers {
                 sharp.list.id(),
                 sharp.args.id(),
                 cloth.health.id(),
+                self.features_found.id(),
             ],
             bytemuck::cast(span),
             Dispatch::Indirect(sharp.args),
@@ -590,12 +585,7 @@ impl SelfContactBuffers {
         if lists {
             steps.push(empty_dispatch(self.walk_args));
         }
-        // With features, the walkers are found after their pushes when those can move particles.
-        let find = match (lists, features.is_empty()) {
-            (false, _) => 0,
-            (true, true) => FIND_WALKERS,
-            (true, false) => FIND_WALKERS_UNLESS_FEATURES,
-        };
+        let find = if lists { FIND_WALKERS } else { 0 };
         self.triangle_bounds(cloth, (span, find), Dispatch::Threads(t.leaves), steps);
         steps.extend(t.refit_sorted_steps());
         steps.push(Step::fill(self.delta, 0));
@@ -604,14 +594,16 @@ impl SelfContactBuffers {
             // Only the colliders' edges push; without a triangle collider the pushes stay the
             // zeros they start as.
             steps.push(Step::fill(self.pushes, 0));
+            // No collider edge has pushed in this pass yet.
+            steps.push(empty_dispatch(self.features_found));
             steps.extend(features);
-            // The pushes move particles only when a collider listed a possibly sharp triangle
-            // this frame: then they are applied, the boxes and the walkers found after them,
-            // and the tree refit to them.
+            // The pushes move particles only when a collider edge pushed a cloth edge in the
+            // pass: then they are applied (the walkers the first run found forgotten), the boxes
+            // and the walkers found after them, and the tree refit to them.
             steps.push(Step::run(
                 "self: collider pushes",
                 &APPLY_COLLIDER_PUSHES,
-                vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.pushes.id()],
+                vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.pushes.id(), self.walk_args.id()],
                 Dispatch::Indirect(self.features_found),
             ));
             let find = if lists { FIND_WALKERS } else { 0 };

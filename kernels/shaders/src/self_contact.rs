@@ -1154,6 +1154,9 @@ struct ColliderFeaturePairs<'a> {
     /// The largest push its vertices gave a cloth face (m; `Health::collider_feature_push_bits`
     /// takes it in thicknesses).
     largest_push: f32,
+    /// Whether one of its edges pushed a cloth edge (`pushes`): the pass then runs its boxes
+    /// and refit again (`arm_second_refit`).
+    edge_pushed: bool,
     /// The walk's segment of its edge (`(k, m)`, of `segments`; 1 for a whole edge or a
     /// vertex): a cloth triangle whose box meets an earlier segment's (grown by the thickness)
     /// was tested there.
@@ -1206,7 +1209,8 @@ fn collider_vertex_face(
     0.0
 }
 
-/// Collider edge `k` of `feature` against edge `m` of cloth triangle `cloth`.
+/// Collider edge `k` of `feature` against edge `m` of cloth triangle `cloth`; returns whether
+/// it pushed the cloth edge.
 #[inline]
 fn collider_edge_edge(
     (feature, velocities): (&Corners, [Vec3; 3]),
@@ -1215,11 +1219,11 @@ fn collider_edge_edge(
     m: usize,
     out: &mut PairResponse,
     pushes: &mut [u32],
-) {
+) -> bool {
     let (k1, m1) = ((k + 1) % 3, (m + 1) % 3);
     let thickness = out.thickness;
     if !sharp_for(fold, (cloth.now[m1] - cloth.now[m]).length_squared(), thickness) {
-        return;
+        return false;
     }
     // Indexed, not `edge_ends`: see `collider_vertex_face`.
     let (then, now) = (
@@ -1236,7 +1240,9 @@ fn collider_edge_edge(
             pick(velocities[0], velocities[1], velocities[2], k1 as u32),
         ];
         out.add_friction(UVec4::new(0, 0, a, b), w, &contact, [ends[0], ends[1], Vec3::ZERO, Vec3::ZERO]);
+        return true;
     }
+    false
 }
 
 impl LeafVisitor for ColliderFeaturePairs<'_> {
@@ -1266,7 +1272,9 @@ impl LeafVisitor for ColliderFeaturePairs<'_> {
                 let mut m = 0;
                 while m < 3 {
                     if cloth_owned & (1 << m) != 0 && within(edge_box, cloth.swept_box(m, (m + 1) % 3), thickness) {
-                        collider_edge_edge((feature, self.velocities), edge, &cloth, m, &mut self.out, self.pushes);
+                        let pushed =
+                            collider_edge_edge((feature, self.velocities), edge, &cloth, m, &mut self.out, self.pushes);
+                        self.edge_pushed = self.edge_pushed || pushed;
                     }
                     m += 1;
                 }
@@ -1306,7 +1314,8 @@ fn edge_fold(
 /// neighbours across its edges, `feature.xyz`, `NO_NEIGHBOUR` for none), moving with the
 /// collider over the pass `motion`, against the cloth's faces and edges: a spike's tip or a
 /// ridge keeps the thickness from every cloth triangle and edge, on the side it came from, so
-/// it cannot poke through a cloth cell between particles.
+/// it cannot poke through a cloth cell between particles. Returns whether one of its edges
+/// pushed a cloth edge (`pushes`, which move particles before the pass's pairs).
 #[allow(clippy::too_many_arguments)]
 pub fn collider_feature_contact_at(
     triangle: u32,
@@ -1318,11 +1327,11 @@ pub fn collider_feature_contact_at(
     cloth_owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
     (out, pushes, health): (PairResponse, &mut [u32], &mut Health),
-) {
+) -> bool {
     let thickness = out.thickness;
     let owned = feature.w & OWNED_FEATURE_BITS;
     if owned == 0 {
-        return;
+        return false;
     }
     let i = 3 * triangle as usize;
     let (ia, ib, ic) = (indices[i] as usize, indices[i + 1] as usize, indices[i + 2] as usize);
@@ -1336,7 +1345,7 @@ pub fn collider_feature_contact_at(
     let (lo, hi) = (lo - reach, hi + reach);
     let leaves = self_params.leaf_count;
     if !meets_cloth(aabbs, leaves, (lo, hi)) {
-        return; // away from the whole cloth (the tree's root): no folds to measure
+        return false; // away from the whole cloth (the tree's root): no folds to measure
     }
     // The folds at the pass's end (a deforming collider's change); folded shut where the
     // surface wraps round or forms a ridge at the cloth's scale (`CURLED_BIT`).
@@ -1356,7 +1365,7 @@ pub fn collider_feature_contact_at(
     let longest2 = grown_longest_edge2(self_params);
     let sharp = sharp_features(owned, folds, (longest2, thickness), 1.0);
     if sharp == 0 {
-        return;
+        return false;
     }
     // Each corner's velocity over the pass (the pose's motion and the mesh's deformation).
     let per_second = 1.0 / motion.h;
@@ -1374,6 +1383,7 @@ pub fn collider_feature_contact_at(
         out,
         pushes,
         largest_push: 0.0,
+        edge_pushed: false,
         edge: (0, 0),
         segment: (0, 1),
         leaf_bounds,
@@ -1428,6 +1438,7 @@ pub fn collider_feature_contact_at(
         let thicknesses = pairs.largest_push * (1.0 / thickness);
         atomics::max(&mut health.collider_feature_push_bits, thicknesses.to_bits());
     }
+    pairs.edge_pushed
 }
 
 /// Whether a collider triangle whose swept box (grown by the thickness) has `extent` spans
@@ -1505,6 +1516,7 @@ pub fn collider_feature_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 19)] sharp: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 20)] sharp_args: &DispatchArgs,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 21)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 22)] features_found: &mut DispatchArgs,
 ) {
     // One thread per triangle the frame listed as possibly sharp (`sharp_features`).
     if id.x >= sharp_args._pad {
@@ -1516,7 +1528,7 @@ pub fn collider_feature_contact(
     let mesh = (vertices, previous, indices);
     let mine = tested_features(features[triangle as usize], collider);
     let out = PairResponse { thickness: collider.thickness, friction: collider.friction, v, delta, velocity_changes };
-    collider_feature_contact_at(
+    let pushed = collider_feature_contact_at(
         triangle,
         mine,
         mesh,
@@ -1527,6 +1539,20 @@ pub fn collider_feature_contact(
         (x, x_prev),
         (out, pushes, health),
     );
+    if pushed {
+        arm_second_refit(self_params, features_found);
+    }
+}
+
+/// Arms the pass's second run of the cloth's triangle boxes and tree refit, and of the pushes
+/// that move particles before it (`features_found`: their indirect dispatch over the cloth's
+/// triangles, which the host empties before each pass's collider features). Only a pass whose
+/// collider edges pushed a cloth edge runs them: a ground plane's rim is always sharp, and
+/// armed for the whole frame whenever a collider listed a possibly sharp triangle, every pass
+/// of the pile refit its tree twice for a rim 3 m away.
+#[inline]
+pub fn arm_second_refit(self_params: &ColliderParams, features_found: &mut DispatchArgs) {
+    features_found.x = self_params.leaf_count.div_ceil(WORKGROUP_SIZE);
 }
 
 /// How deep beyond a cloth face a collider vertex may be and still count as having crossed it
@@ -1711,6 +1737,15 @@ pub fn apply_self_contact_at(index: u32, x: &mut [Vec4], v: &mut [Vec4], (delta,
     }
 }
 
+/// Empties a pass's walkers (their indirect dispatch, `self_pairs::add_walker`; the host wrote
+/// it so before the pass) once the collider edges' pushes move particles: the pass's second run
+/// of the triangles' boxes finds them anew from where the pushes left them.
+#[inline]
+pub fn forget_walkers(walk_args: &mut DispatchArgs) {
+    walk_args.x = 0;
+    walk_args._pad = 0;
+}
+
 /// Moves particle `index` by the collider edges' push. Applied before the pass's own pair
 /// search, which sweeps it with the rest of the pass's motion: a push that carried a particle
 /// through a layer of cloth above it is then a crossing the pairs undo (applied after their
@@ -1745,10 +1780,11 @@ pub fn apply_self_contact(
     start[id.x as usize] = x[id.x as usize];
 }
 
-/// Each thread pushes particles `id, id + threads, ...`: dispatched like the passes' second run
-/// of the triangles' boxes (`sharp_features::arm_second_refit`), over the cloth's triangles when
-/// a collider listed a possibly sharp triangle this frame and over none when none did (no edge
-/// pushed then, and a zero push moves nothing).
+/// Each thread pushes particles `id, id + threads, ...`: dispatched like the pass's second run
+/// of the triangles' boxes (`arm_second_refit`), over the cloth's triangles when a collider
+/// edge pushed in the pass and over none when none did (a zero push moves nothing). The pass's
+/// walkers, found by the first run before the pushes moved their triangles, are emptied
+/// (`forget_walkers`): the second run finds them again.
 #[spirv(compute(threads(256)))]
 pub fn apply_collider_pushes(
     #[spirv(global_invocation_id)] id: UVec3,
@@ -1757,7 +1793,11 @@ pub fn apply_collider_pushes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] v: &mut [Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] pushes: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] walk_args: &mut DispatchArgs,
 ) {
+    if id.x == 0 {
+        forget_walkers(walk_args);
+    }
     let threads = groups.x * WORKGROUP_SIZE;
     let mut i = id.x;
     while i < params.particle_count {

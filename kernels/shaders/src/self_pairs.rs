@@ -716,19 +716,9 @@ pub fn escaped_at(
 }
 
 /// `SelfPassPush::find_walkers`: the run finds the pass's walkers (the host emptied their
-/// dispatch before).
+/// dispatch before the pass; the collider edges' pushes empty it again before the second run,
+/// `self_contact::forget_walkers`).
 pub const FIND_WALKERS: u32 = 1;
-/// `SelfPassPush::find_walkers`: the run finds the pass's walkers unless a collider listed a
-/// possibly sharp triangle this frame (`sharp_features::arm_second_refit`): then the features'
-/// pushes may move particles, and the boxes' second run, after them, finds the walkers.
-pub const FIND_WALKERS_UNLESS_FEATURES: u32 = 2;
-
-/// Whether a run of the triangles' boxes in `mode` (`SelfPassPush::find_walkers`) finds the
-/// pass's walkers, `features_found` being the second run's dispatch.
-#[inline]
-pub fn finds_walkers(mode: u32, features_found: &DispatchArgs) -> bool {
-    mode == FIND_WALKERS || (mode == FIND_WALKERS_UNLESS_FEATURES && features_found.x == 0)
-}
 
 /// Records whether triangle `t` (sorted leaf `leaf`) escaped its region in the pass and how far
 /// it strayed (`escaped_at`), and lists it as a walker when it did.
@@ -932,14 +922,13 @@ pub fn cloth_triangle_bounds(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] strays: &mut [f32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] walkers: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] walk_args: &mut DispatchArgs,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] features_found: &DispatchArgs,
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
     let leaf = leaf_of[id.x as usize];
     leaf_bounds[leaf as usize] = cloth_triangle_bounds_at(id.x, (x, x_prev), indices);
-    if !finds_walkers(span.find_walkers, features_found) {
+    if span.find_walkers != FIND_WALKERS {
         return;
     }
     let escape = escaped_at(id.x, (x, x_prev), anchors, indices, span);

@@ -13,7 +13,6 @@
 //! whose vertices (or its neighbours' apexes) deform in the frame is always listed. Each listed
 //! triangle's pass still applies the exact test, so the pairs are those the full dispatch found.
 
-use crate::WORKGROUP_SIZE;
 use crate::atomics;
 use crate::contact::CONTACT_THREADS;
 use crate::self_contact::{
@@ -95,16 +94,6 @@ pub fn list_sharp(triangle: u32, list: &mut [u32], args: &mut DispatchArgs) {
     atomics::append_for_dispatch(triangle, list, args, CONTACT_THREADS);
 }
 
-/// Arms the passes' second run of the cloth's triangle boxes and tree refit (after the collider
-/// features' pushes, which move particles; `features_found`: their indirect dispatch over the
-/// cloth's triangles, which the host leaves at zero workgroups at the frame's start). A frame
-/// whose colliders list no possibly sharp triangle pushes nothing, and its passes skip that
-/// second run: on the smooth icosphere, a refit and the boxes, 1.4 ms of each pass on lavapipe.
-#[inline]
-pub fn arm_second_refit(self_params: &ColliderParams, features_found: &mut DispatchArgs) {
-    features_found.x = self_params.leaf_count.div_ceil(WORKGROUP_SIZE);
-}
-
 /// The cloth's longest squared edge as the passes take it (`self_scene_bounds` measured it at
 /// the frame's start), and the collider's contact thickness.
 #[inline]
@@ -124,7 +113,6 @@ pub fn list_sharp_features(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] features: &[UVec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] sharp: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] sharp_args: &mut DispatchArgs,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] features_found: &mut DispatchArgs,
 ) {
     if id.x as usize >= features.len() {
         return;
@@ -133,6 +121,5 @@ pub fn list_sharp_features(
     let mesh = (vertices, previous, indices);
     if may_be_sharp(id.x, tested_features(features[id.x as usize], collider), mesh, longest2, thickness) {
         list_sharp(id.x, sharp, sharp_args);
-        arm_second_refit(self_params, features_found);
     }
 }

@@ -297,9 +297,8 @@ pub struct ContactPush {
 
 /// Push constants of a self-collision pass's triangle boxes: the pass's span as fractions of the
 /// frame (as `ContactPush`), and whether this run of the boxes also finds the triangles that
-/// walk in the pass: 0 no, 1 yes, 2 unless a collider listed a possibly sharp triangle this
-/// frame (then a second run after the features' pushes finds them;
-/// `drape_kernels::self_pairs::finds_walkers`).
+/// walk in the pass: 0 no, 1 yes (`drape_kernels::self_pairs::FIND_WALKERS`; a second run after
+/// the collider edges' pushes finds them anew).
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 #[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
