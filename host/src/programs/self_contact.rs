@@ -555,7 +555,7 @@ impl SelfContactBuffers {
     /// A pass, after the collider's response of the substep it ends: refit to the triangles
     /// swept since the last pass; `features` (the colliders' vertices and edges against the
     /// cloth: vertex corrections into the pass's sums, edge pushes applied at once and the tree
-    /// refit again, in a frame whose colliders listed a possibly sharp triangle); then the
+    /// refit again, in a pass where a collider edge pushed); then the
     /// pairs, and the mean of all corrections applied (which records the next pass's start).
     /// The pairs sweep the pushes with the rest of the pass's motion, so a push through a layer
     /// of cloth is a crossing they undo.
