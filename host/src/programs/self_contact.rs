@@ -606,7 +606,6 @@ impl SelfContactBuffers {
                 vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.pushes.id(), self.walk_args.id()],
                 Dispatch::Indirect(self.features_found),
             ));
-            let find = if lists { FIND_WALKERS } else { 0 };
             self.triangle_bounds(cloth, (span, find), Dispatch::Indirect(self.features_found), steps);
             steps.extend(t.refit_sorted_again_steps(self.features_found));
         }
