@@ -13,6 +13,7 @@ use drape_kernels::self_contact::{
     EDGE_GROWTH2, PairResponse, gather_cloth_triangle_at, self_triangle_contact_at,
     self_triangle_contact_brute_force_at, sharp_for,
 };
+use drape_kernels::self_pairs::QUEUED_PAIRS_PER_TRIANGLE;
 use glam::{Vec3, Vec4};
 
 const CLOTH: ClothId = ClothId::new(0);
@@ -119,6 +120,7 @@ fn pair_lists_and_walks_find_the_pairs_the_tree_walk_finds() {
     assert!(exact.1 * 100 < exact.0, "exact predictions: the lists must carry the pairs ({exact:?})");
     let start = lists_and_walks_against_the_tree_walk(false);
     assert!(start.0 > 0 && start.1 > start.0 / 10, "both paths must run ({start:?})");
+    assert!(start.2 > 0, "the walkers must queue pairs for the queue's tests to run ({start:?})");
 }
 
 /// A cloth's self-collision sub-graph apart from a solver: its resources, the cloth's own buffers
@@ -169,9 +171,10 @@ fn stepped_small_pile(thickness: f32, gravity: Vec4) -> (drape::Cloth, Vec<u32>,
     (cloth, owned, sim, graph)
 }
 
-/// Over 60 frames of the small pile: (triangle-passes from lists, walked); panics where the
-/// two searches differ.
-fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
+/// Over 60 frames of the small pile: (triangle-passes from lists, walked, pairs the walkers
+/// queued); panics where the two searches differ, with the walkers' pairs tested from their
+/// queue and, the queue full from the start, by the walkers themselves.
+fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64, u64) {
     use drape::cpu::CpuExecutor;
     use drape::programs::self_contact::{SELF_TREE_REBUILD_FRAMES, SelfContactBuffers};
     use drape_types::Health;
@@ -182,7 +185,8 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
     let PileGraph { resources, own, s, params, substeps } = graph;
     let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
     let frame_dt = SimSettings::default().frame_dt;
-    let (mut listed, mut walked) = (0u64, 0u64);
+    let (mut listed, mut walked, mut queued) = (0u64, 0u64, 0u64);
+    let queue_capacity = QUEUED_PAIRS_PER_TRIANGLE * t;
     // One executor for all frames: the tree is built every SELF_TREE_REBUILD_FRAMES frames and
     // refit over the frame's start boxes in between, as a solver does.
     let mut cpu = CpuExecutor::new(&resources);
@@ -219,12 +223,14 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
         // pushed (the pushes forget the first run's walkers and the second run finds them
         // again: kept, they would walk twice); the features' stand-in pushes nothing but arms
         // the second run as a push does.
-        for features in [None, Some(false), Some(true)] {
+        // And with the walkers' queue full from the start (a stand-in write after the pass
+        // empties it): every walker tests its pairs itself.
+        for (features, queue_full) in [(None, false), (Some(false), false), (Some(true), false), (Some(false), true)] {
             cpu.upload(own.x, &x).unwrap();
             cpu.upload(own.v, &v).unwrap();
             cpu.upload(s.start, &before).unwrap();
             cpu.upload(own.health, &[Health::default()]).unwrap();
-            let stand_in = match features {
+            let mut stand_in = match features {
                 None => vec![],
                 Some(armed) => {
                     let groups = if armed { t.div_ceil(drape_kernels::WORKGROUP_SIZE) } else { 0 };
@@ -232,6 +238,10 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
                     vec![drape::graph::Step::write(s.features_found, 0, &[args])]
                 }
             };
+            if queue_full {
+                let full = drape_types::DispatchArgs { x: 0, y: 1, z: 1, _pad: queue_capacity };
+                stand_in.push(drape::graph::Step::write(s.queue_args, 0, &[full]));
+            }
             let mut steps = vec![];
             s.substep_steps(&own, ((0, substeps - 1, substeps), true), stand_in, &mut steps);
             cpu.run(&steps).unwrap();
@@ -239,18 +249,27 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64) {
                 (cpu.read(s.delta, words).unwrap(), cpu.read(s.velocity_changes, words).unwrap());
             let health: Health = cpu.read(own.health, 1).unwrap()[0];
             let walks = health.self_walks + health.self_full_lists;
+            let queue: drape_types::DispatchArgs = cpu.read(s.queue_args, 1).unwrap()[0];
+            if queue_full {
+                // Nothing dispatched: every pair was tested by the walker that found it.
+                assert_eq!(queue.x, 0, "frame {frame}: the full queue took pairs");
+            }
             if features.is_none() {
                 walked += u64::from(walks);
                 listed += u64::from(t - walks);
+                queued += u64::from(queue._pad.min(queue_capacity));
             }
             let (walk, walk_friction) =
                 tree_walk.get_or_insert_with(|| tree_walk_corrections(&cpu, &s, &c, &owned, (&x, &before, &v)));
-            assert_eq!(&found, walk, "frame {frame}, features {features:?}: corrections");
-            assert_eq!(&found_friction, walk_friction, "frame {frame}, features {features:?}: friction");
+            let case = format!("frame {frame}, features {features:?}, queue full {queue_full}");
+            assert_eq!(&found, walk, "{case}: corrections");
+            assert_eq!(&found_friction, walk_friction, "{case}: friction");
         }
     }
-    println!("exact prediction {exact_prediction}: triangle-passes {listed} from lists, {walked} walked");
-    (listed, walked)
+    println!(
+        "exact prediction {exact_prediction}: triangle-passes {listed} from lists, {walked} walked; {queued} pairs queued"
+    );
+    (listed, walked, queued)
 }
 
 /// Every triangle's pairs in a pass from `before` to `x` (velocities `v`) by the tree walk of

@@ -19,7 +19,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 57] = [
+pub const ALL: [&Kernel; 58] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &integrate::INTEGRATE_SUBSTEPS,
@@ -38,6 +38,7 @@ pub const ALL: [&Kernel; 57] = [
     &self_pairs::LISTED_SELF_PAIRS,
     &self_pairs::SELF_TRIANGLE_CONTACT,
     &self_pairs::WALK_SELF_PAIRS,
+    &self_pairs::TEST_QUEUED_PAIRS,
     &sharp_features::LIST_SHARP_FEATURES,
     &self_contact::COLLIDER_FEATURE_CONTACT,
     &self_contact::APPLY_SELF_CONTACT,

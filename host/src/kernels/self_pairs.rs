@@ -9,9 +9,9 @@ use drape_kernels::self_contact::PairResponse;
 use drape_kernels::self_contact::frame_of;
 use drape_kernels::self_contact::self_triangle_contact_at;
 use drape_kernels::self_pairs::{
-    FIND_WALKERS, LIST_OVERFLOWED, WALK_THREADS, anchor_window_at, cloth_triangle_bounds_at, count_full_list,
-    escaped_at, list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion, pack_walk_node_at,
-    triangle_start_at, walk_self_pairs_at,
+    FIND_WALKERS, LIST_OVERFLOWED, QUEUE_THREADS, WALK_THREADS, anchor_window_at, cloth_triangle_bounds_at,
+    count_full_list, escaped_at, list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion,
+    pack_walk_node_at, queued_pairs, test_queued_pair_at, triangle_start_at, walk_self_pairs_at,
 };
 use drape_types::{
     Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
@@ -209,6 +209,8 @@ pub static WALK_SELF_PAIRS: Kernel = Kernel {
             read("walk_args"),
             write("delta"),
             write("velocity_changes"),
+            write("queue"),
+            write("queue_args"),
             write("health"),
         ],
         push_constant_size: 0,
@@ -216,6 +218,45 @@ pub static WALK_SELF_PAIRS: Kernel = Kernel {
     },
     cpu: walk_cpu,
 };
+
+/// The tests of the pairs a pass's walkers queued, one thread each (indirect over
+/// `queue_args`).
+pub static TEST_QUEUED_PAIRS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pairs::test_queued_pairs",
+        bindings: &[
+            read("self_params"),
+            read("sorted"),
+            read("owned"),
+            read("x"),
+            read("x_prev"),
+            read("v"),
+            read("queue"),
+            read("queue_args"),
+            write("delta"),
+            write("velocity_changes"),
+        ],
+        push_constant_size: 0,
+        workgroup_size: QUEUE_THREADS,
+    },
+    cpu: queued_cpu,
+};
+
+fn queued_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, sorted, owned, x, x_prev, v, queue, queue_args, delta, velocity_changes] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let tables = (sorted.slice::<UVec4>(), owned.slice::<u32>());
+    let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
+    let queue = queue.slice::<u32>();
+    let queued = queued_pairs(queue, &queue_args.first::<DispatchArgs>()?);
+    let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
+    let mut out = PairResponse { thickness: c.thickness, friction: c.friction, v, delta, velocity_changes };
+    for i in 0..threads.min(queued) {
+        test_queued_pair_at(i, tables, (x, x_prev), queue, &mut out);
+    }
+    Ok(())
+}
 
 fn starts_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
@@ -366,6 +407,8 @@ fn walk_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         walk_args,
         delta,
         velocity_changes,
+        queue,
+        queue_args,
         health,
     ] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
@@ -376,6 +419,7 @@ fn walk_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let tables = (escaped.slice::<u32>(), counts.slice::<u32>());
     let walkers = walkers.slice::<u32>();
     let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
+    let (queue, queue_args) = (queue.slice_mut::<u32>(), queue_args.first_mut::<DispatchArgs>()?);
     let health = health.first_mut::<Health>()?;
     for i in 0..threads.min(walking) {
         let out = PairResponse {
@@ -386,7 +430,7 @@ fn walk_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
             velocity_changes: &mut *velocity_changes,
         };
         let leaf = walkers[i as usize];
-        walk_self_pairs_at(leaf, &c, tree, owned, (x, x_prev), tables, out);
+        walk_self_pairs_at(leaf, &c, tree, owned, (x, x_prev), tables, (&mut *queue, &mut *queue_args), out);
         if tables.1[leaf as usize] != LIST_OVERFLOWED {
             health.self_walks += 1;
         }

@@ -19,11 +19,14 @@ use crate::kernels::self_contact::{
 };
 use crate::kernels::self_pairs::{
     ANCHOR_WINDOW, CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, PACK_WALK_NODES,
-    SELF_TRIANGLE_CONTACT, WALK_SELF_PAIRS,
+    SELF_TRIANGLE_CONTACT, TEST_QUEUED_PAIRS, WALK_SELF_PAIRS,
 };
 use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
 use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
-use drape_kernels::self_pairs::{ANCHOR_WORDS, FIND_WALKERS, LIST_ENTRY_WORDS, SELF_LIST_CAPACITY, SLOP_THICKNESS};
+use drape_kernels::self_pairs::{
+    ANCHOR_WORDS, FIND_WALKERS, LIST_ENTRY_WORDS, QUEUED_PAIR_WORDS, QUEUED_PAIRS_PER_TRIANGLE, SELF_LIST_CAPACITY,
+    SLOP_THICKNESS,
+};
 use drape_types::{
     Aabb, ColliderParams, ContactPush, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
     WalkNode,
@@ -74,6 +77,10 @@ pub struct SelfContactBuffers {
     /// indirect dispatch (count in `_pad`).
     pub walkers: Handle<u32>,
     pub walk_args: Handle<DispatchArgs>,
+    /// The pairs of triangles the pass's walkers found (`QUEUED_PAIR_WORDS` each: the earlier
+    /// leaf, the later) and the indirect dispatch of their tests (count in `_pad`).
+    pub pair_queue: Handle<u32>,
+    pub queue_args: Handle<DispatchArgs>,
     /// A pass's second run of the triangle boxes and refit, after the collider features'
     /// pushes: dispatched over the triangles when a collider edge pushed a cloth edge in the
     /// pass, else over none (`drape_kernels::self_contact::arm_second_refit`).
@@ -196,6 +203,8 @@ pub const SELF_PAIRS_LABEL: &str = "self: vertex-triangle + edge-edge";
 /// The timing table's line of a pass's walks (the triangles that left their predicted region
 /// or whose list overflowed).
 pub const SELF_WALKS_LABEL: &str = "self: walks (escaped, full lists)";
+/// The timing table's line of the tests of the pairs the walkers found.
+pub const SELF_QUEUED_PAIRS_LABEL: &str = "self: walkers' pair tests";
 /// The timing table's line of a pass's collider features (vertices and edges) against the
 /// cloth.
 pub const COLLIDER_FEATURES_LABEL: &str = "self: collider vertices + edges";
@@ -270,6 +279,9 @@ impl SelfContactBuffers {
             leaf_of: resources.device(format!("{name}: leaf of each triangle"), triangles),
             walkers: resources.device(format!("{name}: walkers"), triangles),
             walk_args: resources.device(format!("{name}: walk dispatch"), 1),
+            pair_queue: resources
+                .device(format!("{name}: walkers' pairs"), QUEUED_PAIR_WORDS * QUEUED_PAIRS_PER_TRIANGLE * triangles),
+            queue_args: resources.device(format!("{name}: walkers' pairs dispatch"), 1),
             features_found: resources.device(format!("{name}: second refit dispatch"), 1),
             failsafe: FailsafeBuffers::declare(resources, &name, particles),
             sharp: Vec::new(),
@@ -584,6 +596,7 @@ impl SelfContactBuffers {
         let span = substep_span(from - window_from, to + 1 - window_from, window);
         if lists {
             steps.push(empty_dispatch(self.walk_args));
+            steps.push(empty_dispatch(self.queue_args));
         }
         let find = if lists { FIND_WALKERS } else { 0 };
         self.triangle_bounds(cloth, (span, find), Dispatch::Threads(t.leaves), steps);
@@ -642,9 +655,27 @@ impl SelfContactBuffers {
             self.pair_bindings(
                 cloth,
                 &[self.escaped.id(), self.counts.id(), self.walkers.id(), self.walk_args.id()],
-                &[cloth.health.id()],
+                &[self.pair_queue.id(), self.queue_args.id(), cloth.health.id()],
             ),
             Dispatch::Indirect(self.walk_args),
+        ));
+        // The walkers' pairs, a thread each.
+        steps.push(Step::run(
+            SELF_QUEUED_PAIRS_LABEL,
+            &TEST_QUEUED_PAIRS,
+            vec![
+                t.collider.id(),
+                self.sorted.id(),
+                self.owned.id(),
+                cloth.x.id(),
+                self.start.id(),
+                cloth.v.id(),
+                self.pair_queue.id(),
+                self.queue_args.id(),
+                self.delta.id(),
+                self.velocity_changes.id(),
+            ],
+            Dispatch::Indirect(self.queue_args),
         ));
     }
 

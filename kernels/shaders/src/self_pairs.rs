@@ -34,8 +34,8 @@
 use crate::atomics;
 use crate::lbvh::{PairBoxes, PairWalk, WALK_BATCH};
 use crate::self_contact::{
-    Corners, LeafVisitor, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights,
-    collapsed, frame_of, longest_side2, pair_mask, self_triangle_contact_at, triangle_pair, walk_in_batches,
+    Corners, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights, collapsed,
+    frame_of, longest_side2, pair_mask, self_triangle_contact_at, triangle_pair,
 };
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
@@ -755,44 +755,23 @@ fn walks(leaf: u32, sorted: &[UVec4], escaped: &[u32], counts: &[u32]) -> bool {
     escaped[sorted[leaf as usize].w as usize] != 0 || counts[leaf as usize] == LIST_OVERFLOWED
 }
 
-/// The leaves an escaped triangle pairs with: every later one, and the earlier ones that do not
-/// walk themselves. Holds its triangle and response by value: a reference to a local that
-/// holds slices would keep that local in memory, pointers and all, which NVIDIA's shader
-/// compiler crashes on (see `lbvh::TreeQuery`).
-struct EscapedPairs<'a> {
-    leaf: u32,
-    mine: Corners,
-    mine_owned: u32,
-    sorted: &'a [UVec4],
-    owned: &'a [u32],
-    escaped: &'a [u32],
-    counts: &'a [u32],
-    x: &'a [Vec4],
-    x_prev: &'a [Vec4],
-    out: PairResponse<'a>,
-}
+/// Threads per workgroup of the tests of the pairs the walkers queued (`test_queued_pairs`).
+pub const QUEUE_THREADS: u32 = 64;
+/// Words of a queued pair: its earlier leaf and its later leaf (tree order).
+pub const QUEUED_PAIR_WORDS: u32 = 2;
+/// Pairs a pass's queue holds per triangle of the cloth. A walker whose pairs find the queue
+/// full tests them itself, as it did before the queue: the same pairs, the same sums.
+pub const QUEUED_PAIRS_PER_TRIANGLE: u32 = 8;
 
-impl LeafVisitor for EscapedPairs<'_> {
-    fn visit(&mut self, leaf: u32) {
-        if leaf == self.leaf || (leaf < self.leaf && walks(leaf, self.sorted, self.escaped, self.counts)) {
-            return;
-        }
-        let ids = self.sorted[leaf as usize];
-        let theirs = Corners::load(ids, (self.x, self.x_prev));
-        let their_owned = self.owned[ids.w as usize];
-        // The earlier leaf first, as every other way of finding the pair does.
-        if leaf < self.leaf {
-            triangle_pair(&theirs, &self.mine, pair_mask(their_owned, self.mine_owned), &mut self.out);
-        } else {
-            triangle_pair(&self.mine, &theirs, pair_mask(self.mine_owned, their_owned), &mut self.out);
-        }
-    }
-}
-
-/// Walker `leaf`'s pairs in a pass (it escaped or its list overflowed): through the tree
-/// (`self_contact::self_triangle_contact_at`) with the later leaves, and when it escaped also
-/// with the earlier leaves that do not walk (one walk over both). The pass's walk dispatch
-/// takes the escaped ones; `listed_self_pairs_at` walks for the full lists.
+/// Walker `leaf`'s pairs in a pass (it escaped or its list overflowed): found through the tree
+/// with the later leaves, and when it escaped also with the earlier leaves that do not walk
+/// themselves (one walk over both), and queued for `test_queued_pairs`, earlier leaf first.
+/// A walk's pairs are tested by as many threads as there are pairs: a triangle that escaped at
+/// speed sweeps a box that meets hundreds of others, and one thread testing them one after
+/// another set the length of the whole dispatch on a GPU (138 µs a pass on the H200), while its
+/// neighbours' lanes waited on llvmpipe. The queue takes a batch's pairs with one atomic; past
+/// its capacity (`QUEUED_PAIRS_PER_TRIANGLE`) the walker tests them itself. Each correction
+/// is summed in fixed point, so who tests a pair, and in which order, changes nothing.
 #[allow(clippy::too_many_arguments)]
 pub fn walk_self_pairs_at(
     leaf: u32,
@@ -801,30 +780,82 @@ pub fn walk_self_pairs_at(
     owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
     (escaped, counts): (&[u32], &[u32]),
+    (queue, queue_args): (&mut [u32], &mut DispatchArgs),
     out: PairResponse,
 ) {
+    let leaf_count = self_params.leaf_count;
     let mine_escaped = escaped[sorted[leaf as usize].w as usize] != 0;
-    let tables = (leaf_bounds, sorted, owned);
-    let mut pairs = TrianglePairs::of(leaf, tables, (x, x_prev), out);
-    let tree = (nodes, aabbs, leaf_bounds);
-    if !mine_escaped {
-        pairs.walk_after(tree, self_params.leaf_count);
-        return;
-    }
+    let mut pairs = TrianglePairs::of(leaf, (leaf_bounds, sorted, owned), (x, x_prev), out);
     let query = pairs.query();
-    let mut both = EscapedPairs {
-        leaf,
-        mine: pairs.mine,
-        mine_owned: pairs.owned,
-        sorted,
-        owned,
-        escaped,
-        counts,
-        x,
-        x_prev,
-        out: pairs.out,
-    };
-    walk_in_batches(PairWalk::all(self_params.leaf_count), tree, query, &mut both);
+    let mut walk = if mine_escaped { PairWalk::all(leaf_count) } else { PairWalk::new(leaf, nodes, leaf_count) };
+    let capacity = queue.len() as u32 / QUEUED_PAIR_WORDS;
+    let mut found = [0u32; WALK_BATCH];
+    while !walk.done() {
+        let count = walk.next_batch((nodes, aabbs, leaf_bounds), query, &mut found);
+        // The leaves it pairs with, kept in place: every later one, and an earlier one that
+        // does not walk when this one escaped (a walking earlier leaf finds the pair itself).
+        let mut kept = 0;
+        let mut j = 0;
+        while j < count {
+            let other = found[j];
+            if other > leaf || (mine_escaped && other < leaf && !walks(other, sorted, escaped, counts)) {
+                found[kept] = other;
+                kept += 1;
+            }
+            j += 1;
+        }
+        if kept == 0 {
+            continue;
+        }
+        let first = atomics::add(&mut queue_args._pad, kept as u32);
+        let end = (first + kept as u32).min(capacity);
+        if end > first {
+            atomics::max(&mut queue_args.x, end.div_ceil(QUEUE_THREADS));
+        }
+        let mut k = 0;
+        while k < kept {
+            let other = found[k];
+            let slot = first + k as u32;
+            if slot < capacity {
+                let at = (QUEUED_PAIR_WORDS * slot) as usize;
+                queue[at] = leaf.min(other);
+                queue[at + 1] = leaf.max(other);
+            } else {
+                let ids = sorted[other as usize];
+                let theirs = Corners::load(ids, (x, x_prev));
+                let their_owned = owned[ids.w as usize];
+                // The earlier leaf first, as every other way of finding the pair does.
+                if other < leaf {
+                    triangle_pair(&theirs, &pairs.mine, pair_mask(their_owned, pairs.owned), &mut pairs.out);
+                } else {
+                    triangle_pair(&pairs.mine, &theirs, pair_mask(pairs.owned, their_owned), &mut pairs.out);
+                }
+            }
+            k += 1;
+        }
+    }
+}
+
+/// Queued pair `i` of a pass (`walk_self_pairs_at`): the earlier leaf's triangle against the
+/// later's, as a walk tests it (`self_contact::triangle_pair`).
+#[inline]
+pub fn test_queued_pair_at(
+    i: u32,
+    (sorted, owned): (&[UVec4], &[u32]),
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    queue: &[u32],
+    out: &mut PairResponse,
+) {
+    let at = (QUEUED_PAIR_WORDS * i) as usize;
+    let (earlier, later) = (sorted[queue[at] as usize], sorted[queue[at + 1] as usize]);
+    let (a, b) = (Corners::load(earlier, (x, x_prev)), Corners::load(later, (x, x_prev)));
+    triangle_pair(&a, &b, pair_mask(owned[earlier.w as usize], owned[later.w as usize]), out);
+}
+
+/// How many pairs a pass's walkers queued that the queue holds (`walk_self_pairs_at`).
+#[inline]
+pub fn queued_pairs(queue: &[u32], queue_args: &DispatchArgs) -> u32 {
+    queue_args._pad.min(queue.len() as u32 / QUEUED_PAIR_WORDS)
 }
 
 /// Sorted leaf `leaf`'s pairs in a pass from its list, skipping partners that escaped; through
@@ -1063,7 +1094,9 @@ pub fn walk_self_pairs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] walk_args: &DispatchArgs,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] delta: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] velocity_changes: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] queue: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] queue_args: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 17)] health: &mut Health,
 ) {
     if id.x >= walk_args._pad {
         return;
@@ -1072,10 +1105,35 @@ pub fn walk_self_pairs(
     let out =
         PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
     let leaf = walkers[id.x as usize];
-    walk_self_pairs_at(leaf, self_params, tree, owned, (x, x_prev), (escaped, counts), out);
+    walk_self_pairs_at(leaf, self_params, tree, owned, (x, x_prev), (escaped, counts), (queue, queue_args), out);
     if counts[leaf as usize] != LIST_OVERFLOWED {
         atomics::add(&mut health.self_walks, 1); // (a full list is counted once, for the frame)
     }
+}
+
+/// One thread per pair a pass's walkers queued (`walk_self_pairs_at`): its test
+/// (`test_queued_pair_at`), summed into the pass's corrections.
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn test_queued_pairs(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] owned: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] queue: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] queue_args: &DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] velocity_changes: &mut [u32],
+) {
+    if id.x >= queued_pairs(queue, queue_args) {
+        return;
+    }
+    let mut out =
+        PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
+    test_queued_pair_at(id.x, (sorted, owned), (x, x_prev), queue, &mut out);
 }
 
 #[cfg(test)]
