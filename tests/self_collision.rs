@@ -13,7 +13,6 @@ use drape_kernels::self_contact::{
     EDGE_GROWTH2, PairResponse, gather_cloth_triangle_at, self_triangle_contact_at,
     self_triangle_contact_brute_force_at, sharp_for,
 };
-use drape_kernels::self_pairs::QUEUED_PAIRS_PER_TRIANGLE;
 use glam::{Vec3, Vec4};
 
 const CLOTH: ClothId = ClothId::new(0);
@@ -186,7 +185,7 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64, u
     let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
     let frame_dt = SimSettings::default().frame_dt;
     let (mut listed, mut walked, mut queued) = (0u64, 0u64, 0u64);
-    let queue_capacity = QUEUED_PAIRS_PER_TRIANGLE * t;
+    let queue_capacity = drape::programs::self_contact::queued_pairs(t);
     // One executor for all frames: the tree is built every SELF_TREE_REBUILD_FRAMES frames and
     // refit over the frame's start boxes in between, as a solver does.
     let mut cpu = CpuExecutor::new(&resources);

@@ -13,7 +13,7 @@
 //!   path (`escaped_at`) tests only its list, skipping partners that escaped; one that escaped
 //!   walks the tree (refit to the pass) for its later leaves and for the earlier ones that do not
 //!   walk themselves, and one whose list overflowed walks for its later leaves
-//!   (`self_pairs_at`). Each pair of triangles is so handled once, always with the earlier leaf
+//!   (`walk_self_pairs_at`, `listed_self_pairs_at`). Each pair of triangles is so handled once, always with the earlier leaf
 //!   first, and gives the walk's result: a primitive pair left out of a list stays apart by more
 //!   than the thickness over the whole frame while its corners stay within their slops.
 //!
@@ -762,15 +762,21 @@ pub const QUEUED_PAIR_WORDS: u32 = 2;
 /// Pairs a pass's queue holds per triangle of the cloth. A walker whose pairs find the queue
 /// full tests them itself, as it did before the queue: the same pairs, the same sums.
 pub const QUEUED_PAIRS_PER_TRIANGLE: u32 = 8;
+/// The most pairs a pass's queue holds whatever the cloth's size: its tests' indirect dispatch
+/// stays within 65,535 workgroups, the least `maxComputeWorkGroupCount` Vulkan allows (a cloth
+/// of more than 524,287 triangles has a smaller share per triangle).
+pub const QUEUED_PAIRS_MOST: u32 = 65_535 * QUEUE_THREADS;
 
-/// Walker `leaf`'s pairs in a pass (it escaped or its list overflowed): found through the tree
-/// with the later leaves, and when it escaped also with the earlier leaves that do not walk
-/// themselves (one walk over both), and queued for `test_queued_pairs`, earlier leaf first.
+/// Walker `leaf`'s pairs in a pass (it escaped its region; a triangle whose list overflowed walks
+/// for its later leaves in `listed_self_pairs_at`, in its own thread): found through the tree
+/// with the later leaves and the earlier leaves that do not walk themselves (one walk over
+/// both; only the later ones for a walker that did not escape), and queued for
+/// `test_queued_pairs`, earlier leaf first.
 /// A walk's pairs are tested by as many threads as there are pairs: a triangle that escaped at
 /// speed sweeps a box that meets hundreds of others, and one thread testing them one after
 /// another set the length of the whole dispatch on a GPU (138 µs a pass on the H200), while its
 /// neighbours' lanes waited on llvmpipe. The queue takes a batch's pairs with one atomic; past
-/// its capacity (`QUEUED_PAIRS_PER_TRIANGLE`) the walker tests them itself. Each correction
+/// its capacity (`QUEUED_PAIRS_PER_TRIANGLE`, `QUEUED_PAIRS_MOST`) the walker tests them itself. Each correction
 /// is summed in fixed point, so who tests a pair, and in which order, changes nothing.
 #[allow(clippy::too_many_arguments)]
 pub fn walk_self_pairs_at(
