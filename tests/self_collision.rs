@@ -186,6 +186,7 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64, u
     let frame_dt = SimSettings::default().frame_dt;
     let (mut listed, mut walked, mut queued) = (0u64, 0u64, 0u64);
     let queue_capacity = drape::programs::self_contact::queued_pairs(t);
+    let mut overflowed = 0;
     // One executor for all frames: the tree is built every SELF_TREE_REBUILD_FRAMES frames and
     // refit over the frame's start boxes in between, as a solver does.
     let mut cpu = CpuExecutor::new(&resources);
@@ -223,8 +224,12 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64, u
         // again: kept, they would walk twice); the features' stand-in pushes nothing but arms
         // the second run as a push does.
         // And with the walkers' queue full from the start (a stand-in write after the pass
-        // empties it): every walker tests its pairs itself.
-        for (features, queue_full) in [(None, false), (Some(false), false), (Some(true), false), (Some(false), true)] {
+        // empties it): every walker tests its pairs itself; and with 7 slots left (the others
+        // holding leaf 0 against itself, which shares every particle and tests nothing): the
+        // first pairs queued, the rest tested by their walkers, a batch split between the two.
+        let (full, nearly_full) = (Some(queue_capacity), Some(queue_capacity - 7));
+        let cases = [(None, None), (Some(false), None), (Some(true), None), (Some(false), full), (None, nearly_full)];
+        for (features, queue_from) in cases {
             cpu.upload(own.x, &x).unwrap();
             cpu.upload(own.v, &v).unwrap();
             cpu.upload(s.start, &before).unwrap();
@@ -237,9 +242,16 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64, u
                     vec![drape::graph::Step::write(s.features_found, 0, &[args])]
                 }
             };
-            if queue_full {
-                let full = drape_types::DispatchArgs { x: 0, y: 1, z: 1, _pad: queue_capacity };
-                stand_in.push(drape::graph::Step::write(s.queue_args, 0, &[full]));
+            if let Some(taken) = queue_from {
+                // A full queue dispatches nothing; a nearly full one its zeros' tests too.
+                let x =
+                    if taken < queue_capacity { taken.div_ceil(drape_kernels::self_pairs::QUEUE_THREADS) } else { 0 };
+                stand_in.push(drape::graph::Step::fill(s.pair_queue, 0));
+                stand_in.push(drape::graph::Step::write(
+                    s.queue_args,
+                    0,
+                    &[drape_types::DispatchArgs { x, y: 1, z: 1, _pad: taken }],
+                ));
             }
             let mut steps = vec![];
             s.substep_steps(&own, ((0, substeps - 1, substeps), true), stand_in, &mut steps);
@@ -249,18 +261,21 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64, u
             let health: Health = cpu.read(own.health, 1).unwrap()[0];
             let walks = health.self_walks + health.self_full_lists;
             let queue: drape_types::DispatchArgs = cpu.read(s.queue_args, 1).unwrap()[0];
-            if queue_full {
+            if queue_from == full {
                 // Nothing dispatched: every pair was tested by the walker that found it.
                 assert_eq!(queue.x, 0, "frame {frame}: the full queue took pairs");
             }
-            if features.is_none() {
+            if queue_from == nearly_full && queue._pad > queue_capacity {
+                overflowed += 1;
+            }
+            if features.is_none() && queue_from.is_none() {
                 walked += u64::from(walks);
                 listed += u64::from(t - walks);
                 queued += u64::from(queue._pad.min(queue_capacity));
             }
             let (walk, walk_friction) =
                 tree_walk.get_or_insert_with(|| tree_walk_corrections(&cpu, &s, &c, &owned, (&x, &before, &v)));
-            let case = format!("frame {frame}, features {features:?}, queue full {queue_full}");
+            let case = format!("frame {frame}, features {features:?}, queue from {queue_from:?}");
             assert_eq!(&found, walk, "{case}: corrections");
             assert_eq!(&found_friction, walk_friction, "{case}: friction");
         }
@@ -268,6 +283,9 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64, u
     println!(
         "exact prediction {exact_prediction}: triangle-passes {listed} from lists, {walked} walked; {queued} pairs queued"
     );
+    if queued > 0 {
+        assert!(overflowed > 0, "no frame filled the nearly full queue: the split batch went untested");
+    }
     (listed, walked, queued)
 }
 
