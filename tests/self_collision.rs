@@ -185,7 +185,7 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64, u
     let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
     let frame_dt = SimSettings::default().frame_dt;
     let (mut listed, mut walked, mut queued) = (0u64, 0u64, 0u64);
-    let queue_capacity = drape::programs::self_contact::queued_pairs(t);
+    let queue_capacity = drape::programs::self_contact::queue_capacity(t);
     let mut overflowed = 0;
     // One executor for all frames: the tree is built every SELF_TREE_REBUILD_FRAMES frames and
     // refit over the frame's start boxes in between, as a solver does.

@@ -205,7 +205,7 @@ pub const SELF_PAIRS_LABEL: &str = "self: vertex-triangle + edge-edge";
 pub const SELF_WALKS_LABEL: &str = "self: walks (escaped, full lists)";
 /// Pairs a pass's queue of the walkers' pairs holds for a cloth of `triangles` triangles
 /// (`drape_kernels::self_pairs::QUEUED_PAIRS_PER_TRIANGLE`, at most `QUEUED_PAIRS_MOST`).
-pub fn queued_pairs(triangles: u32) -> u32 {
+pub fn queue_capacity(triangles: u32) -> u32 {
     QUEUED_PAIRS_PER_TRIANGLE.saturating_mul(triangles).clamp(1, QUEUED_PAIRS_MOST)
 }
 
@@ -286,7 +286,7 @@ impl SelfContactBuffers {
             walkers: resources.device(format!("{name}: walkers"), triangles),
             walk_args: resources.device(format!("{name}: walk dispatch"), 1),
             pair_queue: resources
-                .device(format!("{name}: walkers' pairs"), QUEUED_PAIR_WORDS * queued_pairs(triangles)),
+                .device(format!("{name}: walkers' pairs"), QUEUED_PAIR_WORDS * queue_capacity(triangles)),
             queue_args: resources.device(format!("{name}: walkers' pairs dispatch"), 1),
             features_found: resources.device(format!("{name}: second refit dispatch"), 1),
             failsafe: FailsafeBuffers::declare(resources, &name, particles),
@@ -719,7 +719,7 @@ impl SelfContactBuffers {
 
 #[cfg(test)]
 mod tests {
-    use super::{collider_features, pass_due, passes_for, queued_pairs, window_ends};
+    use super::{collider_features, pass_due, passes_for, queue_capacity, window_ends};
 
     /// The walkers' queue holds 8 pairs a triangle, and never more than an indirect dispatch
     /// of 65,535 workgroups (Vulkan's least limit) tests: a cloth of 2048^2 particles has 8.4 M
@@ -727,12 +727,12 @@ mod tests {
     #[test]
     fn the_walkers_queue_stays_within_one_dispatch() {
         use drape_kernels::self_pairs::QUEUE_THREADS;
-        assert_eq!(queued_pairs(2 * 63 * 63), 8 * 2 * 63 * 63);
+        assert_eq!(queue_capacity(2 * 63 * 63), 8 * 2 * 63 * 63);
         for triangles in [1, 524_287, 524_288, 2 * 511 * 511, 2 * 2047 * 2047, u32::MAX] {
-            let pairs = queued_pairs(triangles);
+            let pairs = queue_capacity(triangles);
             assert!(pairs >= 1 && pairs.div_ceil(QUEUE_THREADS) <= 65_535, "{triangles} triangles: {pairs} pairs");
         }
-        assert_eq!(queued_pairs(2 * 2047 * 2047), 65_535 * QUEUE_THREADS);
+        assert_eq!(queue_capacity(2 * 2047 * 2047), 65_535 * QUEUE_THREADS);
     }
     use drape_kernels::self_contact::NO_NEIGHBOUR;
     use glam::UVec4;

@@ -1093,12 +1093,6 @@ impl TrianglePairs<'_> {
         let query = (self.reach_lo, self.reach_hi);
         walk_overlapping_after(self.leaf, tree, leaf_count, query, self)
     }
-
-    /// The query box this triangle's pairs are searched in.
-    #[inline]
-    pub(crate) fn query(&self) -> (Vec3, Vec3) {
-        (self.reach_lo, self.reach_hi)
-    }
 }
 
 /// The baseline `self_triangle_contact_at` must equal, without the tree: sorted leaf `leaf`'s

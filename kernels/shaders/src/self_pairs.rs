@@ -35,7 +35,7 @@ use crate::atomics;
 use crate::lbvh::{PairBoxes, PairWalk, WALK_BATCH};
 use crate::self_contact::{
     Corners, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights, collapsed,
-    frame_of, longest_side2, pair_mask, self_triangle_contact_at, triangle_pair,
+    frame_of, longest_side2, pair_mask, self_triangle_contact_at, triangle_pair, triangle_query,
 };
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
@@ -787,12 +787,11 @@ pub fn walk_self_pairs_at(
     (x, x_prev): (&[Vec4], &[Vec4]),
     (escaped, counts): (&[u32], &[u32]),
     (queue, queue_args): (&mut [u32], &mut DispatchArgs),
-    out: PairResponse,
+    mut out: PairResponse,
 ) {
     let leaf_count = self_params.leaf_count;
     let mine_escaped = escaped[sorted[leaf as usize].w as usize] != 0;
-    let mut pairs = TrianglePairs::of(leaf, (leaf_bounds, sorted, owned), (x, x_prev), out);
-    let query = pairs.query();
+    let query = triangle_query(&leaf_bounds[leaf as usize], out.thickness);
     let mut walk = if mine_escaped { PairWalk::all(leaf_count) } else { PairWalk::new(leaf, nodes, leaf_count) };
     let capacity = queue.len() as u32 / QUEUED_PAIR_WORDS;
     let mut found = [0u32; WALK_BATCH];
@@ -822,40 +821,44 @@ pub fn walk_self_pairs_at(
         while k < kept {
             let other = found[k];
             let slot = first + k as u32;
+            let pair = (leaf.min(other), leaf.max(other));
             if slot < capacity {
                 let at = (QUEUED_PAIR_WORDS * slot) as usize;
-                queue[at] = leaf.min(other);
-                queue[at + 1] = leaf.max(other);
+                queue[at] = pair.0;
+                queue[at + 1] = pair.1;
             } else {
-                let ids = sorted[other as usize];
-                let theirs = Corners::load(ids, (x, x_prev));
-                let their_owned = owned[ids.w as usize];
-                // The earlier leaf first, as every other way of finding the pair does.
-                if other < leaf {
-                    triangle_pair(&theirs, &pairs.mine, pair_mask(their_owned, pairs.owned), &mut pairs.out);
-                } else {
-                    triangle_pair(&pairs.mine, &theirs, pair_mask(pairs.owned, their_owned), &mut pairs.out);
-                }
+                leaf_pair(pair, (sorted, owned), (x, x_prev), &mut out);
             }
             k += 1;
         }
     }
 }
 
-/// Queued pair `i` of a pass (`walk_self_pairs_at`): the earlier leaf's triangle against the
-/// later's, as a walk tests it (`self_contact::triangle_pair`).
+/// Queued pair `i` of a pass (`walk_self_pairs_at`): `leaf_pair`.
 #[inline]
 pub fn test_queued_pair_at(
     i: u32,
-    (sorted, owned): (&[UVec4], &[u32]),
-    (x, x_prev): (&[Vec4], &[Vec4]),
+    tables: (&[UVec4], &[u32]),
+    sweep: (&[Vec4], &[Vec4]),
     queue: &[u32],
     out: &mut PairResponse,
 ) {
     let at = (QUEUED_PAIR_WORDS * i) as usize;
-    let (earlier, later) = (sorted[queue[at] as usize], sorted[queue[at + 1] as usize]);
-    let (a, b) = (Corners::load(earlier, (x, x_prev)), Corners::load(later, (x, x_prev)));
-    triangle_pair(&a, &b, pair_mask(owned[earlier.w as usize], owned[later.w as usize]), out);
+    leaf_pair((queue[at], queue[at + 1]), tables, sweep, out);
+}
+
+/// Sorted leaves `earlier` < `later` against each other, the earlier's triangle first, as every
+/// way of finding the pair tests it (`self_contact::triangle_pair`).
+#[inline]
+fn leaf_pair(
+    (earlier, later): (u32, u32),
+    (sorted, owned): (&[UVec4], &[u32]),
+    (x, x_prev): (&[Vec4], &[Vec4]),
+    out: &mut PairResponse,
+) {
+    let (a, b) = (sorted[earlier as usize], sorted[later as usize]);
+    let (mine, theirs) = (Corners::load(a, (x, x_prev)), Corners::load(b, (x, x_prev)));
+    triangle_pair(&mine, &theirs, pair_mask(owned[a.w as usize], owned[b.w as usize]), out);
 }
 
 /// How many pairs a pass's walkers queued that the queue holds (`walk_self_pairs_at`).
