@@ -424,21 +424,29 @@ pub fn refit_from_leaf(
     flags: &mut [u32],
     words: &mut [u32],
 ) {
-    climb_from_leaf(leaf, n, (nodes, parents), flags, |node, children| fit_node(node, children, leaf_bounds, words));
+    let mine = leaf_bounds[leaf as usize];
+    climb_from_leaf(leaf, n, (nodes, parents), flags, mine, |node, children, from_left, mine| {
+        fit_node(node, (children, from_left), mine, leaf_bounds, words)
+    });
 }
 
 /// The refits' climb from leaf `leaf` towards the root: at each node the first thread to arrive
 /// stops; the second (acquire/release on the node's flag makes what the sibling's thread wrote
-/// visible) calls `fit` with the node and its children, and goes on.
+/// visible) calls `fit` with the node, its children, whether it came from the left one, and
+/// what it carries up (`mine`: the box of the child it came from, which it computed itself:
+/// only the sibling's is loaded), and goes on with what `fit` returns.
 #[inline]
-fn climb_from_leaf(
+fn climb_from_leaf<T: Copy>(
     leaf: u32,
     n: u32,
     (nodes, parents): (&[BvhNode], &[u32]),
     flags: &mut [u32],
-    mut fit: impl FnMut(u32, BvhNode),
+    mine: T,
+    mut fit: impl FnMut(u32, BvhNode, bool, T) -> T,
 ) {
-    let mut node = parents[parent_slot(leaf | LEAF_BIT, n) as usize];
+    let mut child = leaf | LEAF_BIT;
+    let mut node = parents[parent_slot(child, n) as usize];
+    let mut mine = mine;
     while node != NO_NODE {
         // The tree's shape does not change in a refit: its loads go out with the flag's atomic
         // (on a GPU each level of the climb is a chain of loads that wait on memory).
@@ -447,16 +455,30 @@ fn climb_from_leaf(
         if atomics::add_acq_rel(&mut flags[node as usize], 1) == 0 {
             return;
         }
-        fit(node, children);
+        mine = fit(node, children, children.left == child, mine);
+        child = node;
         node = parent;
     }
 }
 
-/// Internal node `node`'s box (children `children`): the union of its children's, stored.
+/// Internal node `node`'s box (children `children`, the climb coming from the left one when
+/// `from_left`, whose box is `mine`): the union of its children's, left first, stored and
+/// returned. The box carried up differs from the stored one only in `w`, which is not stored.
 #[inline]
-fn fit_node(node: u32, children: BvhNode, leaf_bounds: &[Aabb], words: &mut [u32]) {
-    let b = union(child_aabb(children.left, leaf_bounds, words), child_aabb(children.right, leaf_bounds, words));
+fn fit_node(
+    node: u32,
+    (children, from_left): (BvhNode, bool),
+    mine: Aabb,
+    leaf_bounds: &[Aabb],
+    words: &mut [u32],
+) -> Aabb {
+    let b = if from_left {
+        union(mine, child_aabb(children.right, leaf_bounds, words))
+    } else {
+        union(child_aabb(children.left, leaf_bounds, words), mine)
+    };
     store_aabb(words, node, b);
+    b
 }
 
 /// `refit_from_leaf` over two sets of boxes on the same tree at once (`leaf_bounds` into
@@ -474,9 +496,12 @@ pub fn refit_two_from_leaf(
     words: &mut [u32],
     other_words: &mut [u32],
 ) {
-    climb_from_leaf(leaf, n, (nodes, parents), flags, |node, children| {
-        fit_node(node, children, leaf_bounds, words);
-        fit_node(node, children, other_leaf_bounds, other_words);
+    let mine = (leaf_bounds[leaf as usize], other_leaf_bounds[leaf as usize]);
+    climb_from_leaf(leaf, n, (nodes, parents), flags, mine, |node, children, from_left, (mine, other)| {
+        (
+            fit_node(node, (children, from_left), mine, leaf_bounds, words),
+            fit_node(node, (children, from_left), other, other_leaf_bounds, other_words),
+        )
     });
 }
 
