@@ -734,6 +734,22 @@ mod tests {
         }
         assert_eq!(queue_capacity(2 * 2047 * 2047), 65_535 * QUEUE_THREADS);
     }
+
+    /// A pass's walk dispatch (its walkers: at most the cloth's triangles) needs no more
+    /// workgroups than the lists' direct dispatch over every triangle, which the engine checks
+    /// against the device's limit before recording: a cloth too large for the device is an
+    /// error there, never an indirect dispatch past the limit.
+    #[test]
+    fn the_walk_dispatch_stays_within_the_lists_checked_dispatch() {
+        use crate::kernels::self_pairs::{LIST_SELF_PAIRS, WALK_SELF_PAIRS};
+        let (walk, lists) = (WALK_SELF_PAIRS.spec.workgroup_size, LIST_SELF_PAIRS.spec.workgroup_size);
+        for triangles in [1, 63, 64, 65, 2 * 63 * 63, 4_194_240, 4_194_241, 2 * 2047 * 2047] {
+            assert!(
+                u32::div_ceil(triangles, walk) <= u32::div_ceil(triangles, lists),
+                "{triangles} walkers: {walk} a workgroup against the lists' {lists}"
+            );
+        }
+    }
     use drape_kernels::self_contact::NO_NEIGHBOUR;
     use glam::UVec4;
 

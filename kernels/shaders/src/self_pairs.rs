@@ -975,7 +975,9 @@ pub fn cloth_triangle_bounds(
     note_escape((id.x, leaf), escape, (escaped, strays), (walkers, walk_args));
 }
 
-/// Threads per workgroup of the walks (`walk_self_pairs`).
+/// Threads per workgroup of the walks (`walk_self_pairs`): as many as the lists' (a pass's
+/// walkers are at most the cloth's triangles, so the walk's indirect dispatch never needs more
+/// workgroups than the lists' direct one, which the engine checks against the device's limit).
 pub const WALK_THREADS: u32 = 64;
 
 /// Appends sorted leaf `leaf` to the pass's walkers; the walk's indirect dispatch covers them
