@@ -1,0 +1,143 @@
+//! Issue 8's cost of self-collision, measured in one run: the standard scene (the icosphere, no
+//! file needed) at 32^2, 64^2 and 128^2 (and 256^2 on a GPU) and the pile, each built twice,
+//! with self-collision on and off, the two solvers stepped in turn frame by frame so the
+//! machine's noise falls on both alike. Per scene: the medians and fastest of the GPU span per
+//! frame (timestamps: the first pass's start to the last one's end) and of the wall time, the
+//! ratio on / off, the substeps; then the self-collision solver's passes at 64^2.
+//!
+//! `cargo bench --bench self_collision` runs every scene; `-- 64 pile` only those named.
+
+use drape::cloth::ClothBuilder;
+use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, pile};
+use drape::timing::TimingReport;
+use drape::{ClothId, Context, Model, SimSettings, Solver, Validation};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// The only cloth of the models here.
+const CLOTH: ClothId = ClothId::new(0);
+
+/// A scene of the table: its name, its cloth and collider mesh, and how many frames it runs.
+struct Case {
+    name: String,
+    scene: DrapeScene,
+    frames: u32,
+}
+
+/// The standard scenes at `grids` and the pile at 64 particles along (its default), each for
+/// its whole settle where a frame is cheap, the first frames (the fall) where it is not.
+fn cases(grids: &[u32]) -> Vec<Case> {
+    let mut cases: Vec<Case> = grids
+        .iter()
+        .map(|&grid| Case {
+            name: format!("icosphere {grid}^2"),
+            scene: DrapeScene::standard(&default_mesh(), grid),
+            frames: if grid <= 64 { SETTLE_FRAMES } else { 30 },
+        })
+        .collect();
+    cases.push(Case { name: "pile 64 x 16".into(), scene: pile(64), frames: 200 });
+    cases
+}
+
+fn solver(ctx: &Arc<Context>, scene: &DrapeScene, self_collision: bool) -> Solver {
+    let cloth: ClothBuilder = scene.cloth.clone().self_collision(self_collision.then_some(scene.thickness));
+    let cloth = cloth.build().expect("cloth");
+    let model = Model::single(&cloth, &[scene.triangle_collider()], SimSettings::default()).expect("model");
+    Solver::new(ctx, &model).expect("simulation")
+}
+
+/// What one solver's frames measured.
+struct Run {
+    report: TimingReport,
+    substeps: Vec<u32>,
+}
+
+impl Run {
+    fn new() -> Self {
+        Run { report: TimingReport::default(), substeps: Vec::new() }
+    }
+
+    fn step(&mut self, sim: &mut Solver) {
+        let start = Instant::now();
+        let timings = sim.step().expect("stable");
+        self.report.add(&timings, start.elapsed());
+        self.substeps.push(sim.stability(CLOTH).expect("the cloth").substeps);
+    }
+
+    fn median_substeps(&self) -> u32 {
+        let mut s = self.substeps.clone();
+        s.sort_unstable();
+        s.get(s.len() / 2).copied().unwrap_or(0)
+    }
+}
+
+fn main() {
+    // Criterion-style arguments: `--bench` and the like are cargo's; the rest name scenes.
+    let wanted: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    let ctx = Context::new(Validation::Off).expect("a Vulkan driver");
+    let info = ctx.info();
+    let cpu_driver = info.device_type == ash::vk::PhysicalDeviceType::CPU;
+    println!("device: {} ({})", info.name, info.driver);
+    // 256^2 at 5 mm is too fine for lists (every triangle walks at every pass): seconds a frame
+    // on a CPU driver.
+    let grids: &[u32] = if cpu_driver { &[32, 64, 128] } else { &[32, 64, 128, 256] };
+    let cases: Vec<Case> = cases(grids)
+        .into_iter()
+        .filter(|c| wanted.is_empty() || wanted.iter().any(|w| c.name.contains(w.as_str())))
+        .collect();
+    println!(
+        "\nSelf-collision on and off, stepped in turn in one run (GPU span per frame from timestamps, \
+         wall from submit to fence; medians over the frames, the fastest in brackets):"
+    );
+    println!(
+        "{:<16} {:>7} {:>10} {:>22} {:>22} {:>12} {:>22} {:>22} {:>12}",
+        "scene",
+        "frames",
+        "substeps",
+        "span off (ms)",
+        "span on (ms)",
+        "span on/off",
+        "wall off (ms)",
+        "wall on (ms)",
+        "wall on/off"
+    );
+    let mut passes_64 = None;
+    for case in &cases {
+        let (mut off, mut on) = (solver(&ctx, &case.scene, false), solver(&ctx, &case.scene, true));
+        let (mut runs_off, mut runs_on) = (Run::new(), Run::new());
+        let begun = Instant::now();
+        for frame in 0..case.frames {
+            // Alternate which goes first, so neither always follows the other's work.
+            if frame % 2 == 0 {
+                runs_off.step(&mut off);
+                runs_on.step(&mut on);
+            } else {
+                runs_on.step(&mut on);
+                runs_off.step(&mut off);
+            }
+            if frame >= 4 && begun.elapsed() > Duration::from_secs(600) {
+                println!("({}: stopped after {} frames, 10 minutes)", case.name, frame + 1);
+                break;
+            }
+        }
+        let (a, b) = (&runs_off.report, &runs_on.report);
+        println!(
+            "{:<16} {:>7} {:>10} {:>22} {:>22} {:>12} {:>22} {:>22} {:>12}",
+            case.name,
+            a.frames(),
+            format!("{} / {}", runs_off.median_substeps(), runs_on.median_substeps()),
+            format!("{:.3} ({:.3})", a.median_span_micros() / 1e3, a.min_span_micros() / 1e3),
+            format!("{:.3} ({:.3})", b.median_span_micros() / 1e3, b.min_span_micros() / 1e3),
+            format!("{:.2}x", b.median_span_micros() / a.median_span_micros()),
+            format!("{:.3} ({:.3})", a.median_wall_ms(), a.min_wall_ms()),
+            format!("{:.3} ({:.3})", b.median_wall_ms(), b.min_wall_ms()),
+            format!("{:.2}x", b.median_wall_ms() / a.median_wall_ms()),
+        );
+        if case.name == "icosphere 64^2" {
+            passes_64 = Some(b.table());
+        }
+    }
+    if let Some(table) = passes_64 {
+        println!("\nThe icosphere 64^2 frame with self-collision, per pass:\n{table}");
+    }
+}
