@@ -19,7 +19,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 58] = [
+pub const ALL: [&Kernel; 59] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &integrate::INTEGRATE_SUBSTEPS,
@@ -33,6 +33,7 @@ pub const ALL: [&Kernel; 58] = [
     &self_pairs::CLOTH_TRIANGLE_STARTS,
     &self_pairs::CLOTH_TRIANGLE_BOUNDS,
     &self_contact::GATHER_CLOTH_TRIANGLES,
+    &self_pairs::REGATHER_CLOTH_TRIANGLES,
     &self_pairs::LIST_SELF_PAIRS,
     &self_pairs::PACK_WALK_NODES,
     &self_pairs::LISTED_SELF_PAIRS,

@@ -11,7 +11,8 @@ use drape_kernels::self_contact::self_triangle_contact_at;
 use drape_kernels::self_pairs::{
     FIND_WALKERS, LIST_OVERFLOWED, QUEUE_THREADS, WALK_THREADS, anchor_window_at, cloth_triangle_bounds_at,
     count_full_list, escaped_at, list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion,
-    pack_walk_node_at, queued_pairs, test_queued_pair_at, triangle_start_at, walk_self_pairs_at,
+    pack_walk_node_at, queued_pairs, regather_cloth_triangle, test_queued_pair_at, triangle_start_at,
+    walk_self_pairs_at,
 };
 use drape_types::{
     Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
@@ -61,6 +62,27 @@ pub static CLOTH_TRIANGLE_STARTS: Kernel = Kernel {
         workgroup_size: WORKGROUP_SIZE,
     },
     cpu: starts_cpu,
+};
+
+/// Each sorted leaf's triangle, leaf, start box and motion box where the tree keeps its order
+/// (`drape_kernels::self_pairs::regather_cloth_triangle`).
+pub static REGATHER_CLOTH_TRIANGLES: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pairs::regather_cloth_triangles",
+        bindings: &[
+            read("self_params"),
+            read("indices"),
+            read("order"),
+            read("anchors"),
+            write("sorted"),
+            write("leaf_of"),
+            write("sorted_bounds"),
+            write("leaf_motions"),
+        ],
+        push_constant_size: 0,
+        workgroup_size: WORKGROUP_SIZE,
+    },
+    cpu: regather_cpu,
 };
 
 /// Each triangle's box over the pass and, in a run that finds them (`SelfPassPush`'s
@@ -265,6 +287,23 @@ fn starts_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (anchors, indices, bounds) = (anchors.slice::<Vec4>(), indices.slice::<u32>(), bounds.slice_mut::<Aabb>());
     for t in 0..threads.min(c.leaf_count) {
         bounds[t as usize] = triangle_start_at(t, anchors, indices);
+    }
+    Ok(())
+}
+
+fn regather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, indices, order, anchors, sorted, leaf_of, sorted_bounds, leaf_motions] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let inputs = (indices.slice::<u32>(), order.slice::<u32>(), anchors.slice::<Vec4>());
+    let outputs = (
+        sorted.slice_mut::<UVec4>(),
+        leaf_of.slice_mut::<u32>(),
+        sorted_bounds.slice_mut::<Aabb>(),
+        leaf_motions.slice_mut::<Aabb>(),
+    );
+    for s in 0..threads.min(c.leaf_count) {
+        regather_cloth_triangle(s, inputs, (&mut *outputs.0, &mut *outputs.1, &mut *outputs.2, &mut *outputs.3));
     }
     Ok(())
 }

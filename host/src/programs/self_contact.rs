@@ -19,7 +19,7 @@ use crate::kernels::self_contact::{
 };
 use crate::kernels::self_pairs::{
     ANCHOR_WINDOW, CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, PACK_WALK_NODES,
-    SELF_TRIANGLE_CONTACT, TEST_QUEUED_PAIRS, WALK_SELF_PAIRS,
+    REGATHER_CLOTH_TRIANGLES, SELF_TRIANGLE_CONTACT, TEST_QUEUED_PAIRS, WALK_SELF_PAIRS,
 };
 use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
 use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
@@ -424,11 +424,12 @@ impl SelfContactBuffers {
             }
             return;
         }
-        steps.push(starts);
         if rebuild {
+            steps.push(starts);
             steps.extend(t.build_shape_steps());
+            steps.push(self.gather_step(cloth));
         } else {
-            steps.push(t.gather_step());
+            steps.push(self.regather_step(cloth));
         }
         self.list_steps(cloth, (horizon, substeps), steps);
     }
@@ -477,18 +478,37 @@ impl SelfContactBuffers {
             bytemuck::cast(SelfAnchorPush { window_substeps: horizon, frame_substeps: substeps, _pad: [0; 2] }),
             Dispatch::Threads(self.particles),
         ));
-        steps.push(self.starts_step(cloth));
-        steps.push(t.gather_step());
+        steps.push(self.regather_step(cloth));
         self.list_steps(cloth, (horizon, substeps), steps);
     }
 
-    /// Once the start boxes are in the tree's leaf order: the triangles' corners and motion
-    /// boxes in that order, the tree refit to its start boxes and their motions in one climb,
-    /// and each triangle's list, over `horizon` of the frame's `substeps` substeps (the pairs'
-    /// measured motion scaled to the frame).
+    /// Where the tree keeps its leaf order (a refit, or a window's lists): the triangles'
+    /// corners, start boxes and motion boxes in that order, in one pass.
+    fn regather_step(&self, cloth: &SelfContactCloth) -> Step {
+        let t = &self.tree;
+        Step::run(
+            "self: triangles in tree order",
+            &REGATHER_CLOTH_TRIANGLES,
+            vec![
+                t.collider.id(),
+                cloth.indices.id(),
+                t.order.id(),
+                self.anchors.id(),
+                self.sorted.id(),
+                self.leaf_of.id(),
+                t.sorted_bounds.id(),
+                self.leaf_motions.id(),
+            ],
+            Dispatch::Threads(t.leaves),
+        )
+    }
+
+    /// Once the triangles' corners, start boxes and motion boxes are in the tree's leaf order:
+    /// the tree refit to its start boxes and their motions in one climb, and each triangle's
+    /// list, over `horizon` of the frame's `substeps` substeps (the pairs' measured motion
+    /// scaled to the frame).
     fn list_steps(&self, cloth: &SelfContactCloth, (horizon, substeps): (u32, u32), steps: &mut Vec<Step>) {
         let t = &self.tree;
-        steps.push(self.gather_step(cloth));
         steps.extend(t.refit_with_steps("self: refit starts + motions", (self.leaf_motions, self.motion_aabbs)));
         steps.push(Step::run(
             "self: pack nodes",
