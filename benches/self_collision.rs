@@ -9,7 +9,7 @@
 
 use drape::cloth::ClothBuilder;
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, pile};
-use drape::timing::TimingReport;
+use drape::timing::{TimingReport, median};
 use drape::{ClothId, Context, Model, SimSettings, Solver, Validation};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -49,7 +49,7 @@ fn solver(ctx: &Arc<Context>, scene: &DrapeScene, self_collision: bool) -> Solve
 /// What one solver's frames measured.
 struct Run {
     report: TimingReport,
-    substeps: Vec<u32>,
+    substeps: Vec<f64>,
 }
 
 impl Run {
@@ -61,13 +61,11 @@ impl Run {
         let start = Instant::now();
         let timings = sim.step().expect("stable");
         self.report.add(&timings, start.elapsed());
-        self.substeps.push(sim.stability(CLOTH).expect("the cloth").substeps);
+        self.substeps.push(f64::from(sim.stability(CLOTH).expect("the cloth").substeps));
     }
 
-    fn median_substeps(&self) -> u32 {
-        let mut s = self.substeps.clone();
-        s.sort_unstable();
-        s.get(s.len() / 2).copied().unwrap_or(0)
+    fn median_substeps(&self) -> f64 {
+        median(&self.substeps)
     }
 }
 

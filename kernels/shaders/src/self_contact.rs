@@ -170,6 +170,20 @@ pub fn gather_cloth_triangle_at(s: u32, indices: &[u32], order: &[u32]) -> UVec4
     UVec4::new(indices[i], indices[i + 1], indices[i + 2], t)
 }
 
+/// Sorted leaf `s`'s triangle (`gather_cloth_triangle_at`) written to `sorted`, and the leaf to
+/// `leaf_of` at the triangle; returns the triangle.
+#[inline]
+pub fn place_cloth_triangle(
+    s: u32,
+    (indices, order): (&[u32], &[u32]),
+    (sorted, leaf_of): (&mut [UVec4], &mut [u32]),
+) -> UVec4 {
+    let triangle = gather_cloth_triangle_at(s, indices, order);
+    sorted[s as usize] = triangle;
+    leaf_of[triangle.w as usize] = s;
+    triangle
+}
+
 /// Sorted leaf `s`'s triangle (`sorted`), its leaf (`leaf_of`) and its corners' motion box over
 /// the frame (`leaf_motions`, what the frame's lists walk with: `self_pairs::triangle_motion_at`).
 #[inline]
@@ -178,9 +192,7 @@ pub fn gather_cloth_triangle(
     (indices, order, anchors): (&[u32], &[u32], &[Vec4]),
     (sorted, leaf_of, leaf_motions): (&mut [UVec4], &mut [u32], &mut [Aabb]),
 ) {
-    let triangle = gather_cloth_triangle_at(s, indices, order);
-    sorted[s as usize] = triangle;
-    leaf_of[triangle.w as usize] = s;
+    let triangle = place_cloth_triangle(s, (indices, order), (sorted, leaf_of));
     leaf_motions[s as usize] = triangle_motion_at(triangle, anchors);
 }
 

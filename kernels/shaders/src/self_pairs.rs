@@ -35,8 +35,7 @@ use crate::atomics;
 use crate::lbvh::{PairBoxes, PairWalk, WALK_BATCH};
 use crate::self_contact::{
     Corners, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights, collapsed,
-    frame_of, gather_cloth_triangle_at, longest_side2, pair_mask, self_triangle_contact_at, triangle_pair,
-    triangle_query,
+    frame_of, longest_side2, pair_mask, place_cloth_triangle, self_triangle_contact_at, triangle_pair, triangle_query,
 };
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
@@ -955,9 +954,7 @@ pub fn regather_cloth_triangle(
     (indices, order, anchors): (&[u32], &[u32], &[Vec4]),
     (sorted, leaf_of, sorted_bounds, leaf_motions): (&mut [UVec4], &mut [u32], &mut [Aabb], &mut [Aabb]),
 ) {
-    let triangle = gather_cloth_triangle_at(s, indices, order);
-    sorted[s as usize] = triangle;
-    leaf_of[triangle.w as usize] = s;
+    let triangle = place_cloth_triangle(s, (indices, order), (sorted, leaf_of));
     let (start, motion) = AnchoredTriangle::load(triangle, anchors).boxes3();
     sorted_bounds[s as usize] = aabb_of(start);
     leaf_motions[s as usize] = aabb_of(motion);
