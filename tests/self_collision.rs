@@ -273,6 +273,11 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64, u
                 listed += u64::from(t - walks);
                 queued += u64::from(queue._pad.min(queue_capacity));
             }
+            if tree_walk.is_none() {
+                // A pass refits the tree only where something walks it (`note_pass_tree`): the
+                // reference walks the tree refit to the pass's boxes whatever the pass did.
+                cpu.run(&s.tree.refit_sorted_steps()).unwrap();
+            }
             let (walk, walk_friction) =
                 tree_walk.get_or_insert_with(|| tree_walk_corrections(&cpu, &s, &c, &owned, (&x, &before, &v)));
             let case = format!("frame {frame}, features {features:?}, queue from {queue_from:?}");
@@ -290,7 +295,7 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64, u
 }
 
 /// Every triangle's pairs in a pass from `before` to `x` (velocities `v`) by the tree walk of
-/// every triangle, over the tree as the pass left it (refit to the pass's boxes): the summed
+/// every triangle, over the tree refit to the pass's boxes: the summed
 /// corrections and friction.
 fn tree_walk_corrections(
     cpu: &drape::cpu::CpuExecutor,

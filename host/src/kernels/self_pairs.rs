@@ -11,7 +11,7 @@ use drape_kernels::self_contact::self_triangle_contact_at;
 use drape_kernels::self_pairs::{
     FIND_WALKERS, LIST_OVERFLOWED, QUEUE_THREADS, WALK_THREADS, anchor_window_at, cloth_triangle_bounds_at,
     count_full_list, escaped_at, list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion,
-    pack_walk_node_at, queued_pairs, regather_cloth_triangle, test_queued_pair_at, triangle_start_at,
+    note_pass_tree, pack_walk_node_at, queued_pairs, regather_cloth_triangle, test_queued_pair_at, triangle_start_at,
     walk_self_pairs_at,
 };
 use drape_types::{
@@ -103,6 +103,8 @@ pub static CLOTH_TRIANGLE_BOUNDS: Kernel = Kernel {
             write("strays"),
             write("walkers"),
             write("walk_args"),
+            read("tree_every_pass"),
+            write("pass_refit"),
         ],
         push_constant_size: size_of::<SelfPassPush>() as u32,
         workgroup_size: WORKGROUP_SIZE,
@@ -153,6 +155,7 @@ pub static LIST_SELF_PAIRS: Kernel = Kernel {
             write("lists"),
             write("counts"),
             write("health"),
+            write("tree_every_pass"),
         ],
         push_constant_size: size_of::<SelfListPush>() as u32,
         workgroup_size: CONTACT_THREADS,
@@ -311,14 +314,29 @@ fn regather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let span: SelfPassPush = d.push_as();
     let threads = d.invocations();
-    let [self_params, x, x_prev, indices, anchors, leaf_of, leaf_bounds, escaped, strays, walkers, walk_args] =
-        d.bindings()?;
+    let [
+        self_params,
+        x,
+        x_prev,
+        indices,
+        anchors,
+        leaf_of,
+        leaf_bounds,
+        escaped,
+        strays,
+        walkers,
+        walk_args,
+        tree_every_pass,
+        pass_refit,
+    ] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let (x, x_prev, anchors) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), anchors.slice::<Vec4>());
     let (indices, leaf_of) = (indices.slice::<u32>(), leaf_of.slice::<u32>());
     let (leaf_bounds, escaped, strays) =
         (leaf_bounds.slice_mut::<Aabb>(), escaped.slice_mut::<u32>(), strays.slice_mut::<f32>());
     let (walkers, walk_args) = (walkers.slice_mut::<u32>(), walk_args.first_mut::<DispatchArgs>()?);
+    let tree_every_pass = tree_every_pass.first::<u32>()? != 0;
+    let pass_refit = pass_refit.first_mut::<DispatchArgs>()?;
     let find_walkers = span.find_walkers == FIND_WALKERS;
     for t in 0..threads.min(c.leaf_count) {
         let leaf = *leaf_of.get(t as usize).ok_or("leaf_of shorter than the triangles")?;
@@ -328,7 +346,11 @@ fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
             continue;
         }
         let escape = escaped_at(t, (x, x_prev), anchors, indices, &span);
-        note_escape((t, leaf), escape, (&mut *escaped, &mut *strays), (&mut *walkers, &mut *walk_args));
+        let first_walker =
+            note_escape((t, leaf), escape, (&mut *escaped, &mut *strays), (&mut *walkers, &mut *walk_args));
+        if first_walker || (t == 0 && tree_every_pass) {
+            note_pass_tree(c.leaf_count, pass_refit);
+        }
     }
     Ok(())
 }
@@ -350,6 +372,7 @@ fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         lists,
         counts,
         health,
+        tree_every_pass,
     ] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
@@ -358,10 +381,11 @@ fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let walk_nodes = walk_nodes.slice::<WalkNode>();
     let (lists, counts) = (lists.slice_mut::<u32>(), counts.slice_mut::<u32>());
     let health = health.first_mut::<Health>()?;
+    let tree_every_pass = tree_every_pass.first_mut::<u32>()?;
     for leaf in 0..threads.min(c.leaf_count) {
         let motion =
             list_self_pairs_at(leaf, &c, tree, motions, walk_nodes, owned, anchors, (&mut *lists, &mut *counts));
-        count_full_list(leaf, counts, health);
+        count_full_list(leaf, counts, health, tree_every_pass);
         note_pair_motion(motion.per_frame(push.to_frame), health);
     }
     Ok(())

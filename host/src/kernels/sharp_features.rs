@@ -21,6 +21,7 @@ pub static LIST_SHARP_FEATURES: Kernel = Kernel {
             BindingSpec::read("features"),
             BindingSpec::write("sharp"),
             BindingSpec::write("sharp_args"),
+            BindingSpec::write("tree_every_pass"),
         ],
         WORKGROUP_SIZE,
     ),
@@ -29,16 +30,18 @@ pub static LIST_SHARP_FEATURES: Kernel = Kernel {
 
 fn list_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, collider, vertices, previous, indices, features, sharp, sharp_args] = d.bindings()?;
+    let [self_params, collider, vertices, previous, indices, features, sharp, sharp_args, tree_every_pass] =
+        d.bindings()?;
     let self_params = self_params.first::<ColliderParams>()?;
     let collider = collider.first::<ColliderParams>()?;
     let (longest2, thickness) = frame_threshold(&self_params, &collider);
     let mesh = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
     let features = features.slice::<UVec4>();
     let (list, args) = (sharp.slice_mut::<u32>(), sharp_args.first_mut::<DispatchArgs>()?);
+    let tree_every_pass = tree_every_pass.first_mut::<u32>()?;
     for t in 0..threads.min(features.len() as u32) {
         if may_be_sharp(t, tested_features(features[t as usize], &collider), mesh, longest2, thickness) {
-            list_sharp(t, list, args);
+            list_sharp(t, list, args, tree_every_pass);
         }
     }
     Ok(())

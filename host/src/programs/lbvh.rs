@@ -90,6 +90,17 @@ impl LbvhBuffers {
         steps
     }
 
+    /// `refit_sorted_steps` over the workgroups `dispatch` holds (none leaves the tree's boxes
+    /// as the fill leaves them: its readers must not run).
+    pub fn refit_sorted_steps_over(&self, dispatch: Handle<DispatchArgs>) -> Vec<Step> {
+        vec![
+            Step::fill(self.flags, 0),
+            // The refit writes xyz words only; zero the w words too.
+            Step::fill(self.aabbs, 0),
+            self.refit_step("refit", (self.sorted_bounds, self.aabbs), Dispatch::Indirect(dispatch)),
+        ]
+    }
+
     /// A second refit to the sorted leaves' boxes after `refit_sorted_steps`, over the
     /// workgroups `dispatch` holds (none leaves the first refit's boxes): its xyz words are
     /// written anew, the w words stay the zeros the first left.

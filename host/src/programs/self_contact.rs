@@ -85,6 +85,12 @@ pub struct SelfContactBuffers {
     /// pushes: dispatched over the triangles when a collider edge pushed a cloth edge in the
     /// pass, else over none (`drape_kernels::self_contact::arm_second_refit`).
     pub features_found: Handle<DispatchArgs>,
+    /// A pass's refit of the tree: every leaf where something walks it in the pass, else none
+    /// (`drape_kernels::self_pairs::note_pass_tree`; emptied before each pass).
+    pub pass_refit: Handle<DispatchArgs>,
+    /// Nonzero when every pass of the frame walks the tree (a list overflowed, a collider listed
+    /// a possibly sharp triangle); zeroed at the frame's start.
+    pub tree_every_pass: Handle<u32>,
     /// The frame's closing check for crossings (`super::self_failsafe`).
     pub failsafe: FailsafeBuffers,
     /// Per collider (in the model's order), for a triangle collider: its triangles that may
@@ -289,6 +295,8 @@ impl SelfContactBuffers {
                 .device(format!("{name}: walkers' pairs"), QUEUED_PAIR_WORDS * queue_capacity(triangles)),
             queue_args: resources.device(format!("{name}: walkers' pairs dispatch"), 1),
             features_found: resources.device(format!("{name}: second refit dispatch"), 1),
+            pass_refit: resources.device(format!("{name}: pass refit dispatch"), 1),
+            tree_every_pass: resources.device(format!("{name}: tree at every pass"), 1),
             failsafe: FailsafeBuffers::declare(resources, &name, particles),
             sharp: Vec::new(),
             particles,
@@ -333,6 +341,7 @@ impl SelfContactBuffers {
                 features.id(),
                 sharp.list.id(),
                 sharp.args.id(),
+                self.tree_every_pass.id(),
             ],
             Dispatch::Threads(count),
         ));
@@ -377,6 +386,8 @@ impl SelfContactBuffers {
                 self.strays.id(),
                 self.walkers.id(),
                 self.walk_args.id(),
+                self.tree_every_pass.id(),
+                self.pass_refit.id(),
             ],
             bytemuck::cast(push),
             dispatch,
@@ -396,6 +407,8 @@ impl SelfContactBuffers {
         steps: &mut Vec<Step>,
     ) {
         let t = &self.tree;
+        // Raised by the lists that overflow and the colliders' sharp triangles.
+        steps.push(Step::fill(self.tree_every_pass, 0));
         steps.push(Step::run_with(
             "self: cloth bounds",
             &SELF_SCENE_BOUNDS,
@@ -534,6 +547,7 @@ impl SelfContactBuffers {
                 self.lists.id(),
                 self.counts.id(),
                 cloth.health.id(),
+                self.tree_every_pass.id(),
             ],
             bytemuck::cast(SelfListPush { to_frame, _pad: [0; 3] }),
             Dispatch::Threads(t.leaves),
@@ -623,10 +637,16 @@ impl SelfContactBuffers {
         if lists {
             steps.push(empty_dispatch(self.walk_args));
             steps.push(empty_dispatch(self.queue_args));
+            steps.push(empty_dispatch(self.pass_refit));
         }
         let find = if lists { FIND_WALKERS } else { 0 };
         self.triangle_bounds(cloth, (span, find), Dispatch::Threads(t.leaves), steps);
-        steps.extend(t.refit_sorted_steps());
+        if lists {
+            // Only where something walks the tree in the pass (`note_pass_tree`).
+            steps.extend(t.refit_sorted_steps_over(self.pass_refit));
+        } else {
+            steps.extend(t.refit_sorted_steps());
+        }
         steps.push(Step::fill(self.delta, 0));
         steps.push(Step::fill(self.velocity_changes, 0));
         if !features.is_empty() {

@@ -8,14 +8,15 @@ use spirv_std::memory::{Scope, Semantics};
 /// Appends `value` to `list`, which an indirect dispatch of `threads`-wide workgroups covers
 /// (`args`: x workgroups, the count in `_pad`; the host writes {0, 1, 1, 0} before). The first
 /// entry of each workgroup's share raises x (atomics on one word are serialised: one in
-/// `threads`, not every entry). The order is the atomics'.
+/// `threads`, not every entry). The order is the atomics'. Returns the entry's slot.
 #[inline]
-pub fn append_for_dispatch(value: u32, list: &mut [u32], args: &mut DispatchArgs, threads: u32) {
+pub fn append_for_dispatch(value: u32, list: &mut [u32], args: &mut DispatchArgs, threads: u32) -> u32 {
     let slot = add(&mut args._pad, 1);
     list[slot as usize] = value;
     if slot.is_multiple_of(threads) {
         max(&mut args.x, slot / threads + 1);
     }
+    slot
 }
 
 /// `*target += value`, returns the old value.

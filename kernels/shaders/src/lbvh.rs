@@ -505,6 +505,9 @@ pub fn refit_two_from_leaf(
     });
 }
 
+/// Threads per workgroup of the refits (`refit`, `refit_two`: their `threads(256)`).
+pub const REFIT_THREADS: u32 = 256;
+
 #[spirv(compute(threads(256)))]
 pub fn refit(
     #[spirv(global_invocation_id)] id: UVec3,

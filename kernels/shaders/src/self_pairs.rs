@@ -32,7 +32,7 @@
 //! corners' predicted motions.
 
 use crate::atomics;
-use crate::lbvh::{PairBoxes, PairWalk, WALK_BATCH};
+use crate::lbvh::{PairBoxes, PairWalk, REFIT_THREADS, WALK_BATCH};
 use crate::self_contact::{
     Corners, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights, collapsed,
     frame_of, longest_side2, pair_mask, place_cloth_triangle, self_triangle_contact_at, triangle_pair, triangle_query,
@@ -679,12 +679,24 @@ pub fn note_pair_motion(fastest: PairMotion, health: &mut Health) {
 }
 
 /// Counts a leaf whose list is full (it walks at every pass of the frame) in the frame's
-/// health record.
+/// health record; its walks need the tree refit at every pass (`tree_every_pass`).
 #[inline]
-pub fn count_full_list(leaf: u32, counts: &[u32], health: &mut Health) {
+pub fn count_full_list(leaf: u32, counts: &[u32], health: &mut Health, tree_every_pass: &mut u32) {
     if counts[leaf as usize] == LIST_OVERFLOWED {
         atomics::add(&mut health.self_full_lists, 1);
+        atomics::max(tree_every_pass, 1);
     }
+}
+
+/// Raises a pass's refit of the tree to every leaf (`pass_refit`: the refit's indirect
+/// dispatch, which the host empties before the pass): a triangle walks in it (its first
+/// walker raises it), or
+/// the frame's passes walk the tree whoever escapes (`tree_every_pass`: a list overflowed, a
+/// collider listed a possibly sharp triangle). A pass where no one walks leaves the tree as it
+/// was: nothing reads it before the next refit.
+#[inline]
+pub fn note_pass_tree(leaf_count: u32, pass_refit: &mut DispatchArgs) {
+    atomics::max(&mut pass_refit.x, leaf_count.div_ceil(REFIT_THREADS));
 }
 
 /// Whether triangle `t` left its predicted region in the pass spanning fractions `from..to` of
@@ -721,19 +733,18 @@ pub fn escaped_at(
 pub const FIND_WALKERS: u32 = 1;
 
 /// Records whether triangle `t` (sorted leaf `leaf`) escaped its region in the pass and how far
-/// it strayed (`escaped_at`), and lists it as a walker when it did.
+/// it strayed (`escaped_at`), and lists it as a walker when it did. Returns whether it is the
+/// pass's first walker (the one to raise the pass's refit: `note_pass_tree`).
 #[inline]
 pub fn note_escape(
     (t, leaf): (u32, u32),
     (out, stray): (bool, f32),
     (escaped, strays): (&mut [u32], &mut [f32]),
     (walkers, walk_args): (&mut [u32], &mut DispatchArgs),
-) {
+) -> bool {
     escaped[t as usize] = out as u32;
     strays[t as usize] = stray;
-    if out {
-        add_walker(leaf, walkers, walk_args);
-    }
+    out && add_walker(leaf, walkers, walk_args) == 0
 }
 
 /// The box of cloth triangle `t` (corners `indices[3t..3t + 3]`) over the pass: at the
@@ -998,6 +1009,8 @@ pub fn cloth_triangle_bounds(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] strays: &mut [f32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] walkers: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] walk_args: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] tree_every_pass: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] pass_refit: &mut DispatchArgs,
 ) {
     if id.x >= self_params.leaf_count {
         return;
@@ -1008,7 +1021,10 @@ pub fn cloth_triangle_bounds(
         return;
     }
     let escape = escaped_at(id.x, (x, x_prev), anchors, indices, span);
-    note_escape((id.x, leaf), escape, (escaped, strays), (walkers, walk_args));
+    let first_walker = note_escape((id.x, leaf), escape, (escaped, strays), (walkers, walk_args));
+    if first_walker || (id.x == 0 && tree_every_pass[0] != 0) {
+        note_pass_tree(self_params.leaf_count, pass_refit);
+    }
 }
 
 /// Threads per workgroup of the walks (`walk_self_pairs`): as many as the lists' (a pass's
@@ -1018,9 +1034,10 @@ pub const WALK_THREADS: u32 = 64;
 
 /// Appends sorted leaf `leaf` to the pass's walkers; the walk's indirect dispatch covers them
 /// (`walk_args`: x workgroups, the count in `_pad`; the host writes {0, 1, 1, 0} before).
+/// Returns its slot among them.
 #[inline]
-pub fn add_walker(leaf: u32, walkers: &mut [u32], walk_args: &mut DispatchArgs) {
-    atomics::append_for_dispatch(leaf, walkers, walk_args, WALK_THREADS);
+pub fn add_walker(leaf: u32, walkers: &mut [u32], walk_args: &mut DispatchArgs) -> u32 {
+    atomics::append_for_dispatch(leaf, walkers, walk_args, WALK_THREADS)
 }
 
 /// One thread per internal node of the frame's tree: the node packed for the lists' walk.
@@ -1056,6 +1073,7 @@ pub fn list_self_pairs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] lists: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] counts: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] tree_every_pass: &mut u32,
 ) {
     if id.x >= self_params.leaf_count {
         return;
@@ -1063,7 +1081,7 @@ pub fn list_self_pairs(
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     let motions = (motion_aabbs, leaf_motions);
     let motion = list_self_pairs_at(id.x, self_params, tree, motions, walk_nodes, owned, anchors, (lists, counts));
-    count_full_list(id.x, counts, health);
+    count_full_list(id.x, counts, health, tree_every_pass);
     note_pair_motion(motion.per_frame(push.to_frame), health);
 }
 

@@ -88,10 +88,12 @@ pub fn may_be_sharp(
 /// Appends collider triangle `triangle` to the frame's list; the passes' indirect dispatch covers
 /// the list (`args`: x workgroups of `CONTACT_THREADS`, the count in `_pad`; the host writes
 /// {0, 1, 1, 0} before). The order is the atomics', which changes no result: the passes sum
-/// their corrections as integers and take their pushes' maxima.
+/// their corrections as integers and take their pushes' maxima. The passes' features then walk
+/// the cloth's tree, so every pass refits it (`tree_every_pass`: `self_pairs::note_pass_tree`).
 #[inline]
-pub fn list_sharp(triangle: u32, list: &mut [u32], args: &mut DispatchArgs) {
+pub fn list_sharp(triangle: u32, list: &mut [u32], args: &mut DispatchArgs, tree_every_pass: &mut u32) {
     atomics::append_for_dispatch(triangle, list, args, CONTACT_THREADS);
+    atomics::max(tree_every_pass, 1);
 }
 
 /// The cloth's longest squared edge as the passes take it (`self_scene_bounds` measured it at
@@ -113,6 +115,7 @@ pub fn list_sharp_features(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] features: &[UVec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] sharp: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] sharp_args: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tree_every_pass: &mut u32,
 ) {
     if id.x as usize >= features.len() {
         return;
@@ -120,6 +123,6 @@ pub fn list_sharp_features(
     let (longest2, thickness) = frame_threshold(self_params, collider);
     let mesh = (vertices, previous, indices);
     if may_be_sharp(id.x, tested_features(features[id.x as usize], collider), mesh, longest2, thickness) {
-        list_sharp(id.x, sharp, sharp_args);
+        list_sharp(id.x, sharp, sharp_args, tree_every_pass);
     }
 }
