@@ -5,7 +5,10 @@
 //! frame (timestamps: the first pass's start to the last one's end) and of the wall time, the
 //! ratio on / off, the substeps; then the self-collision solver's passes at 64^2.
 //!
-//! `cargo bench --bench self_collision` runs every scene; `-- 64 pile` only those named.
+//! `cargo bench --bench self_collision` runs every scene; `-- 64 pile` only those named; add
+//! `no-timestamps` to run the solvers without timestamp queries (wall times only: on lavapipe a
+//! timestamp pair costs each dispatch tens of µs, and a frame with self-collision has twice the
+//! dispatches).
 
 use drape::cloth::ClothBuilder;
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, pile};
@@ -39,10 +42,12 @@ fn cases(grids: &[u32]) -> Vec<Case> {
     cases
 }
 
-fn solver(ctx: &Arc<Context>, scene: &DrapeScene, self_collision: bool) -> Solver {
+fn solver(ctx: &Arc<Context>, scene: &DrapeScene, self_collision: bool, timestamps: bool) -> Solver {
     let cloth: ClothBuilder = scene.cloth.clone().self_collision(self_collision.then_some(scene.thickness));
     let cloth = cloth.build().expect("cloth");
-    let model = Model::single(&cloth, &[scene.triangle_collider()], SimSettings::default()).expect("model");
+    let mut settings = SimSettings::default();
+    settings.timestamps = timestamps;
+    let model = Model::single(&cloth, &[scene.triangle_collider()], settings).expect("model");
     Solver::new(ctx, &model).expect("simulation")
 }
 
@@ -71,7 +76,9 @@ impl Run {
 
 fn main() {
     // Criterion-style arguments: `--bench` and the like are cargo's; the rest name scenes.
-    let wanted: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    let words: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    let timestamps = !words.iter().any(|w| w == "no-timestamps");
+    let wanted: Vec<String> = words.into_iter().filter(|w| w != "no-timestamps").collect();
     let ctx = Context::new(Validation::Off).expect("a Vulkan driver");
     let info = ctx.info();
     let cpu_driver = info.device_type == ash::vk::PhysicalDeviceType::CPU;
@@ -101,7 +108,8 @@ fn main() {
     );
     let mut passes_64 = None;
     for case in &cases {
-        let (mut off, mut on) = (solver(&ctx, &case.scene, false), solver(&ctx, &case.scene, true));
+        let (mut off, mut on) =
+            (solver(&ctx, &case.scene, false, timestamps), solver(&ctx, &case.scene, true, timestamps));
         let (mut runs_off, mut runs_on) = (Run::new(), Run::new());
         let begun = Instant::now();
         for frame in 0..case.frames {
@@ -119,19 +127,28 @@ fn main() {
             }
         }
         let (a, b) = (&runs_off.report, &runs_on.report);
+        let spans = |r: &TimingReport| {
+            if timestamps {
+                format!("{:.3} ({:.3})", r.median_span_micros() / 1e3, r.min_span_micros() / 1e3)
+            } else {
+                "-".to_string()
+            }
+        };
+        let span_ratio =
+            if timestamps { format!("{:.2}x", b.median_span_micros() / a.median_span_micros()) } else { "-".into() };
         println!(
             "{:<16} {:>7} {:>10} {:>22} {:>22} {:>12} {:>22} {:>22} {:>12}",
             case.name,
             a.frames(),
             format!("{} / {}", runs_off.median_substeps(), runs_on.median_substeps()),
-            format!("{:.3} ({:.3})", a.median_span_micros() / 1e3, a.min_span_micros() / 1e3),
-            format!("{:.3} ({:.3})", b.median_span_micros() / 1e3, b.min_span_micros() / 1e3),
-            format!("{:.2}x", b.median_span_micros() / a.median_span_micros()),
+            spans(a),
+            spans(b),
+            span_ratio,
             format!("{:.3} ({:.3})", a.median_wall_ms(), a.min_wall_ms()),
             format!("{:.3} ({:.3})", b.median_wall_ms(), b.min_wall_ms()),
             format!("{:.2}x", b.median_wall_ms() / a.median_wall_ms()),
         );
-        if case.name == "icosphere 64^2" {
+        if timestamps && case.name == "icosphere 64^2" {
             passes_64 = Some(b.table());
         }
     }
