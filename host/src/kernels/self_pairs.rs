@@ -348,9 +348,7 @@ fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         let escape = escaped_at(t, (x, x_prev), anchors, indices, &span);
         let first_walker =
             note_escape((t, leaf), escape, (&mut *escaped, &mut *strays), (&mut *walkers, &mut *walk_args));
-        if first_walker || (t == 0 && tree_every_pass) {
-            note_pass_tree(c.leaf_count, pass_refit);
-        }
+        note_pass_tree((t, first_walker), tree_every_pass, c.leaf_count, pass_refit);
     }
     Ok(())
 }

@@ -689,14 +689,21 @@ pub fn count_full_list(leaf: u32, counts: &[u32], health: &mut Health, tree_ever
 }
 
 /// Raises a pass's refit of the tree to every leaf (`pass_refit`: the refit's indirect
-/// dispatch, which the host empties before the pass): a triangle walks in it (its first
-/// walker raises it), or
-/// the frame's passes walk the tree whoever escapes (`tree_every_pass`: a list overflowed, a
-/// collider listed a possibly sharp triangle). A pass where no one walks leaves the tree as it
-/// was: nothing reads it before the next refit.
+/// dispatch, which the host empties before the pass) from triangle `t`'s run of the pass's
+/// boxes: when it is the pass's first walker (`note_escape`), or when it is triangle 0 and the
+/// frame's passes walk the tree whoever escapes (`tree_every_pass`: a list overflowed, a
+/// collider listed a possibly sharp triangle). One thread raises it at most for each reason. A
+/// pass where no one walks leaves the tree as it was: nothing reads it before the next refit.
 #[inline]
-pub fn note_pass_tree(leaf_count: u32, pass_refit: &mut DispatchArgs) {
-    atomics::max(&mut pass_refit.x, leaf_count.div_ceil(REFIT_THREADS));
+pub fn note_pass_tree(
+    (t, first_walker): (u32, bool),
+    tree_every_pass: bool,
+    leaf_count: u32,
+    pass_refit: &mut DispatchArgs,
+) {
+    if first_walker || (t == 0 && tree_every_pass) {
+        atomics::max(&mut pass_refit.x, leaf_count.div_ceil(REFIT_THREADS));
+    }
 }
 
 /// Whether triangle `t` left its predicted region in the pass spanning fractions `from..to` of
@@ -1022,9 +1029,7 @@ pub fn cloth_triangle_bounds(
     }
     let escape = escaped_at(id.x, (x, x_prev), anchors, indices, span);
     let first_walker = note_escape((id.x, leaf), escape, (escaped, strays), (walkers, walk_args));
-    if first_walker || (id.x == 0 && tree_every_pass[0] != 0) {
-        note_pass_tree(self_params.leaf_count, pass_refit);
-    }
+    note_pass_tree((id.x, first_walker), tree_every_pass[0] != 0, self_params.leaf_count, pass_refit);
 }
 
 /// Threads per workgroup of the walks (`walk_self_pairs`): as many as the lists' (a pass's

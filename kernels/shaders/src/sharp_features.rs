@@ -89,11 +89,13 @@ pub fn may_be_sharp(
 /// the list (`args`: x workgroups of `CONTACT_THREADS`, the count in `_pad`; the host writes
 /// {0, 1, 1, 0} before). The order is the atomics', which changes no result: the passes sum
 /// their corrections as integers and take their pushes' maxima. The passes' features then walk
-/// the cloth's tree, so every pass refits it (`tree_every_pass`: `self_pairs::note_pass_tree`).
+/// the cloth's tree, so every pass refits it: the first triangle listed raises
+/// `tree_every_pass` (`self_pairs::note_pass_tree`), the others leave the word alone.
 #[inline]
 pub fn list_sharp(triangle: u32, list: &mut [u32], args: &mut DispatchArgs, tree_every_pass: &mut u32) {
-    atomics::append_for_dispatch(triangle, list, args, CONTACT_THREADS);
-    atomics::max(tree_every_pass, 1);
+    if atomics::append_for_dispatch(triangle, list, args, CONTACT_THREADS) == 0 {
+        atomics::max(tree_every_pass, 1);
+    }
 }
 
 /// The cloth's longest squared edge as the passes take it (`self_scene_bounds` measured it at
