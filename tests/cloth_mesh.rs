@@ -477,6 +477,31 @@ fn cli_warns_of_a_cloth_mesh_with_flat_triangles() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// `drape --cloth-mesh` with a face given twice (once in the other winding) and once more
+/// with its corners in another order: it runs, and warns how many triangles repeat an earlier
+/// one; the same mesh without them does not warn.
+#[test]
+fn cli_warns_of_a_cloth_mesh_with_repeated_triangles() {
+    let dir = temp_dir("repeated-triangles");
+    let run = |name: &str, obj: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, obj).unwrap();
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+            .args(["--cloth-mesh", path.to_str().unwrap(), "--frames", "1", "--quiet"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+        assert!(output.status.success(), "{stderr}");
+        stderr
+    };
+    let square = "v 0 0 0\nv 0.1 0 0\nv 0 0 0.1\nv 0.1 0 0.1\nf 1 2 3\nf 2 4 3\n";
+    let repeated = run("repeated.obj", &format!("{square}f 1 3 2\nf 3 4 2\n"));
+    assert!(repeated.contains("cloth mesh: 2 triangles repeat an earlier one"), "{repeated}");
+    let clean = run("square.obj", square);
+    assert!(!clean.contains("repeat an earlier one"), "{clean}");
+    std::fs::remove_dir_all(dir).ok();
+}
+
 /// `drape --scene pile`: a 64 x 16 strip falls upright onto the ground plane and piles up,
 /// with self-collision on by default; the run ends with the exact intersection counts of the
 /// final frame (cloth-cloth, and both ways between cloth and collider). `--self-collision off`

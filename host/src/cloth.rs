@@ -413,6 +413,13 @@ impl ClothBuilder {
                  and no surface to the cloth; remove them from the file unless they are meant"
             );
         }
+        let repeated = mesh.repeated_triangles();
+        if repeated > 0 {
+            log::warn!(
+                "cloth mesh: {repeated} triangles repeat an earlier one (the same three vertices): each adds its area's \
+                 mass to its corners again and is drawn twice; remove them from the file unless they are meant"
+            );
+        }
         // A mirroring transform turns the triangles inside out: keep the normals outward.
         let triangles: Vec<[u32; 3]> = if self.transform.determinant() < 0.0 {
             mesh.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect()

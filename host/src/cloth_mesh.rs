@@ -64,6 +64,20 @@ impl ClothMesh {
         coincident_map(&surface).1
     }
 
+    /// How many triangles have the same three vertices as an earlier one (in any order or
+    /// winding): a repeated face adds its area's mass to its corners again.
+    pub fn repeated_triangles(&self) -> usize {
+        let mut seen = std::collections::HashSet::with_capacity(self.triangles.len());
+        self.triangles
+            .iter()
+            .filter(|t| {
+                let mut corners = **t;
+                corners.sort_unstable();
+                corners[0] != corners[1] && corners[1] != corners[2] && !seen.insert(corners)
+            })
+            .count()
+    }
+
     /// The cloth with vertices at exactly the same position joined into one (the first, in
     /// order), so a surface its file split at seams holds together; triangles that then have a
     /// corner twice are dropped with their texture coordinates. Texture coordinates stay per
