@@ -3,7 +3,10 @@
 //! with self-collision on and off, the two solvers stepped in turn frame by frame so the
 //! machine's noise falls on both alike. Per scene: the medians and fastest of the GPU span per
 //! frame (timestamps: the first pass's start to the last one's end) and of the wall time, the
-//! ratio on / off, the substeps; then the self-collision solver's passes at 64^2.
+//! ratio on / off, the substeps; then the self-collision solver's passes at 64^2. On a CPU
+//! driver it also gives the process's CPU time per frame (every thread's, the driver's workers
+//! included: the frame's work, which another tenant's load on the machine moves less than the
+//! wall time, the same code's wall ratio having ranged 2.27x-2.70x at 64^2 on this VM).
 //!
 //! `cargo bench --bench self_collision` runs every scene; `-- 64 pile` only those named; add
 //! `no-timestamps` to run the solvers without timestamp queries (wall times only: on lavapipe a
@@ -51,22 +54,40 @@ fn solver(ctx: &Arc<Context>, scene: &DrapeScene, self_collision: bool, timestam
     Solver::new(ctx, &model).expect("simulation")
 }
 
+/// The CPU time this process has used, all its threads together (`CLOCK_PROCESS_CPUTIME_ID`).
+fn process_cpu_time() -> Duration {
+    let mut now = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes the timespec it is given and reads nothing else.
+    let status = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut now) };
+    assert_eq!(status, 0, "clock_gettime(CLOCK_PROCESS_CPUTIME_ID)");
+    Duration::new(now.tv_sec as u64, now.tv_nsec as u32)
+}
+
 /// What one solver's frames measured.
 struct Run {
     report: TimingReport,
     substeps: Vec<f64>,
+    /// The process's CPU time per frame (ms).
+    cpu_ms: Vec<f64>,
 }
 
 impl Run {
     fn new() -> Self {
-        Run { report: TimingReport::default(), substeps: Vec::new() }
+        Run { report: TimingReport::default(), substeps: Vec::new(), cpu_ms: Vec::new() }
     }
 
     fn step(&mut self, sim: &mut Solver) {
-        let start = Instant::now();
+        let (start, cpu_start) = (Instant::now(), process_cpu_time());
         let timings = sim.step().expect("stable");
-        self.report.add(&timings, start.elapsed());
+        let (wall, cpu) = (start.elapsed(), process_cpu_time() - cpu_start);
+        self.report.add(&timings, wall);
+        self.cpu_ms.push(cpu.as_secs_f64() * 1e3);
         self.substeps.push(f64::from(sim.stability(CLOTH).expect("the cloth").substeps));
+    }
+
+    /// The median and the least CPU time per frame (ms).
+    fn cpu_ms(&self) -> (f64, f64) {
+        (median(&self.cpu_ms), self.cpu_ms.iter().copied().fold(f64::INFINITY, f64::min))
     }
 
     fn median_substeps(&self) -> f64 {
@@ -107,6 +128,7 @@ fn main() {
         "wall on/off"
     );
     let mut passes_64 = None;
+    let mut cpu_rows = Vec::new();
     for case in &cases {
         let (mut off, mut on) =
             (solver(&ctx, &case.scene, false, timestamps), solver(&ctx, &case.scene, true, timestamps));
@@ -148,8 +170,30 @@ fn main() {
             format!("{:.3} ({:.3})", b.median_wall_ms(), b.min_wall_ms()),
             format!("{:.2}x", b.median_wall_ms() / a.median_wall_ms()),
         );
+        let ((cpu_off, least_off), (cpu_on, least_on)) = (runs_off.cpu_ms(), runs_on.cpu_ms());
+        cpu_rows.push(format!(
+            "{:<16} {:>22} {:>22} {:>12} {:>12}",
+            case.name,
+            format!("{cpu_off:.3} ({least_off:.3})"),
+            format!("{cpu_on:.3} ({least_on:.3})"),
+            format!("{:.2}x", cpu_on / cpu_off),
+            format!("{:.2}x", least_on / least_off),
+        ));
         if timestamps && case.name == "icosphere 64^2" {
             passes_64 = Some(b.table());
+        }
+    }
+    if cpu_driver {
+        println!(
+            "\nThe process's CPU time per frame (all threads, the driver's included; medians, the least in \
+             brackets):"
+        );
+        println!(
+            "{:<16} {:>22} {:>22} {:>12} {:>12}",
+            "scene", "cpu off (ms)", "cpu on (ms)", "on/off", "least on/off"
+        );
+        for row in &cpu_rows {
+            println!("{row}");
         }
     }
     if let Some(table) = passes_64 {
