@@ -93,12 +93,9 @@ impl LbvhBuffers {
     /// `refit_sorted_steps` over the workgroups `dispatch` holds (none leaves the tree's boxes
     /// as the fill leaves them: its readers must not run).
     pub fn refit_sorted_steps_over(&self, dispatch: Handle<DispatchArgs>) -> Vec<Step> {
-        vec![
-            Step::fill(self.flags, 0),
-            // The refit writes xyz words only; zero the w words too.
-            Step::fill(self.aabbs, 0),
-            self.refit_step("refit", (self.sorted_bounds, self.aabbs), Dispatch::Indirect(dispatch)),
-        ]
+        let mut steps = Vec::new();
+        self.push_refit_of("refit", (self.sorted_bounds, self.aabbs), Dispatch::Indirect(dispatch), &mut steps);
+        steps
     }
 
     /// A second refit to the sorted leaves' boxes after `refit_sorted_steps`, over the
@@ -114,7 +111,7 @@ impl LbvhBuffers {
     /// move by beside where they are.
     pub fn refit_other_steps(&self, label: &'static str, leaf_bounds: Handle<Aabb>, aabbs: Handle<Aabb>) -> Vec<Step> {
         let mut steps = Vec::new();
-        self.push_refit_of(label, leaf_bounds, aabbs, &mut steps);
+        self.push_refit_of(label, (leaf_bounds, aabbs), Dispatch::Threads(self.leaves), &mut steps);
         steps
     }
 
@@ -174,20 +171,22 @@ impl LbvhBuffers {
     }
 
     fn push_refit(&self, steps: &mut Vec<Step>) {
-        self.push_refit_of("refit", self.sorted_bounds, self.aabbs, steps);
+        let every_leaf = Dispatch::Threads(self.leaves);
+        self.push_refit_of("refit", (self.sorted_bounds, self.aabbs), every_leaf, steps);
     }
 
+    /// The refit of `aabbs` to `leaf_bounds` over `dispatch`, its flags and boxes zeroed first.
     fn push_refit_of(
         &self,
         label: &'static str,
-        leaf_bounds: Handle<Aabb>,
-        aabbs: Handle<Aabb>,
+        (leaf_bounds, aabbs): (Handle<Aabb>, Handle<Aabb>),
+        dispatch: Dispatch,
         steps: &mut Vec<Step>,
     ) {
         steps.push(Step::fill(self.flags, 0));
         // The refit writes xyz words only; zero the w words too.
         steps.push(Step::fill(aabbs, 0));
-        steps.push(self.refit_step(label, (leaf_bounds, aabbs), Dispatch::Threads(self.leaves)));
+        steps.push(self.refit_step(label, (leaf_bounds, aabbs), dispatch));
     }
 
     /// The refit of `aabbs` to `leaf_bounds` (its flags zeroed before).
