@@ -4,6 +4,7 @@
 
 use crate::cloth_mesh::{ClothMesh, ClothUvs, SpringTopology, lumped_masses};
 use crate::error::{Error, Result};
+use crate::rest_gap::closest_unshared_features;
 use drape_types::{SimParams, integrator};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 
@@ -269,14 +270,21 @@ impl ClothBuilder {
         cloth.self_collision = self.self_collision;
         cloth.self_friction = self.self_friction;
         if let Some(t) = self.self_collision {
-            let shortest = cloth.structural_springs().iter().map(|s| s.2).fold(f32::INFINITY, f32::min);
-            if t >= shortest {
+            let rest: Vec<Vec3> = cloth.positions.iter().map(|p| p.truncate()).collect();
+            if let Some(gap) = closest_unshared_features(&rest, &cloth.triangles, t)
+                && gap.triangles_within > 0
+            {
                 log::warn!(
-                    "self-collision thickness {:.1} mm is not below the cloth's shortest edge, {:.1} mm: features two \
-                     edges apart are always in contact, which pushes the cloth apart and multiplies the pairs to test; \
-                     use a thickness under the edge length or a coarser cloth",
+                    "self-collision thickness {:.2} mm is over {:.2} mm, the closest that neighbouring features of the \
+                     cloth sharing no particle lie at rest (a vertex and the face beside it, two edges), in {} of its {} \
+                     triangles: there the cloth touches itself at rest, so every pass pushes it apart, which stretches \
+                     it, slows its fall and multiplies the pairs to test; use a thickness under {:.2} mm or a coarser \
+                     cloth",
                     t * 1e3,
-                    shortest * 1e3
+                    gap.distance * 1e3,
+                    gap.triangles_within,
+                    cloth.triangles.len(),
+                    gap.distance * 1e3
                 );
             }
         }

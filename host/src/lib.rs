@@ -76,6 +76,7 @@ pub mod motion;
 pub mod obj;
 mod program;
 pub mod render;
+mod rest_gap;
 pub mod scenes;
 mod settings;
 mod solver;
