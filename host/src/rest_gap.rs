@@ -79,13 +79,14 @@ fn vertices_to_face((a_ids, a): ([u32; 3], [Vec3; 3]), (b_ids, b): ([u32; 3], [V
 fn edges_apart((a_ids, a): ([u32; 3], [Vec3; 3]), (b_ids, b): ([u32; 3], [Vec3; 3])) -> f32 {
     let mut gap = f32::INFINITY;
     for k in 0..3 {
-        let (k1, ka) = (a_ids[k], a_ids[(k + 1) % 3]);
+        let k1 = (k + 1) % 3;
         for m in 0..3 {
-            let (m1, mb) = (b_ids[m], b_ids[(m + 1) % 3]);
-            if k1 == m1 || k1 == mb || ka == m1 || ka == mb {
+            let m1 = (m + 1) % 3;
+            let b_edge = [b_ids[m], b_ids[m1]];
+            if b_edge.contains(&a_ids[k]) || b_edge.contains(&a_ids[k1]) {
                 continue;
             }
-            let (p, q, r, s) = (a[k], a[(k + 1) % 3], b[m], b[(m + 1) % 3]);
+            let (p, q, r, s) = (a[k], a[k1], b[m], b[m1]);
             let (u, v) = closest_between_segments(p, q, r, s);
             gap = gap.min(((p + (q - p) * u) - (r + (s - r) * v)).length());
         }
