@@ -269,22 +269,22 @@ impl ClothBuilder {
         }
         cloth.self_collision = self.self_collision;
         cloth.self_friction = self.self_friction;
-        if let Some(t) = self.self_collision {
+        // Measured only for a reader of the log (0.8 s at 512 x 512).
+        if let Some(t) = self.self_collision
+            && log::log_enabled!(log::Level::Info)
+        {
             let rest: Vec<Vec3> = cloth.positions.iter().map(|p| p.truncate()).collect();
             if let Some(gap) = closest_unshared_features(&rest, &cloth.triangles, t)
                 && gap.triangles_within > 0
             {
-                log::warn!(
+                log::info!(
                     "self-collision thickness {:.2} mm is over {:.2} mm, the closest that neighbouring features of the \
                      cloth sharing no particle lie at rest (a vertex and the face beside it, two edges), in {} of its {} \
-                     triangles: there the cloth touches itself at rest, so every pass pushes it apart, which stretches \
-                     it, slows its fall and multiplies the pairs to test; use a thickness under {:.2} mm or a coarser \
-                     cloth",
+                     triangles: those pairs answer only a crossing, so the cloth is thinner than the thickness there",
                     t * 1e3,
                     gap.distance * 1e3,
                     gap.triangles_within,
                     cloth.triangles.len(),
-                    gap.distance * 1e3
                 );
             }
         }

@@ -97,6 +97,7 @@ impl SolverProgram {
                 initial.push((s.tree.collider.id(), bytemuck::bytes_of(&params).to_vec()));
                 let owned = crate::programs::self_contact::owned_primitives(triangles);
                 initial.push((s.owned.id(), bytemuck::cast_slice::<_, u8>(&owned).to_vec()));
+                initial.push((s.rest_shape.id(), bytes(&cloth.positions)));
                 initial.push((s.pushes.id(), vec![0; 4 * (PUSH_WORDS as usize) * cloth.positions.len()]));
             }
             cloths.push(b);

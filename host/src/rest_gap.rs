@@ -2,9 +2,10 @@
 //! between its neighbouring features that share no particle (a vertex and a face beside it
 //! that does not hold it, two edges of neighbouring triangles with no end in common), the pairs
 //! the passes test and push apart to the thickness. A grid's closest is a vertex to the
-//! diagonal across the next cell, 0.71 of its edge, not the edge itself: a thickness above it
-//! holds the cloth in contact with itself at rest, so every pass pushes it apart (stretching
-//! it) and each walk finds dozens of pairs.
+//! diagonal across the next cell, 0.71 of its edge, not the edge itself. Under a thickness
+//! above it those pairs answer only a crossing (the kernels measure each pair at rest:
+//! `drape_kernels::self_contact::touched_at_rest_vertex_face`), so the cloth is thinner than
+//! the thickness there; the builder logs where.
 
 use drape_kernels::self_contact::{closest_between_segments, closest_with_weights, collapsed, longest_side2};
 use glam::Vec3;

@@ -253,6 +253,7 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
             thickness: collider.thickness,
             friction: collider.friction,
             v,
+            rest: x, // a collider's pairs never read it (the kernel's stand-in too)
             delta: &mut *delta,
             velocity_changes: &mut *velocity_changes,
         };

@@ -184,6 +184,7 @@ pub static LISTED_SELF_PAIRS: Kernel = Kernel {
             read("counts"),
             write("delta"),
             write("velocity_changes"),
+            read("rest_shape"),
         ],
         push_constant_size: 0,
         workgroup_size: CONTACT_THREADS,
@@ -207,6 +208,7 @@ pub static SELF_TRIANGLE_CONTACT: Kernel = Kernel {
             read("v"),
             write("delta"),
             write("velocity_changes"),
+            read("rest_shape"),
         ],
         push_constant_size: 0,
         workgroup_size: CONTACT_THREADS,
@@ -237,6 +239,7 @@ pub static WALK_SELF_PAIRS: Kernel = Kernel {
             write("queue"),
             write("queue_args"),
             write("health"),
+            read("rest_shape"),
         ],
         push_constant_size: 0,
         workgroup_size: WALK_THREADS,
@@ -260,6 +263,7 @@ pub static TEST_QUEUED_PAIRS: Kernel = Kernel {
             read("queue_args"),
             write("delta"),
             write("velocity_changes"),
+            read("rest_shape"),
         ],
         push_constant_size: 0,
         workgroup_size: QUEUE_THREADS,
@@ -269,14 +273,15 @@ pub static TEST_QUEUED_PAIRS: Kernel = Kernel {
 
 fn queued_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, sorted, owned, x, x_prev, v, queue, queue_args, delta, velocity_changes] = d.bindings()?;
+    let [self_params, sorted, owned, x, x_prev, v, queue, queue_args, delta, velocity_changes, rest] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tables = (sorted.slice::<UVec4>(), owned.slice::<u32>());
     let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
     let queue = queue.slice::<u32>();
     let queued = queued_pairs(queue, &queue_args.first::<DispatchArgs>()?);
     let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
-    let mut out = PairResponse { thickness: c.thickness, friction: c.friction, v, delta, velocity_changes };
+    let rest = rest.slice::<Vec4>();
+    let mut out = PairResponse { thickness: c.thickness, friction: c.friction, v, rest, delta, velocity_changes };
     for i in 0..threads.min(queued) {
         test_queued_pair_at(i, tables, (x, x_prev), queue, &mut out);
     }
@@ -407,11 +412,12 @@ fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         counts,
         delta,
         velocity_changes,
+        rest,
     ] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let owned = owned.slice::<u32>();
-    let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
+    let (x, x_prev, v, rest) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>(), rest.slice::<Vec4>());
     let escaped = (escaped.slice::<u32>(), strays.slice::<f32>());
     let lists = (lists.slice::<u32>(), counts.slice::<u32>());
     let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
@@ -420,6 +426,7 @@ fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
             thickness: c.thickness,
             friction: c.friction,
             v,
+            rest,
             delta: &mut *delta,
             velocity_changes: &mut *velocity_changes,
         };
@@ -430,18 +437,19 @@ fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn walk_all_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, x, x_prev, v, delta, velocity_changes] =
+    let [self_params, nodes, aabbs, leaf_bounds, sorted, owned, x, x_prev, v, delta, velocity_changes, rest] =
         d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let owned = owned.slice::<u32>();
-    let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
+    let (x, x_prev, v, rest) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>(), rest.slice::<Vec4>());
     let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
     for leaf in 0..threads.min(c.leaf_count) {
         let out = PairResponse {
             thickness: c.thickness,
             friction: c.friction,
             v,
+            rest,
             delta: &mut *delta,
             velocity_changes: &mut *velocity_changes,
         };
@@ -471,12 +479,13 @@ fn walk_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         queue,
         queue_args,
         health,
+        rest,
     ] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let walking = walk_args.first::<DispatchArgs>()?._pad;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let owned = owned.slice::<u32>();
-    let (x, x_prev, v) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
+    let (x, x_prev, v, rest) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>(), rest.slice::<Vec4>());
     let tables = (escaped.slice::<u32>(), counts.slice::<u32>());
     let walkers = walkers.slice::<u32>();
     let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
@@ -487,6 +496,7 @@ fn walk_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
             thickness: c.thickness,
             friction: c.friction,
             v,
+            rest,
             delta: &mut *delta,
             velocity_changes: &mut *velocity_changes,
         };

@@ -53,6 +53,10 @@ pub struct SelfContactBuffers {
     /// corners (bit `VERTEX_OWNED_BIT << k`) it owns: each particle and each edge belongs to
     /// the first triangle that has it, so each pair is handled once.
     pub owned: Handle<u32>,
+    /// Per particle, where it lies in the cloth's rest shape (xyz; the positions it was built
+    /// with): the pairs within the thickness there answer only a crossing
+    /// (`drape_kernels::self_contact::touched_at_rest_vertex_face`).
+    pub rest_shape: Handle<Vec4>,
     /// Per particle, `ANCHOR_WORDS` words: where it starts the frame with its slop, and its
     /// predicted motion over the frame (`drape_kernels::self_pairs::anchor_at`).
     pub anchors: Handle<Vec4>,
@@ -280,6 +284,7 @@ impl SelfContactBuffers {
             pushes: resources.device(format!("{name}: collider pushes"), PUSH_WORDS * particles),
             start: resources.device(format!("{name}: pass start"), particles),
             owned: resources.device(format!("{name}: owned edges and corners"), triangles),
+            rest_shape: resources.device(format!("{name}: rest shape"), particles),
             anchors: resources.device(format!("{name}: anchors"), ANCHOR_WORDS * particles),
             escaped: resources.device(format!("{name}: escaped"), triangles),
             strays: resources.device(format!("{name}: strays"), triangles),
@@ -720,6 +725,7 @@ impl SelfContactBuffers {
                 self.queue_args.id(),
                 self.delta.id(),
                 self.velocity_changes.id(),
+                self.rest_shape.id(),
             ],
             Dispatch::Indirect(self.queue_args),
         ));
@@ -727,14 +733,15 @@ impl SelfContactBuffers {
 
     /// What a pass's pair search binds (`drape_kernels::self_pairs`): the tree and its
     /// triangles, the pass's sweep (positions now and at its start, velocities), then `found_by`
-    /// (what finds the pairs: lists, walkers), the sums the pairs add to, then `after`.
+    /// (what finds the pairs: lists, walkers), the sums the pairs add to, then `after`, then
+    /// the cloth's rest shape (which pairs touched at rest).
     fn pair_bindings(&self, cloth: &SelfContactCloth, found_by: &[BufferId], after: &[BufferId]) -> Vec<BufferId> {
         let t = &self.tree;
         let tree =
             [t.collider.id(), t.nodes.id(), t.aabbs.id(), t.sorted_bounds.id(), self.sorted.id(), self.owned.id()];
         let sweep = [cloth.x.id(), self.start.id(), cloth.v.id()];
         let sums = [self.delta.id(), self.velocity_changes.id()];
-        [&tree[..], &sweep, found_by, &sums, after].concat()
+        [&tree[..], &sweep, found_by, &sums, after, &[self.rest_shape.id()]].concat()
     }
 
     /// The mean of the pass's corrections applied (which records the next pass's start).

@@ -1109,13 +1109,20 @@ pub fn listed_self_pairs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] counts: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] delta: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] velocity_changes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] rest_shape: &[Vec4],
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    let out =
-        PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
+    let out = PairResponse {
+        thickness: self_params.thickness,
+        friction: self_params.friction,
+        v,
+        rest: rest_shape,
+        delta,
+        velocity_changes,
+    };
     listed_self_pairs_at(id.x, self_params, tree, owned, (x, x_prev), (escaped, strays), (lists, counts), out);
 }
 
@@ -1135,13 +1142,20 @@ pub fn self_triangle_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] v: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] delta: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] velocity_changes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] rest_shape: &[Vec4],
 ) {
     if id.x >= self_params.leaf_count {
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    let out =
-        PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
+    let out = PairResponse {
+        thickness: self_params.thickness,
+        friction: self_params.friction,
+        v,
+        rest: rest_shape,
+        delta,
+        velocity_changes,
+    };
     self_triangle_contact_at(id.x, self_params, tree, owned, (x, x_prev), out);
 }
 
@@ -1167,13 +1181,20 @@ pub fn walk_self_pairs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] queue: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] queue_args: &mut DispatchArgs,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 17)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 18)] rest_shape: &[Vec4],
 ) {
     if id.x >= walk_args._pad {
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    let out =
-        PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
+    let out = PairResponse {
+        thickness: self_params.thickness,
+        friction: self_params.friction,
+        v,
+        rest: rest_shape,
+        delta,
+        velocity_changes,
+    };
     let leaf = walkers[id.x as usize];
     walk_self_pairs_at(leaf, self_params, tree, owned, (x, x_prev), (escaped, counts), (queue, queue_args), out);
     if counts[leaf as usize] != LIST_OVERFLOWED {
@@ -1197,12 +1218,19 @@ pub fn test_queued_pairs(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] queue_args: &DispatchArgs,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] delta: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] velocity_changes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] rest_shape: &[Vec4],
 ) {
     if id.x >= queued_pairs(queue, queue_args) {
         return;
     }
-    let mut out =
-        PairResponse { thickness: self_params.thickness, friction: self_params.friction, v, delta, velocity_changes };
+    let mut out = PairResponse {
+        thickness: self_params.thickness,
+        friction: self_params.friction,
+        v,
+        rest: rest_shape,
+        delta,
+        velocity_changes,
+    };
     test_queued_pair_at(id.x, (sorted, owned), (x, x_prev), queue, &mut out);
 }
 
