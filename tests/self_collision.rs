@@ -1201,6 +1201,16 @@ fn self_collision_passes_follow_the_motion_and_the_contact() {
     assert_validation_clean(&ctx);
 }
 
+/// A 24 x 24 cloth of 0.8 m lying flat at `height` over the origin, with `self_collision`.
+fn cloth_over_sphere(height: f32, self_collision: Option<f32>) -> drape::Cloth {
+    drape::ClothBuilder::new(24, 24)
+        .size(0.8)
+        .transform(glam::Mat4::from_translation(Vec3::new(0.0, height, 0.0)))
+        .self_collision(self_collision)
+        .build()
+        .unwrap()
+}
+
 /// A smooth body holds a self-colliding cloth as it holds any: a 24 x 24 cloth falls on a
 /// tessellated sphere (1280 facets) and rests on it, as many particles at the thickness with
 /// self-collision as without (82 of 301 when every feature was tested), its top on the
@@ -1216,12 +1226,7 @@ fn a_smooth_collider_holds_a_self_colliding_cloth_as_it_holds_any() {
     let mesh = drape::Mesh::icosphere(radius, 3);
     let collider = Collider::mesh(&mesh, 0.005).with_friction(0.5);
     let settle = |self_collision: Option<f32>| {
-        let cloth = drape::ClothBuilder::new(24, 24)
-            .size(0.8)
-            .transform(glam::Mat4::from_translation(Vec3::new(0.0, radius + 0.03, 0.0)))
-            .self_collision(self_collision)
-            .build()
-            .unwrap();
+        let cloth = cloth_over_sphere(radius + 0.03, self_collision);
         let settings = SimSettings::default().with_timestamps(false);
         let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap();
         let mut sim = Solver::new(&ctx, &model).unwrap();
@@ -1267,14 +1272,7 @@ fn a_cloth_touching_itself_at_rest_falls_as_without_self_collision() {
     let mesh = drape::Mesh::icosphere(radius, 3);
     let collider = Collider::mesh(&mesh, 0.005).with_friction(0.5);
     let thickness = 0.03;
-    let build = |self_collision: Option<f32>| {
-        drape::ClothBuilder::new(24, 24)
-            .size(0.8)
-            .transform(glam::Mat4::from_translation(Vec3::new(0.0, radius + 0.3, 0.0)))
-            .self_collision(self_collision)
-            .build()
-            .unwrap()
-    };
+    let build = |self_collision: Option<f32>| cloth_over_sphere(radius + 0.3, self_collision);
     // The premise: vertices lie within the thickness of faces they are not corners of.
     let cloth = build(Some(thickness));
     let touching = |t: f32| {

@@ -7,7 +7,7 @@
 //! `drape_kernels::self_contact::touched_at_rest_vertex_face`), so the cloth is thinner than
 //! the thickness there; the builder logs where.
 
-use drape_kernels::self_contact::{closest_between_segments, closest_with_weights, collapsed, longest_side2};
+use drape_kernels::self_contact::{closest_with_weights, collapsed, longest_side2, segments_offset};
 use glam::Vec3;
 
 /// The closest neighbouring features sharing no particle at rest (`closest_unshared_features`).
@@ -87,9 +87,7 @@ fn edges_apart((a_ids, a): ([u32; 3], [Vec3; 3]), (b_ids, b): ([u32; 3], [Vec3; 
             if b_edge.contains(&a_ids[k]) || b_edge.contains(&a_ids[k1]) {
                 continue;
             }
-            let (p, q, r, s) = (a[k], a[k1], b[m], b[m1]);
-            let (u, v) = closest_between_segments(p, q, r, s);
-            gap = gap.min(((p + (q - p) * u) - (r + (s - r) * v)).length());
+            gap = gap.min(segments_offset(a[k], a[k1], b[m], b[m1]).length());
         }
     }
     gap

@@ -281,7 +281,7 @@ fn queued_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let queued = queued_pairs(queue, &queue_args.first::<DispatchArgs>()?);
     let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
     let rest = rest.slice::<Vec4>();
-    let mut out = PairResponse { thickness: c.thickness, friction: c.friction, v, rest, delta, velocity_changes };
+    let mut out = PairResponse::of_cloth(&c, (v, rest), (delta, velocity_changes));
     for i in 0..threads.min(queued) {
         test_queued_pair_at(i, tables, (x, x_prev), queue, &mut out);
     }
@@ -422,14 +422,7 @@ fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let lists = (lists.slice::<u32>(), counts.slice::<u32>());
     let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
     for leaf in 0..threads.min(c.leaf_count) {
-        let out = PairResponse {
-            thickness: c.thickness,
-            friction: c.friction,
-            v,
-            rest,
-            delta: &mut *delta,
-            velocity_changes: &mut *velocity_changes,
-        };
+        let out = PairResponse::of_cloth(&c, (v, rest), (&mut *delta, &mut *velocity_changes));
         listed_self_pairs_at(leaf, &c, tree, owned, (x, x_prev), escaped, lists, out);
     }
     Ok(())
@@ -445,14 +438,7 @@ fn walk_all_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (x, x_prev, v, rest) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>(), rest.slice::<Vec4>());
     let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
     for leaf in 0..threads.min(c.leaf_count) {
-        let out = PairResponse {
-            thickness: c.thickness,
-            friction: c.friction,
-            v,
-            rest,
-            delta: &mut *delta,
-            velocity_changes: &mut *velocity_changes,
-        };
+        let out = PairResponse::of_cloth(&c, (v, rest), (&mut *delta, &mut *velocity_changes));
         self_triangle_contact_at(leaf, &c, tree, owned, (x, x_prev), out);
     }
     Ok(())
@@ -492,14 +478,7 @@ fn walk_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (queue, queue_args) = (queue.slice_mut::<u32>(), queue_args.first_mut::<DispatchArgs>()?);
     let health = health.first_mut::<Health>()?;
     for i in 0..threads.min(walking) {
-        let out = PairResponse {
-            thickness: c.thickness,
-            friction: c.friction,
-            v,
-            rest,
-            delta: &mut *delta,
-            velocity_changes: &mut *velocity_changes,
-        };
+        let out = PairResponse::of_cloth(&c, (v, rest), (&mut *delta, &mut *velocity_changes));
         let leaf = walkers[i as usize];
         walk_self_pairs_at(leaf, &c, tree, owned, (x, x_prev), tables, (&mut *queue, &mut *queue_args), out);
         if tables.1[leaf as usize] != LIST_OVERFLOWED {

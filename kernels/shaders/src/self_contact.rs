@@ -577,7 +577,25 @@ pub struct PairResponse<'a> {
     pub velocity_changes: &'a mut [u32],
 }
 
-impl PairResponse<'_> {
+impl<'a> PairResponse<'a> {
+    /// The response of a cloth's own pairs, at its self-collision thickness and friction
+    /// (`self_params`).
+    #[inline]
+    pub fn of_cloth(
+        self_params: &ColliderParams,
+        (v, rest): (&'a [Vec4], &'a [Vec4]),
+        (delta, velocity_changes): (&'a mut [u32], &'a mut [u32]),
+    ) -> Self {
+        PairResponse {
+            thickness: self_params.thickness,
+            friction: self_params.friction,
+            v,
+            rest,
+            delta,
+            velocity_changes,
+        }
+    }
+
     /// Point `i`'s velocity: a particle's (`weight` > 0, it moves in response), else `unmoved`.
     /// (A method, not a closure: rust-gpu cannot compile closures that capture slices.)
     #[inline]
@@ -699,6 +717,14 @@ pub fn closest_between_segments(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> (f32, f32
         s = ((bb - cc) * (1.0 / aa)).clamp(0.0, 1.0);
     }
     (s, t)
+}
+
+/// The vector from the closest point of segment `c`-`d` to that of `a`-`b`
+/// (`closest_between_segments`): its length is how far apart the segments are.
+#[inline]
+pub fn segments_offset(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> Vec3 {
+    let (s, t) = closest_between_segments(a, b, c, d);
+    (a + (b - a) * s) - (c + (d - c) * t)
 }
 
 /// The correction of edge `a`-`b` against edge `c`-`d` (their ends `then`, at the substep's
@@ -919,8 +945,7 @@ pub fn touched_at_rest_vertex_face(rest: &[Vec4], p: u32, face: UVec4, thickness
 pub fn touched_at_rest_edges(rest: &[Vec4], ids: UVec4, thickness: f32) -> bool {
     let (a, b) = (rest[ids.x as usize].xyz(), rest[ids.y as usize].xyz());
     let (c, d) = (rest[ids.z as usize].xyz(), rest[ids.w as usize].xyz());
-    let (s, t) = closest_between_segments(a, b, c, d);
-    ((a + (b - a) * s) - (c + (d - c) * t)).length_squared() < thickness * thickness
+    segments_offset(a, b, c, d).length_squared() < thickness * thickness
 }
 
 /// Corner `k` of `vertex` against triangle `face` (skipped when it is one of the face's, and

@@ -34,8 +34,8 @@
 use crate::atomics;
 use crate::lbvh::{PairBoxes, PairWalk, REFIT_THREADS, WALK_BATCH};
 use crate::self_contact::{
-    Corners, PairResponse, SelfTree, TrianglePairs, closest_between_segments, closest_with_weights, collapsed,
-    frame_of, longest_side2, pair_mask, place_cloth_triangle, self_triangle_contact_at, triangle_pair, triangle_query,
+    Corners, PairResponse, SelfTree, TrianglePairs, closest_with_weights, collapsed, frame_of, longest_side2,
+    pair_mask, place_cloth_triangle, segments_offset, self_triangle_contact_at, triangle_pair, triangle_query,
 };
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
@@ -509,8 +509,7 @@ fn edges_pair(e: &AnchoredTriangle, k: usize, f: &AnchoredTriangle, m: usize, th
     }
     let (a, b) = (e.corners[k], e.corners[(k + 1) % 3]);
     let (c, d) = (f.corners[m], f.corners[(m + 1) % 3]);
-    let (s, t) = closest_between_segments(a.start, b.start, c.start, d.start);
-    let offset = (a.start + (b.start - a.start) * s) - (c.start + (d.start - c.start) * t);
+    let offset = segments_offset(a.start, b.start, c.start, d.start);
     let moves = [a.motion - c.motion, a.motion - d.motion, b.motion - c.motion, b.motion - d.motion];
     let slops = a.slop.max(b.slop) + c.slop.max(d.slop);
     kept_pair(offset, moves, (slops, thickness))
@@ -1115,14 +1114,7 @@ pub fn listed_self_pairs(
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    let out = PairResponse {
-        thickness: self_params.thickness,
-        friction: self_params.friction,
-        v,
-        rest: rest_shape,
-        delta,
-        velocity_changes,
-    };
+    let out = PairResponse::of_cloth(self_params, (v, rest_shape), (delta, velocity_changes));
     listed_self_pairs_at(id.x, self_params, tree, owned, (x, x_prev), (escaped, strays), (lists, counts), out);
 }
 
@@ -1148,14 +1140,7 @@ pub fn self_triangle_contact(
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    let out = PairResponse {
-        thickness: self_params.thickness,
-        friction: self_params.friction,
-        v,
-        rest: rest_shape,
-        delta,
-        velocity_changes,
-    };
+    let out = PairResponse::of_cloth(self_params, (v, rest_shape), (delta, velocity_changes));
     self_triangle_contact_at(id.x, self_params, tree, owned, (x, x_prev), out);
 }
 
@@ -1187,14 +1172,7 @@ pub fn walk_self_pairs(
         return;
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    let out = PairResponse {
-        thickness: self_params.thickness,
-        friction: self_params.friction,
-        v,
-        rest: rest_shape,
-        delta,
-        velocity_changes,
-    };
+    let out = PairResponse::of_cloth(self_params, (v, rest_shape), (delta, velocity_changes));
     let leaf = walkers[id.x as usize];
     walk_self_pairs_at(leaf, self_params, tree, owned, (x, x_prev), (escaped, counts), (queue, queue_args), out);
     if counts[leaf as usize] != LIST_OVERFLOWED {
@@ -1223,14 +1201,7 @@ pub fn test_queued_pairs(
     if id.x >= queued_pairs(queue, queue_args) {
         return;
     }
-    let mut out = PairResponse {
-        thickness: self_params.thickness,
-        friction: self_params.friction,
-        v,
-        rest: rest_shape,
-        delta,
-        velocity_changes,
-    };
+    let mut out = PairResponse::of_cloth(self_params, (v, rest_shape), (delta, velocity_changes));
     test_queued_pair_at(id.x, (sorted, owned), (x, x_prev), queue, &mut out);
 }
 
