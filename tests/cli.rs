@@ -162,6 +162,29 @@ fn json_report_and_quiet() {
     assert_eq!(report["intersections_final_frame"]["cloth_cloth"], 0);
 }
 
+/// `--json` gives each awake frame's wall time and GPU span and the substeps it ran, in order,
+/// with the frame numbers: one entry per frame of a swing that never sleeps, their median the
+/// report's median, every frame at the bound's substeps (nothing raises them).
+#[test]
+fn json_report_gives_every_frame_s_times_and_substeps() {
+    let report = json_report("per-frame", &["--scene", "swing", "--grid", "16", "--frames", "6", "--sleep", "0"]);
+    let numbers = |v: &serde_json::Value| -> Vec<f64> {
+        v.as_array().unwrap_or_else(|| panic!("an array, got {v}")).iter().map(|x| x.as_f64().unwrap()).collect()
+    };
+    let (timings, schedule) = (&report["timings"], &report["schedule"]);
+    let walls = numbers(&timings["wall_ms_per_frame"]);
+    let spans = numbers(&timings["gpu_us_frame_span_per_frame"]);
+    assert_eq!((walls.len(), spans.len()), (6, 6), "{timings}");
+    assert!(walls.iter().chain(&spans).all(|&t| t > 0.0), "{timings}");
+    let mut sorted = walls.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = 0.5 * (sorted[2] + sorted[3]);
+    assert!((median - timings["wall_ms_median"].as_f64().unwrap()).abs() < 1e-9, "{timings}");
+    assert_eq!(numbers(&schedule["awake_frame_numbers"]), [1.0, 2.0, 3.0, 4.0, 5.0, 6.0], "{schedule}");
+    let bound = report["stability"]["substeps"].as_f64().unwrap();
+    assert_eq!(numbers(&schedule["substeps_per_frame"]), vec![bound; 6], "{schedule}");
+}
+
 /// The JSON report of a quiet run with `args` (`name` keeps runs of parallel tests apart).
 fn json_report(name: &str, args: &[&str]) -> serde_json::Value {
     let path = std::env::temp_dir().join(format!("drape-{name}-{}.json", std::process::id()));

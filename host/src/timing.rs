@@ -71,6 +71,14 @@ impl TimingReport {
     pub fn median_wall_ms(&self) -> f64 {
         median(&self.wall_ms)
     }
+    /// Each frame's wall time (ms), in the order they were added.
+    pub fn wall_ms_per_frame(&self) -> &[f64] {
+        &self.wall_ms
+    }
+    /// Each frame's GPU span (µs, `median_span_micros`), in order; empty without timestamps.
+    pub fn span_micros_per_frame(&self) -> &[f64] {
+        &self.gpu_span
+    }
     /// Fastest frame (ms): on a noisy (shared, virtual) machine the least disturbed measurement.
     pub fn min_wall_ms(&self) -> f64 {
         self.wall_ms.iter().copied().fold(f64::INFINITY, f64::min)

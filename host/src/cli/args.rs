@@ -206,8 +206,9 @@ pub(crate) struct Args {
     #[arg(long, value_name = "FILE.usda")]
     pub(crate) usd: Option<PathBuf>,
     /// Write the run's report as JSON to this file (setup, stability, substeps and sleep,
-    /// per-pass GPU timings, wall times, collision counters, accuracy, intersections), for
-    /// scripts and CI dashboards. Checked writable before any work.
+    /// per-pass GPU timings, wall times, collision counters, accuracy, intersections, and each
+    /// awake frame's wall time, GPU span and substeps), for scripts and CI dashboards. Checked
+    /// writable before any work.
     #[arg(long, value_name = "FILE")]
     pub(crate) json: Option<PathBuf>,
     /// Frames to simulate (1/60 s each).

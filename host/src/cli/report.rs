@@ -163,6 +163,8 @@ pub(crate) fn print_accuracy(a: &Accuracy, frames: u32, seconds: f64) {
 #[derive(Default)]
 pub(crate) struct Schedule {
     pub(crate) substeps: Vec<u32>,
+    /// The number of each awake frame (from 1), as `substeps`.
+    pub(crate) awake_frames: Vec<u32>,
     pub(crate) asleep: u32,
     pub(crate) first_asleep: Option<u32>,
     pub(crate) asleep_wall_ms: Vec<f64>,
@@ -179,6 +181,7 @@ impl Schedule {
             self.first_asleep.get_or_insert(frame);
         } else {
             self.substeps.push(substeps);
+            self.awake_frames.push(frame);
         }
     }
 
@@ -245,6 +248,8 @@ impl Schedule {
             "substeps_max": sorted.last(),
             "stability_bound_substeps": bound,
             "frames_raised_for_contact": sorted.iter().filter(|&&n| n > bound).count(),
+            "substeps_per_frame": self.substeps,
+            "awake_frame_numbers": self.awake_frames,
             "frames_asleep": self.asleep,
             "first_frame_asleep": self.first_asleep,
             "asleep_wall_ms_median": (!self.asleep_wall_ms.is_empty()).then(|| drape::timing::median(&self.asleep_wall_ms)),
@@ -303,6 +308,10 @@ pub(crate) fn timings_json(report: &TimingReport, timestamps: bool) -> Value {
         "gpu_us_per_frame_median": timestamps.then(|| report.median_gpu_micros()),
         "gpu_us_frame_span_median": timestamps.then(|| report.median_span_micros()),
         "gpu_us_frame_span_fastest": timestamps.then(|| report.min_span_micros()),
+        // Frame by frame (awake frames, in order: `schedule.awake_frame_numbers`): which frames
+        // cost what (a contact burst, a list rebuild), where the medians hide it.
+        "wall_ms_per_frame": report.wall_ms_per_frame(),
+        "gpu_us_frame_span_per_frame": timestamps.then(|| report.span_micros_per_frame()),
         "passes": if timestamps { Value::Array(passes) } else { Value::Null },
         "skipped": report.skipped(),
     })
