@@ -1201,6 +1201,14 @@ fn self_collision_passes_follow_the_motion_and_the_contact() {
     assert_validation_clean(&ctx);
 }
 
+/// The radius of the sphere the cloths of `cloth_over_sphere` fall on, and its collider: a
+/// tessellated sphere (1280 facets) at 5 mm, friction 0.5.
+fn sphere_collider() -> (f32, Collider) {
+    let radius = 0.3;
+    let mesh = drape::Mesh::icosphere(radius, 3);
+    (radius, Collider::mesh(&mesh, 0.005).with_friction(0.5))
+}
+
 /// A 24 x 24 cloth of 0.8 m lying flat at `height` over the origin, with `self_collision`.
 fn cloth_over_sphere(height: f32, self_collision: Option<f32>) -> drape::Cloth {
     drape::ClothBuilder::new(24, 24)
@@ -1222,9 +1230,7 @@ fn cloth_over_sphere(height: f32, self_collision: Option<f32>) -> drape::Cloth {
 #[test]
 fn a_smooth_collider_holds_a_self_colliding_cloth_as_it_holds_any() {
     let ctx = context();
-    let radius = 0.3;
-    let mesh = drape::Mesh::icosphere(radius, 3);
-    let collider = Collider::mesh(&mesh, 0.005).with_friction(0.5);
+    let (radius, collider) = sphere_collider();
     let settle = |self_collision: Option<f32>| {
         let cloth = cloth_over_sphere(radius + 0.03, self_collision);
         let settings = SimSettings::default().with_timestamps(false);
@@ -1268,9 +1274,7 @@ fn a_smooth_collider_holds_a_self_colliding_cloth_as_it_holds_any() {
 fn a_cloth_touching_itself_at_rest_falls_as_without_self_collision() {
     use drape_kernels::self_contact::touched_at_rest_vertex_face;
     let ctx = context();
-    let radius = 0.3;
-    let mesh = drape::Mesh::icosphere(radius, 3);
-    let collider = Collider::mesh(&mesh, 0.005).with_friction(0.5);
+    let (radius, collider) = sphere_collider();
     let thickness = 0.03;
     let build = |self_collision: Option<f32>| cloth_over_sphere(radius + 0.3, self_collision);
     // The premise: vertices lie within the thickness of faces they are not corners of.
