@@ -276,6 +276,80 @@ fn bad_mesh_cloths_are_refused_and_loose_vertices_pinned() {
     assert_eq!(sim.positions(CLOTH).unwrap().last(), cloth.positions.last());
 }
 
+/// A `width x depth` sheet of `columns x rows` vertices in the y = 0 plane, each cell split
+/// along its diagonal.
+fn sheet(columns: u32, rows: u32, (width, depth): (f32, f32)) -> ClothMesh {
+    let mut vertices = Vec::new();
+    for r in 0..rows {
+        for c in 0..columns {
+            let (u, v) = (c as f32 / (columns - 1) as f32, r as f32 / (rows - 1) as f32);
+            vertices.push(Vec3::new((u - 0.5) * width, 0.0, (v - 0.5) * depth));
+        }
+    }
+    let mut triangles = Vec::new();
+    for r in 0..rows - 1 {
+        for c in 0..columns - 1 {
+            let a = r * columns + c;
+            triangles.push([a, a + 1, a + columns + 1]);
+            triangles.push([a, a + columns + 1, a + columns]);
+        }
+    }
+    ClothMesh::from_parts(vertices, triangles).unwrap()
+}
+
+/// The pull (N) a mesh cloth's structural springs give its half beyond its middle when the
+/// whole cloth is stretched 1 % along x (no gravity, at rest, bend springs off): the tension
+/// across the cut.
+fn tension_along_x(mesh: ClothMesh) -> f32 {
+    let cloth = ClothBuilder::from_mesh(mesh).gravity(Vec3::ZERO).stiffness(40.0, 10.0, 0.0).build().unwrap();
+    let s = springs_of(&cloth);
+    let centre = cloth.positions.iter().map(|p| p.x).sum::<f32>() / cloth.positions.len() as f32;
+    let stretched: Vec<Vec4> =
+        cloth.positions.iter().map(|p| Vec4::new(centre + (p.x - centre) * 1.01, p.y, p.z, p.w)).collect();
+    let mut pull = 0.0;
+    for i in 0..cloth.particle_count() as u32 {
+        if stretched[i as usize].x > centre {
+            let a = acceleration_springs(&cloth.params, i, &stretched, &cloth.velocities, &s.particles, &s.springs);
+            pull -= a.x / s.particles[i as usize].inverse_mass;
+        }
+    }
+    pull
+}
+
+/// Each structural spring stands for the material around it (`cloth_mesh::structural_scale`),
+/// so the same 1 x 0.5 m sheet is one material in square cells of 5 cm and in cells 2 cm along
+/// x and 12.5 cm across: stretched alike, it pulls back alike. With one stiffness for every
+/// spring the thin cells pulled 0.13 of the square ones (a sheet's tension goes as its cells'
+/// width over their length), and a strip of cells 5 mm by 50 cm hung 1.6-2.2x stretched over
+/// the standard scene's sphere. Van Gelder's weights leave the two at 0.80 (a square cell's
+/// diagonal takes a share of the tension, a thin cell's almost none); bend springs keep one
+/// stiffness (with them the ratio is 0.69).
+#[test]
+fn a_mesh_cloth_is_one_material_whatever_its_triangles_shapes() {
+    let square = tension_along_x(sheet(21, 11, (1.0, 0.5)));
+    let thin = tension_along_x(sheet(51, 5, (1.0, 0.5)));
+    let ratio = thin / square;
+    assert!(square > 0.0 && (0.75..=1.25).contains(&ratio), "tension {thin} N (thin cells) against {square} N");
+}
+
+/// A needle's short edge would take a stiffness that needs many times the substeps: its scale
+/// is capped (`MAX_STIFFNESS_SCALE`), counted for the build's warning.
+#[test]
+fn a_needle_triangle_s_short_edge_is_capped() {
+    use drape::cloth_mesh::{MAX_STIFFNESS_SCALE, structural_scale};
+    assert_eq!(structural_scale(0.5, 1.0), 0.5);
+    assert_eq!(structural_scale(1.0, 1e-4), MAX_STIFFNESS_SCALE);
+    assert_eq!(structural_scale(0.0, 1.0), 1.0, "an edge of flat triangles keeps its family's stiffness");
+    assert_eq!(structural_scale(1.0, 0.0), 1.0, "an edge of no length too");
+    let needle = ClothMesh::from_parts(
+        vec![Vec3::ZERO, Vec3::new(0.001, 0.0, 0.0), Vec3::new(0.0005, 0.0, 1.0), Vec3::new(0.0005, 0.0, -1.0)],
+        vec![[0, 1, 2], [0, 3, 1]],
+    )
+    .unwrap();
+    let cloth = ClothBuilder::from_mesh(needle).build().unwrap();
+    assert_eq!(springs_of(&cloth).capped_edges(), 1, "the 1 mm edge between two 1 m needles");
+}
+
 /// Runtime stiffness changes reach a mesh cloth's bound: ten times stiffer needs more substeps.
 #[test]
 fn stiffening_a_mesh_cloth_raises_its_substeps() {

@@ -438,7 +438,17 @@ impl ClothBuilder {
         let mut params = self.params(count as u32, self.mass / used as f32);
         // The force on the whole cloth is spread over the particles that carry mass.
         params.external_force = (self.external_force / used as f32).extend(0.0);
-        let topology = ClothTopology::Springs(SpringTopology::of_mesh(&world, &triangles, &masses));
+        let springs = SpringTopology::of_mesh(&world, &triangles, &masses);
+        let capped = springs.capped_edges();
+        if capped > 0 {
+            log::warn!(
+                "cloth mesh: {capped} edges are much shorter than their triangles are wide (needle or cap triangles): \
+                 their springs are capped at {}x the structural stiffness, so the cloth is softer there than the rest; \
+                 remesh to triangles closer to equilateral for one material throughout",
+                crate::cloth_mesh::MAX_STIFFNESS_SCALE
+            );
+        }
+        let topology = ClothTopology::Springs(springs);
         let uvs = mesh.uvs.clone().map(|mut uvs| {
             if self.transform.determinant() < 0.0 {
                 uvs.triangles = uvs.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect();

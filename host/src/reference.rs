@@ -6,12 +6,13 @@
 use crate::cloth::{Cloth, ClothTopology};
 use glam::DVec3;
 
-/// One spring: particle indices, stiffness, rest length.
+/// One spring: particle indices, stiffness, damping along its axis, rest length.
 #[derive(Copy, Clone, Debug)]
 struct Spring {
     a: usize,
     b: usize,
     k: f64,
+    c: f64,
     rest: f64,
 }
 
@@ -28,7 +29,6 @@ pub struct ReferenceCloth {
     mean_mass: f64,
     gravity: DVec3,
     external: DVec3,
-    spring_damping: f64,
     velocity_damping: f64,
 }
 
@@ -44,8 +44,10 @@ impl ReferenceCloth {
                     for s in &topology.springs[particle.first as usize..(particle.first + particle.count) as usize] {
                         let b = s.other as usize;
                         if a < b {
-                            let k = drape_kernels::cloth::stiffness(p, s.family) as f64;
-                            springs.push(Spring { a, b, k, rest: (x[b] - x[a]).length() });
+                            let scale = s.stiffness_scale as f64;
+                            let k = drape_kernels::cloth::stiffness(p, s.family) as f64 * scale;
+                            let c = p.spring_damping as f64 * scale;
+                            springs.push(Spring { a, b, k, c, rest: (x[b] - x[a]).length() });
                         }
                     }
                 }
@@ -66,7 +68,6 @@ impl ReferenceCloth {
             mean_mass: p.particle_mass as f64,
             gravity: p.gravity.truncate().as_dvec3(),
             external: p.external_force.truncate().as_dvec3(),
-            spring_damping: p.spring_damping as f64,
             velocity_damping: p.velocity_damping as f64,
         }
     }
@@ -84,7 +85,7 @@ impl ReferenceCloth {
                 continue;
             }
             let u = d / len;
-            let force = u * (s.k * (len - s.rest) + self.spring_damping * (v[s.b] - v[s.a]).dot(u));
+            let force = u * (s.k * (len - s.rest) + s.c * (v[s.b] - v[s.a]).dot(u));
             f[s.a] += force;
             f[s.b] -= force;
         }
@@ -155,7 +156,7 @@ impl ReferenceCloth {
             let u = d / len;
             let along = glam::DMat3::from_cols(u * u.x, u * u.y, u * u.z);
             let block_k = along * s.k + (glam::DMat3::IDENTITY - along) * (s.k * (1.0 - s.rest / len));
-            let block_c = along * self.spring_damping;
+            let block_c = along * s.c;
             for (a, b, sign) in [(s.a, s.a, 1.0), (s.b, s.b, 1.0), (s.a, s.b, -1.0), (s.b, s.a, -1.0)] {
                 if slot[a] == usize::MAX || slot[b] == usize::MAX {
                     continue;
@@ -205,7 +206,7 @@ fn grid_springs(cloth: &Cloth) -> Vec<Spring> {
                 let (a, b) = ((r * cols + c) as usize, (r2 * cols + c2) as usize);
                 let offset = drape_kernels::cloth::SpringOffset { d_row: dr as i32, d_col: dc as i32, family: 0 };
                 let rest = drape_kernels::cloth::rest_length(p, offset) as f64;
-                springs.push(Spring { a, b, k: k as f64, rest });
+                springs.push(Spring { a, b, k: k as f64, c: p.spring_damping as f64, rest });
             }
         }
     }

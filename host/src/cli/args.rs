@@ -221,7 +221,9 @@ pub(crate) struct Args {
     #[arg(long, value_enum, default_value = "rk4")]
     pub(crate) integrator: IntegratorArg,
     /// Structural, shear and bend stiffness (N/m) as K_STRUCT,K_SHEAR,K_BEND, each in
-    /// [0, 1e6].
+    /// [0, 1e6]. A `--cloth-mesh` has structural and bend springs only, each structural one
+    /// scaled by the area of its edge's triangles over its squared length (1 on a square grid's
+    /// inner sides), so the mesh is one material whatever its triangles' shapes.
     #[arg(long, value_parser = parse_stiffness, default_value = "40,10,2")]
     pub(crate) stiffness: Vec3,
     /// Damping along spring axes (N s/m), in [0, 100].

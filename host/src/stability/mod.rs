@@ -59,13 +59,14 @@ pub struct Stability {
 
 /// What the bound needs of a cloth's springs beyond its parameters: for a grid nothing (an
 /// interior particle has 4 springs per family and the mean mass); for a spring list, the
-/// distinct (springs per family, inverse mass) of its particles, so stiffness changes at run
-/// time get an exact Gershgorin bound without the list.
+/// distinct (summed stiffness scales per family, inverse mass) of its particles (a spring of
+/// scale 1 counts once: `Spring::stiffness_scale`), so stiffness changes at run time get an
+/// exact Gershgorin bound without the list.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub enum SpringProfile {
     #[default]
     Grid,
-    Listed(Vec<([u32; 3], f32)>),
+    Listed(Vec<([f32; 3], f32)>),
 }
 
 impl SpringProfile {
@@ -73,18 +74,20 @@ impl SpringProfile {
         let ClothTopology::Springs(topology) = &cloth.topology else {
             return SpringProfile::Grid;
         };
-        let mut classes: Vec<([u32; 3], f32)> = topology
+        let mut classes: Vec<([f32; 3], f32)> = topology
             .particles
             .iter()
             .map(|p| {
-                let mut counts = [0u32; 3];
+                let mut scales = [0f32; 3];
                 for s in &topology.springs[p.first as usize..(p.first + p.count) as usize] {
-                    counts[s.family.min(2) as usize] += 1;
+                    scales[s.family.min(2) as usize] += s.stiffness_scale;
                 }
-                (counts, p.inverse_mass)
+                (scales, p.inverse_mass)
             })
             .collect();
-        classes.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        let by_scales =
+            |a: &[f32; 3], b: &[f32; 3]| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])).then(a[2].total_cmp(&b[2]));
+        classes.sort_unstable_by(|a, b| by_scales(&a.0, &b.0).then(a.1.total_cmp(&b.1)));
         classes.dedup();
         // Of two classes with the same counts only the lighter particle can be the stiffest.
         classes.dedup_by(|later, kept| {
@@ -122,8 +125,8 @@ pub fn spectral_bounds(p: &SimParams, profile: &SpringProfile) -> (f32, f32) {
         SpringProfile::Listed(classes) => {
             let (mut omega2, mut gamma): (f32, f32) = (0.0, 0.0);
             for &([structural, shear, bend], inverse_mass) in classes {
-                let k_sum = structural as f32 * k(STRUCTURAL) + shear as f32 * k(SHEAR) + bend as f32 * k(BEND);
-                let c_sum = (structural + shear + bend) as f32 * p.spring_damping;
+                let k_sum = structural * k(STRUCTURAL) + shear * k(SHEAR) + bend * k(BEND);
+                let c_sum = (structural + shear + bend) * p.spring_damping;
                 omega2 = omega2.max(2.0 * k_sum * inverse_mass);
                 gamma = gamma.max(2.0 * c_sum * inverse_mass);
             }

@@ -146,7 +146,8 @@ pub fn acceleration(p: &SimParams, index: u32, pos: &[Vec4], vel: &[Vec4]) -> Ve
 }
 
 /// Acceleration (m/s^2) of particle `index` of a spring-list cloth (one built from a mesh):
-/// its own springs (`particles[index]`), gravity, and the external force and velocity damping
+/// its own springs (`particles[index]`, each at its `Spring::stiffness_scale` of its family's
+/// stiffness and damping), gravity, and the external force and velocity damping
 /// per unit of the mean particle mass, so a light particle and a heavy one drift alike in wind
 /// and a uniform cloth behaves as the grid does. `pos.w` is the pin weight.
 pub fn acceleration_springs(
@@ -167,9 +168,9 @@ pub fn acceleration_springs(
     while s < end {
         let spring = springs[s as usize];
         force += spring_force(
-            stiffness(p, spring.family),
+            stiffness(p, spring.family) * spring.stiffness_scale,
             spring.rest,
-            p.spring_damping,
+            p.spring_damping * spring.stiffness_scale,
             xi,
             vi,
             load(pos, spring.other).xyz(),

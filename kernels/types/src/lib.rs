@@ -138,8 +138,9 @@ pub struct Health {
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
 /// its ends: every spring is stored at both ends, so each particle gathers its own force and
-/// no thread writes another's. Its stiffness is its family's (`SimParams::k_struct`, ...), so
-/// runtime stiffness changes apply to every cloth alike.
+/// no thread writes another's. Its stiffness and damping are its family's (`SimParams::k_struct`,
+/// ..., `SimParams::spring_damping`) times its `stiffness_scale`, so runtime stiffness changes
+/// apply to every cloth alike.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 #[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
@@ -150,7 +151,11 @@ pub struct Spring {
     pub rest: f32,
     /// Spring family: `drape_kernels::cloth::{STRUCTURAL, SHEAR, BEND}`.
     pub family: u32,
-    pub _pad: u32,
+    /// What share of its family's stiffness and damping the spring has: 1 for a grid's and a
+    /// bend spring; for a structural spring on a mesh's edge, the area of the edge's triangles
+    /// over its squared rest length (Van Gelder 1998), 1 on a square grid's sides, so a mesh of
+    /// long thin triangles is the same material as a regular one.
+    pub stiffness_scale: f32,
 }
 
 /// A particle of a spring-list cloth: its springs are `springs[first..first + count]`.
