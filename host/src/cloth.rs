@@ -135,6 +135,9 @@ impl ClothBuilder {
         self.mass = mass;
         self
     }
+    /// Spring stiffness (N/m) per family. A mesh cloth (`from_mesh`) has structural and bend
+    /// springs only, each structural one at `k_struct` times its `Spring::stiffness_scale` (the
+    /// area of its edge's triangles over its squared length: 1 on a square grid's inner sides).
     pub fn stiffness(mut self, k_struct: f32, k_shear: f32, k_bend: f32) -> Self {
         (self.k_struct, self.k_shear, self.k_bend) = (k_struct, k_shear, k_bend);
         self
