@@ -185,8 +185,9 @@ pub const MAX_STIFFNESS_SCALE: f32 = 16.0;
 /// "Approximate simulation of elastic membranes by triangulated spring meshes"), at most
 /// `MAX_STIFFNESS_SCALE`. With one stiffness for every spring, a sheet's stiffness across a row
 /// of cells goes as the cells' width over their length: a strip of triangles 5 mm along it and
-/// 50 cm across stretched 1.6x under its own weight, where a regular mesh of the same sheet
-/// stretches a few percent. With the scale each spring stands for the material around it, so
+/// 50 cm across hung 1.6-2.2x stretched over the standard scene's sphere, where a regular mesh
+/// of the same sheet stretched a few percent. With the scale each spring stands for the
+/// material around it, so
 /// the cloth is one material whatever its triangles' shapes. Inside a square grid a side gets 1
 /// (two half cells over a side squared), so `k_struct` means on a mesh what it means on the grid;
 /// a cell's diagonal gets 1/2, a side on the boundary 1/2. An edge of no length or no area
