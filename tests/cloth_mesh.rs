@@ -633,3 +633,108 @@ fn cli_pile_scene_reports_exact_intersections() {
     assert!(without > 500, "without self-collision the strip crosses itself ({without})");
     assert!(with * 20 < without, "self-collision must remove nearly all crossings: {without} -> {with}");
 }
+
+/// A `size` m square sheet of `n x n` vertices at height `y`, as OBJ text with UVs.
+fn sheet_obj(n: u32, size: f32, y: f32) -> String {
+    let mesh = sheet(n, n, (size, size));
+    let mut text = String::new();
+    for v in &mesh.vertices {
+        text += &format!("v {} {} {}\nvt {} {}\n", v.x, y, v.z, 0.5 + v.x / size, 0.5 + v.z / size);
+    }
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| i + 1);
+        text += &format!("f {a}/{a} {b}/{b} {c}/{c}\n");
+    }
+    text
+}
+
+/// `--cloth-mesh` given twice makes the two files pieces of one cloth (`ClothMesh::join`): a
+/// 0.6 m sheet and the same sheet 2 cm above it, dropped on the standard scene's sphere. With
+/// self-collision on, no frame has the pieces through each other and the upper one lies on the
+/// lower at the end; off, the two rest at the same height, one through the other (the pieces
+/// meet only through self-collision). A scene file takes the pieces as a list of paths beside it,
+/// and `--print-scene` writes them back as one.
+#[test]
+fn cli_cloth_mesh_pieces_are_one_cloth_that_keeps_them_apart() {
+    let dir = temp_dir("pieces");
+    std::fs::write(dir.join("lower.obj"), sheet_obj(12, 0.6, 0.0)).unwrap();
+    std::fs::write(dir.join("upper.obj"), sheet_obj(12, 0.6, 0.02)).unwrap();
+    std::fs::write(dir.join("pieces.toml"), "cloth-mesh = [\"lower.obj\", \"upper.obj\"]\nframes = 60\n").unwrap();
+    // The centre particle's height on the upper piece over the lower's at the last frame.
+    let run = |self_collision: &str| {
+        let frames = dir.join(format!("frames-{self_collision}"));
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+            .arg("--scene-file")
+            .arg(dir.join("pieces.toml"))
+            .args(["--self-collision", self_collision, "--check-every-frame", "--no-timestamps", "--obj-dir"])
+            .arg(&frames)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&output.stdout).to_string();
+        assert!(output.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
+        let names = format!("cloth: mesh {} + {} (288 particles, 484 triangles, UVs)", "lower.obj", "upper.obj");
+        let shown = stdout.lines().find(|l| l.starts_with("cloth: mesh")).unwrap_or_default().to_string();
+        let paths_only = shown.replace(&format!("{}/", std::path::absolute(&dir).unwrap().display()), "");
+        assert!(paths_only.starts_with(&names), "{shown}\n{stdout}");
+        let frame = std::fs::read_to_string(frames.join("frame_00060.obj")).unwrap();
+        let heights: Vec<f32> = frame
+            .lines()
+            .filter_map(|l| l.strip_prefix("v "))
+            .map(|l| l.split_whitespace().nth(1).unwrap().parse().unwrap())
+            .collect();
+        assert_eq!(heights.len(), 288);
+        let centre = 6 * 12 + 6;
+        (heights[144 + centre] - heights[centre], stdout)
+    };
+    let (apart, stdout) = run("on");
+    assert!(stdout.contains("intersections (exact, every frame): frames with any 0 of 60"), "{stdout}");
+    assert!(apart > 0.003, "the upper piece lies {apart} m over the lower one, under the 5 mm thickness\n{stdout}");
+    let (through, stdout) = run("off");
+    assert!(through.abs() < 0.001, "without self-collision the pieces rest {through} m apart\n{stdout}");
+    assert!(!stdout.contains("frames with any 0 of 60"), "without self-collision the pieces cross\n{stdout}");
+    let printed = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+        .arg("--scene-file")
+        .arg(dir.join("pieces.toml"))
+        .arg("--print-scene")
+        .output()
+        .unwrap();
+    let printed = String::from_utf8_lossy(&printed.stdout);
+    let absolute = |name: &str| std::path::absolute(dir.join(name)).unwrap().display().to_string();
+    let list = format!("cloth-mesh = [\"{}\", \"{}\"]", absolute("lower.obj"), absolute("upper.obj"));
+    assert!(printed.lines().any(|l| l == list), "{printed}");
+    for bad in ["[]", "[\"lower.obj\", 3]"] {
+        std::fs::write(dir.join("bad.toml"), format!("cloth-mesh = {bad}\n")).unwrap();
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+            .arg("--scene-file")
+            .arg(dir.join("bad.toml"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "cloth-mesh = {bad}: {stderr}");
+        assert!(stderr.contains("line 1: `cloth-mesh` takes a path or a list of paths"), "{stderr}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `ClothMesh::join`: each piece's vertices follow the last's, its triangles and texture
+/// coordinates renumbered with them; a piece without UVs leaves the whole cloth without.
+#[test]
+fn joined_pieces_follow_one_another() {
+    let quad = |x: f32| {
+        let vertices = vec![Vec3::new(x, 0.0, 0.0), Vec3::new(x + 1.0, 0.0, 0.0), Vec3::new(x, 0.0, 1.0)];
+        ClothMesh::from_parts(vertices, vec![[0, 1, 2]]).unwrap()
+    };
+    let mut a = quad(0.0);
+    a.uvs = Some(drape::cloth_mesh::ClothUvs { coords: vec![glam::Vec2::ZERO; 4], triangles: vec![[0, 3, 2]] });
+    let mut b = quad(5.0);
+    b.uvs = Some(drape::cloth_mesh::ClothUvs { coords: vec![glam::Vec2::ONE; 3], triangles: vec![[2, 1, 0]] });
+    let joined = ClothMesh::join(&[a.clone(), b.clone()]);
+    assert_eq!(joined.vertices.len(), 6);
+    assert_eq!(joined.vertices[3], Vec3::new(5.0, 0.0, 0.0));
+    assert_eq!(joined.triangles, vec![[0, 1, 2], [3, 4, 5]]);
+    let uvs = joined.uvs.expect("both pieces have UVs");
+    assert_eq!((uvs.coords.len(), uvs.triangles), (7, vec![[0, 3, 2], [6, 5, 4]]));
+    assert!(ClothMesh::join(&[a, quad(9.0)]).uvs.is_none());
+    let cloth = ClothBuilder::from_mesh(ClothMesh::join(&[b.clone(), b])).build().unwrap();
+    assert_eq!(cloth.structural_springs().len(), 6, "no spring joins the pieces");
+}

@@ -96,6 +96,34 @@ impl ClothMesh {
         (ClothMesh { vertices, triangles, uvs }, joined)
     }
 
+    /// The pieces as one cloth mesh, in order: each piece's vertices follow the pieces' before
+    /// it (a particle's index is its vertex's index in its piece plus the vertices of the
+    /// pieces before), its triangles with them; texture coordinates are kept when every piece
+    /// has them. One cloth, so its self-collision keeps the pieces apart as it keeps one piece
+    /// from itself (a skirt under a coat, a sheet over a sheet), which two cloths of one model
+    /// do not; welded (`weld_coincident`), pieces whose edges meet at the same positions are
+    /// sewn together there.
+    pub fn join(pieces: &[ClothMesh]) -> ClothMesh {
+        let mut joined = ClothMesh::default();
+        let mut uvs = Some(ClothUvs::default());
+        for piece in pieces {
+            let base = joined.vertices.len() as u32;
+            joined.vertices.extend_from_slice(&piece.vertices);
+            joined.triangles.extend(piece.triangles.iter().map(|t| t.map(|i| i + base)));
+            uvs = match (uvs, &piece.uvs) {
+                (Some(mut all), Some(own)) if own.triangles.len() == piece.triangles.len() => {
+                    let coords = all.coords.len() as u32;
+                    all.coords.extend_from_slice(&own.coords);
+                    all.triangles.extend(own.triangles.iter().map(|t| t.map(|i| i + coords)));
+                    Some(all)
+                }
+                _ => None,
+            };
+        }
+        joined.uvs = uvs.filter(|_| !pieces.is_empty());
+        joined
+    }
+
     /// A `rows x cols` grid of `size` (m) in the XZ plane centred on the origin, as a mesh: the
     /// grid cloth's particles and triangles, with UVs across the grid.
     pub fn grid(rows: u32, cols: u32, size: f32) -> Self {

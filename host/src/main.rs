@@ -81,8 +81,9 @@ fn main() -> ExitCode {
 }
 
 /// The cloth of `--cloth-mesh`, placed for `scene` (see the flag).
-fn mesh_cloth(path: &std::path::Path, weld: bool, scene: Option<&DrapeScene>) -> drape::Result<ClothBuilder> {
-    let mut mesh = ClothMesh::load_obj(path)?;
+fn mesh_cloth(paths: &[std::path::PathBuf], weld: bool, scene: Option<&DrapeScene>) -> drape::Result<ClothBuilder> {
+    let pieces = paths.iter().map(|p| ClothMesh::load_obj(p)).collect::<drape::Result<Vec<_>>>()?;
+    let mut mesh = ClothMesh::join(&pieces);
     if weld {
         let (welded, joined) = mesh.weld_coincident();
         say!("cloth mesh: --weld joined {joined} vertices into others ({} particles left)", welded.vertices.len());
@@ -160,12 +161,11 @@ fn run(args: &Args) -> drape::Result<()> {
             builder
         }
     };
-    let builder = match &args.cloth_mesh {
-        Some(path) => {
-            let wind = if args.scene == SceneArg::Swing { args.wind } else { Vec3::ZERO };
-            mesh_cloth(path, args.weld, scene.as_ref())?.external_force(wind)
-        }
-        None => builder.listed_springs(args.listed_springs),
+    let builder = if args.cloth_mesh.is_empty() {
+        builder.listed_springs(args.listed_springs)
+    } else {
+        let wind = if args.scene == SceneArg::Swing { args.wind } else { Vec3::ZERO };
+        mesh_cloth(&args.cloth_mesh, args.weld, scene.as_ref())?.external_force(wind)
     };
     let builder = args.pin_vertices.iter().fold(builder, |b, &i| b.pin_vertex(i));
     let builder = match args.pin_box {

@@ -127,9 +127,11 @@ pub(crate) struct Args {
     /// The cloth from a triangle mesh (OBJ): one particle per vertex in the file's order, springs
     /// on its edges and across them, UVs kept. In the drape scene it is centred over the
     /// collider, its lowest point 5 cm above the top; in the swing scene it stays where the
-    /// file puts it.
-    #[arg(long, conflicts_with = "grid")]
-    pub(crate) cloth_mesh: Option<PathBuf>,
+    /// file puts it. Given again, the files are pieces of one cloth (a skirt and a coat, two
+    /// sheets): their vertices follow one another in the order given (pin indices count that
+    /// way), and with --self-collision on the pieces keep apart as the cloth does from itself.
+    #[arg(long, conflicts_with = "grid", action = clap::ArgAction::Append)]
+    pub(crate) cloth_mesh: Vec<PathBuf>,
     /// Join the `--cloth-mesh` vertices that lie at exactly the same position, as a file split
     /// at UV or normal seams has them (many exporters write one vertex per UV): without it the
     /// cloth comes apart along those seams (drape warns). The particles are then the joined
@@ -326,10 +328,10 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
             return Some(format!("{flag} does nothing in the garment scene, whose collider is its body"));
         }
     }
-    if id == "grid" && args.cloth_mesh.is_some() {
+    if id == "grid" && !args.cloth_mesh.is_empty() {
         return Some("--grid does nothing with --cloth-mesh, whose mesh is the cloth".into());
     }
-    if id == "weld" && args.cloth_mesh.is_none() {
+    if id == "weld" && args.cloth_mesh.is_empty() {
         return Some("--weld only applies to a cloth from --cloth-mesh (a grid has no seams to join)".into());
     }
     if id == "wind" && args.scene != SceneArg::Swing {

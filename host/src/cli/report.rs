@@ -88,9 +88,13 @@ impl Rollbacks {
 /// What the setup line says the cloth is.
 pub(crate) fn cloth_description(args: &Args, builder: &ClothBuilder) -> String {
     let shape = match (&args.cloth_mesh, &builder.mesh) {
-        (path, Some(mesh)) => format!(
+        (paths, Some(mesh)) => format!(
             "mesh {} ({} particles, {} triangles{})",
-            path.as_ref().map_or("of the scene".to_string(), |p| p.display().to_string()),
+            if paths.is_empty() {
+                "of the scene".to_string()
+            } else {
+                paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" + ")
+            },
             mesh.vertices.len(),
             mesh.triangles.len(),
             if mesh.uvs.is_some() { ", UVs" } else { "" }

@@ -1,5 +1,6 @@
 //! Scene files: `--scene-file FILE.toml` holds any of the flags as `key = value` (the long flag's
-//! name, `grid = 64`, `pin-box = [-1, 0.9, -1, 1, 1, 1]`, `no-timestamps = true`), and flags typed
+//! name, `grid = 64`, `pin-box = [-1, 0.9, -1, 1, 1, 1]`, `no-timestamps = true`, a list of paths
+//! for a flag given once per file, `cloth-mesh = ["a.obj", "b.obj"]`), and flags typed
 //! on the command line override it. The file's values go through the flags' own parsers and
 //! checks, so a bad value gets the flag's message, prefixed with the file, line and key. An
 //! unknown key or a value of the wrong kind is a usage error naming the key and its line.
@@ -137,7 +138,12 @@ fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
                 usage(line, format!("unknown key `{key}`: the keys are the long flags (`drape --help` lists them)"))
             })?;
         let flag = format!("--{}", arg.get_long().unwrap_or(&id));
-        let args = if arg.get_action().takes_values() {
+        let args = if reads_several_files(arg, &id) && value.is_array() {
+            // A flag given again per file (`cloth-mesh = ["a.obj", "b.obj"]`): once per file.
+            let files = file_list(value)
+                .ok_or_else(|| usage(line, format!("`{key}` takes a path or a list of paths (strings), not empty")))?;
+            files.iter().map(|f| format!("{flag}={}", beside(scene_dir(path), &id, f))).collect()
+        } else if arg.get_action().takes_values() {
             let mut value = flag_value(value).ok_or_else(|| usage(line, format!("`{key}` takes {}", kind_of(arg))))?;
             if READ_FROM_FILES.contains(&id.as_str()) {
                 value = beside(scene_dir(path), &id, &value);
@@ -155,6 +161,18 @@ fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
     }
     entries.sort_by_key(|e| e.line);
     Ok(entries)
+}
+
+/// Whether a key names files the run reads and its flag may be given again, one file each
+/// (`cloth-mesh`): its value may be a list of paths.
+fn reads_several_files(arg: &clap::Arg, id: &str) -> bool {
+    READ_FROM_FILES.contains(&id) && matches!(arg.get_action(), clap::ArgAction::Append)
+}
+
+/// A list of paths (`reads_several_files`); None when it is empty or holds anything but strings.
+fn file_list(value: &toml::Value) -> Option<Vec<String>> {
+    let items = value.as_array().filter(|items| !items.is_empty())?;
+    items.iter().map(|v| v.as_str().map(str::to_string)).collect()
 }
 
 /// What a flag's value looks like, for the wrong-kind message.
@@ -246,8 +264,16 @@ pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
             if READ_FROM_FILES.contains(&id) {
                 // Absolute, so the printed file reads the same mesh wherever it is saved.
                 values = values.iter().map(|v| beside(Path::new("."), id, v)).collect();
+                if values.len() > 1 {
+                    // Files, each its own string (a path may hold a comma).
+                    let files = values.iter().map(|v| toml::Value::String(v.clone()).to_string());
+                    format!("[{}]", files.collect::<Vec<_>>().join(", "))
+                } else {
+                    toml_value(&values.join(","))
+                }
+            } else {
+                toml_value(&values.join(","))
             }
-            toml_value(&values.join(","))
         };
         match unused(args, id) {
             Some(reason) => out += &format!("# {key} = {value}    # unused: {reason}\n"),
