@@ -215,8 +215,8 @@ pub const MAX_STIFFNESS_SCALE: f32 = 16.0;
 /// of cells goes as the cells' width over their length: a strip of triangles 5 mm along it and
 /// 50 cm across hung 1.6-2.2x stretched over the standard scene's sphere, where a regular mesh
 /// of the same sheet stretched a few percent. With the scale each spring stands for the
-/// material around it, so
-/// the cloth is one material whatever its triangles' shapes. Inside a square grid a side gets 1
+/// material around it, so the cloth is one material whatever its triangles' shapes. Inside a
+/// square grid a side gets 1
 /// (two half cells over a side squared), so `k_struct` means on a mesh what it means on the grid;
 /// a cell's diagonal gets 1/2, a side on the boundary 1/2. An edge of no length or no area
 /// (only flat triangles on it) keeps its family's stiffness: 1.
@@ -225,7 +225,8 @@ pub fn structural_scale(area: f32, rest: f32) -> f32 {
     if area > 0.0 && rest > 0.0 && scale.is_finite() { scale.min(MAX_STIFFNESS_SCALE) } else { 1.0 }
 }
 
-/// Each undirected edge of `triangles` (`edge_key` order) with the summed area of its triangles.
+/// Each undirected edge of `triangles` (keyed lower vertex first) with the summed area of its
+/// triangles.
 fn edge_areas(vertices: &[Vec3], triangles: &[[u32; 3]]) -> HashMap<(u32, u32), f32> {
     let mut areas: HashMap<(u32, u32), f32> = HashMap::new();
     for &t in triangles {
@@ -245,16 +246,15 @@ impl SpringTopology {
     pub fn of_mesh(vertices: &[Vec3], triangles: &[[u32; 3]], masses: &[f32]) -> Self {
         let length = |a: u32, b: u32| (vertices[a as usize] - vertices[b as usize]).length();
         let areas = edge_areas(vertices, triangles);
-        let scale = |a: u32, b: u32, family: u32, rest: f32| {
-            if family == STRUCTURAL { structural_scale(areas[&(a.min(b), a.max(b))], rest) } else { 1.0 }
-        };
         let mut families: HashMap<(u32, u32), u32> = HashMap::new();
         let mut links: Vec<Link> = Vec::new();
         let mut add = |a: u32, b: u32, family: u32, links: &mut Vec<Link>| {
-            if a != b && !families.contains_key(&(a.min(b), a.max(b))) {
-                families.insert((a.min(b), a.max(b)), family);
+            let key = (a.min(b), a.max(b));
+            if a != b && !families.contains_key(&key) {
+                families.insert(key, family);
                 let rest = length(a, b);
-                links.push((a, b, rest, family, scale(a, b, family, rest)));
+                let scale = if family == STRUCTURAL { structural_scale(areas[&key], rest) } else { 1.0 };
+                links.push((a, b, rest, family, scale));
             }
         };
         for &[a, b, c] in triangles {
@@ -327,23 +327,6 @@ impl SpringTopology {
             springs.extend(list);
         }
         SpringTopology { particles, springs, vertex_triangle_offsets: Vec::new(), vertex_triangles: Vec::new() }
-    }
-
-    /// The largest over particles of their summed spring stiffness over their mass, and of
-    /// their summed stiffness scales (each spring's share of the spring damping) over their
-    /// mass (what the stability bound needs).
-    pub fn stiffest(&self, params: &SimParams) -> (f32, f32) {
-        let mut k_per_mass: f32 = 0.0;
-        let mut springs_per_mass: f32 = 0.0;
-        for p in &self.particles {
-            let list = &self.springs[p.first as usize..(p.first + p.count) as usize];
-            let k: f32 =
-                list.iter().map(|s| drape_kernels::cloth::stiffness(params, s.family) * s.stiffness_scale).sum();
-            let damped: f32 = list.iter().map(|s| s.stiffness_scale).sum();
-            k_per_mass = k_per_mass.max(k * p.inverse_mass);
-            springs_per_mass = springs_per_mass.max(damped * p.inverse_mass);
-        }
-        (k_per_mass, springs_per_mass)
     }
 
     /// Structural springs whose stiffness scale was capped at `MAX_STIFFNESS_SCALE` (each once).

@@ -264,13 +264,11 @@ pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
             if READ_FROM_FILES.contains(&id) {
                 // Absolute, so the printed file reads the same mesh wherever it is saved.
                 values = values.iter().map(|v| beside(Path::new("."), id, v)).collect();
-                if values.len() > 1 {
-                    // Files, each its own string (a path may hold a comma).
-                    let files = values.iter().map(|v| toml::Value::String(v.clone()).to_string());
-                    format!("[{}]", files.collect::<Vec<_>>().join(", "))
-                } else {
-                    toml_value(&values.join(","))
-                }
+            }
+            if reads_several_files(arg, id) && values.len() > 1 {
+                // Files, each its own string (a path may hold a comma).
+                let files = values.iter().map(|v| toml::Value::String(v.clone()).to_string());
+                format!("[{}]", files.collect::<Vec<_>>().join(", "))
             } else {
                 toml_value(&values.join(","))
             }

@@ -89,7 +89,7 @@ impl SpringProfile {
             |a: &[f32; 3], b: &[f32; 3]| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])).then(a[2].total_cmp(&b[2]));
         classes.sort_unstable_by(|a, b| by_scales(&a.0, &b.0).then(a.1.total_cmp(&b.1)));
         classes.dedup();
-        // Of two classes with the same counts only the lighter particle can be the stiffest.
+        // Of two classes with the same scales only the lighter particle can be the stiffest.
         classes.dedup_by(|later, kept| {
             let same = later.0 == kept.0;
             if same {
