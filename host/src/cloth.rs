@@ -2,7 +2,7 @@
 //! or any triangle mesh (`ClothMesh`) with springs on its edges and across them, built by
 //! `ClothBuilder` and validated before anything reaches the GPU.
 
-use crate::cloth_mesh::{ClothMesh, ClothUvs, SpringTopology, lumped_masses};
+use crate::cloth_mesh::{ClothMesh, ClothUvs, SpringTopology, StiffnessFactors, lumped_masses};
 use crate::error::{Error, Result};
 use crate::rest_gap::closest_unshared_features;
 use drape_types::{SimParams, integrator};
@@ -15,6 +15,22 @@ pub const MAX_PARTICLES: u32 = 65_535 * drape_kernels::WORKGROUP_SIZE;
 /// Coulomb friction between a self-colliding cloth's layers unless set: fabric on fabric is
 /// about 0.3 to 0.6.
 pub const DEFAULT_SELF_FRICTION: f32 = 0.5;
+
+/// A piece's own material, where it differs from its cloth's: a mesh cloth joined from pieces
+/// (`ClothMesh::join`: a stiff coat over a soft shirt, a heavy lining) gives each piece one
+/// (`ClothBuilder::piece_material`). The pieces stay one cloth, so self-collision keeps them
+/// apart.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PieceMaterial {
+    /// Structural, shear and bend stiffness (N/m) in place of the cloth's
+    /// (`ClothBuilder::stiffness`; a mesh cloth has no shear springs). The piece's springs take
+    /// them as multiples of the cloth's, so their damping scales with them as every scaled
+    /// spring's does (`Spring::stiffness_scale`), and a stiffness set at run time scales every
+    /// piece alike.
+    pub stiffness: Option<Vec3>,
+    /// Areal density (kg/m^2) in place of the cloth's (its `mass` over its area).
+    pub density: Option<f32>,
+}
 
 /// Builder for a cloth: a rectangular grid (`new`), the fast path whose springs the kernels
 /// derive from the grid, or a triangle mesh (`from_mesh`), whose springs are listed. The grid
@@ -34,6 +50,9 @@ pub struct ClothBuilder {
     pub mass: f32,
     /// The mesh of a mesh cloth (`None`: the grid).
     pub mesh: Option<ClothMesh>,
+    /// The mesh's pieces' own materials, by piece (`ClothMesh::triangle_pieces`); a piece past
+    /// the end, or a field `None`, takes the cloth's.
+    pub piece_materials: Vec<PieceMaterial>,
     /// Self-collision thickness (m): the cloth keeps its particles this far from its own
     /// triangles (`None`: off).
     pub self_collision: Option<f32>,
@@ -77,6 +96,7 @@ impl ClothBuilder {
             length: None,
             mass: 0.2,
             mesh: None,
+            piece_materials: Vec::new(),
             self_collision: None,
             self_friction: DEFAULT_SELF_FRICTION,
             listed_springs: false,
@@ -131,8 +151,19 @@ impl ClothBuilder {
         (self.size, self.length) = (width, Some(length));
         self
     }
+    /// Total mass (kg): a grid's, split evenly; a mesh's, spread by area (its pieces with a
+    /// density of their own, `piece_material`, take theirs instead of this one's mean).
     pub fn mass(mut self, mass: f32) -> Self {
         self.mass = mass;
+        self
+    }
+    /// Piece `piece` of the mesh (`ClothMesh::join`'s list, from 0) takes `material` where it
+    /// sets one (`PieceMaterial`).
+    pub fn piece_material(mut self, piece: usize, material: PieceMaterial) -> Self {
+        if self.piece_materials.len() <= piece {
+            self.piece_materials.resize(piece + 1, PieceMaterial::default());
+        }
+        self.piece_materials[piece] = material;
         self
     }
     /// Spring stiffness (N/m) per family. A mesh cloth (`from_mesh`) has structural and bend
@@ -236,6 +267,7 @@ impl ClothBuilder {
         if !(self.self_friction.is_finite() && self.self_friction >= 0.0) {
             return bad("self_friction", format!("must be finite and >= 0, got {}", self.self_friction));
         }
+        self.check_piece_materials()?;
         for &(lo, hi) in &self.pin_boxes {
             if !(lo.is_finite() && hi.is_finite() && lo.cmple(hi).all()) {
                 return bad("pin box", format!("needs finite corners with min <= max, got {lo} and {hi}"));
@@ -294,6 +326,67 @@ impl ClothBuilder {
         // Pinned particles (w = 0) stay at rest.
         cloth.velocities = cloth.positions.iter().map(|p| (self.velocity * p.w).extend(0.0)).collect();
         Ok(cloth)
+    }
+
+    /// Each piece material names a piece the mesh has, with stiffnesses the cloth's can scale
+    /// to and a density of some mass.
+    fn check_piece_materials(&self) -> Result<()> {
+        let bad = |problem: String| Err(Error::InvalidParameter { name: "piece material", problem });
+        let set = self.piece_materials.iter().enumerate().filter(|(_, m)| **m != PieceMaterial::default());
+        let pieces = self.mesh.as_ref().map(ClothMesh::piece_count);
+        for (piece, material) in set {
+            match pieces {
+                None => {
+                    return bad(format!(
+                        "piece {piece} has a material of its own, but a grid cloth is one piece: set its \
+                         stiffness and mass instead"
+                    ));
+                }
+                Some(count) if piece >= count => {
+                    return bad(format!(
+                        "piece {piece} does not exist: the cloth mesh has {count}, counted from 0 (ClothMesh::join's list)"
+                    ));
+                }
+                _ => {}
+            }
+            if let Some(k) = material.stiffness {
+                if !(k.is_finite() && k.cmpge(Vec3::ZERO).all()) {
+                    return bad(format!("piece {piece}'s stiffness must be finite and >= 0, got {k}"));
+                }
+                let cloth = Vec3::new(self.k_struct, self.k_shear, self.k_bend);
+                let names = ["structural", "shear", "bend"];
+                if let Some(f) = (0..3).find(|&f| k[f] > 0.0 && cloth[f] == 0.0) {
+                    return bad(format!(
+                        "piece {piece} (from 0)'s {} stiffness is {} where the cloth's is 0: a piece's stiffness is a \
+                         multiple of its cloth's, which has none to scale; give the cloth a {} stiffness too",
+                        names[f], k[f], names[f]
+                    ));
+                }
+            }
+            if let Some(d) = material.density
+                && !(d.is_finite() && d > 0.0)
+            {
+                return bad(format!("piece {piece}'s density must be finite and > 0 (kg/m^2), got {d}"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Each triangle's areal density (kg/m^2) and stiffness factors: its piece's material's, or
+    /// the cloth's (`mean_density` and 1).
+    fn triangle_materials(&self, mesh: &ClothMesh, mean_density: f32) -> (Vec<f32>, Vec<StiffnessFactors>) {
+        let ratio = |piece: f32, cloth: f32| if cloth > 0.0 { piece / cloth } else { 1.0 };
+        let of_piece: Vec<(f32, StiffnessFactors)> = (0..mesh.piece_count())
+            .map(|piece| {
+                let material = self.piece_materials.get(piece).copied().unwrap_or_default();
+                let factors = material.stiffness.map_or(StiffnessFactors::default(), |k| StiffnessFactors {
+                    structural: ratio(k.x, self.k_struct),
+                    bend: ratio(k.z, self.k_bend),
+                });
+                (material.density.unwrap_or(mean_density), factors)
+            })
+            .collect();
+        (0..mesh.triangles.len()).map(|t| of_piece[mesh.piece_of(t) as usize]).unzip()
     }
 
     /// The parameters every cloth shares (the layout's fields left for the caller).
@@ -396,7 +489,9 @@ impl ClothBuilder {
             });
         }
         let world: Vec<Vec3> = mesh.vertices.iter().map(|&v| self.transform.transform_point3(v)).collect();
-        let masses = lumped_masses(&world, &mesh.triangles, self.mass);
+        let world_area: f32 = mesh.triangles.iter().map(|&t| crate::cloth_mesh::triangle_area(&world, t)).sum();
+        let (densities, stiffness_factors) = self.triangle_materials(mesh, self.mass / world_area);
+        let masses = lumped_masses(&world, &mesh.triangles, &densities);
         let mut positions: Vec<Vec4> = world.iter().map(|p| p.extend(1.0)).collect();
         let mut loose = 0;
         for (p, &m) in positions.iter_mut().zip(&masses) {
@@ -438,11 +533,13 @@ impl ClothBuilder {
             mesh.triangles.clone()
         };
         let used = masses.iter().filter(|&&m| m > 0.0).count().max(1);
-        let mut params = self.params(count as u32, self.mass / used as f32);
+        // The pieces' own densities make the cloth's mass their sum, not `self.mass`.
+        let mass: f32 = masses.iter().sum();
+        let mut params = self.params(count as u32, mass / used as f32);
         // The force on the whole cloth is spread over the particles that carry mass.
         params.external_force = (self.external_force / used as f32).extend(0.0);
-        let springs = SpringTopology::of_mesh(&world, &triangles, &masses);
-        let capped = springs.capped_edges();
+        let springs = SpringTopology::of_mesh(&world, &triangles, &masses, &stiffness_factors);
+        let capped = springs.capped_edges;
         if capped > 0 {
             log::warn!(
                 "cloth mesh: {capped} edges are much shorter than their triangles are wide (needle or cap triangles): \

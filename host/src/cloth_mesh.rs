@@ -28,13 +28,16 @@ pub struct ClothMesh {
     pub triangles: Vec<[u32; 3]>,
     /// The mesh's texture coordinates, when it has them on every face.
     pub uvs: Option<ClothUvs>,
+    /// Each triangle's piece: its mesh's place in `join`'s list, which a piece's own material
+    /// (`crate::PieceMaterial`) is given by. Empty: one piece, 0.
+    pub triangle_pieces: Vec<u32>,
 }
 
 impl ClothMesh {
     /// A cloth mesh from vertices and triangles (checked as `Mesh::from_parts` checks).
     pub fn from_parts(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Result<Self> {
         let mesh = crate::Mesh::from_parts(vertices, triangles)?;
-        Ok(ClothMesh { vertices: mesh.vertices, triangles: mesh.triangles, uvs: None })
+        Ok(ClothMesh { vertices: mesh.vertices, triangles: mesh.triangles, ..Default::default() })
     }
 
     /// Loads a Wavefront OBJ as a cloth: its `v` lines in order are the particles (a vertex is
@@ -89,11 +92,15 @@ impl ClothMesh {
         let vertices = welded_vertices(&self.vertices, &remap);
         let welded: Vec<Option<[u32; 3]>> = self.triangles.iter().map(|&t| welded_triangle(&remap, t)).collect();
         let triangles = welded.iter().flatten().copied().collect();
-        let uvs = self.uvs.as_ref().filter(|uvs| uvs.triangles.len() == self.triangles.len()).map(|uvs| ClothUvs {
-            coords: uvs.coords.clone(),
-            triangles: uvs.triangles.iter().zip(&welded).filter(|(_, w)| w.is_some()).map(|(t, _)| *t).collect(),
-        });
-        (ClothMesh { vertices, triangles, uvs }, joined)
+        let kept = |list: &[[u32; 3]]| list.iter().zip(&welded).filter(|(_, w)| w.is_some()).map(|(t, _)| *t).collect();
+        let uvs = self
+            .uvs
+            .as_ref()
+            .filter(|uvs| uvs.triangles.len() == self.triangles.len())
+            .map(|uvs| ClothUvs { coords: uvs.coords.clone(), triangles: kept(&uvs.triangles) });
+        let triangle_pieces =
+            (0..self.triangles.len()).filter(|&t| welded[t].is_some()).map(|t| self.piece_of(t)).collect();
+        (ClothMesh { vertices, triangles, uvs, triangle_pieces }, joined)
     }
 
     /// The pieces as one cloth mesh, in order: each piece's vertices follow the pieces' before
@@ -102,14 +109,19 @@ impl ClothMesh {
     /// has them. One cloth, so its self-collision keeps the pieces apart as it keeps one piece
     /// from itself (a skirt under a coat, a sheet over a sheet), which two cloths of one model
     /// do not; welded (`weld_coincident`), pieces whose edges meet at the same positions are
-    /// sewn together there.
+    /// sewn together there. Each triangle remembers its piece (`triangle_pieces`), so a piece
+    /// can have its own material (`crate::PieceMaterial`).
     pub fn join(pieces: &[ClothMesh]) -> ClothMesh {
         let mut joined = ClothMesh::default();
         let mut uvs = Some(ClothUvs::default());
+        let mut pieces_before = 0;
         for piece in pieces {
             let base = joined.vertices.len() as u32;
             joined.vertices.extend_from_slice(&piece.vertices);
             joined.triangles.extend(piece.triangles.iter().map(|t| t.map(|i| i + base)));
+            // A joined mesh joined again keeps its pieces, after the ones before.
+            joined.triangle_pieces.extend((0..piece.triangles.len()).map(|t| pieces_before + piece.piece_of(t)));
+            pieces_before += piece.piece_count() as u32;
             uvs = match (uvs, &piece.uvs) {
                 (Some(mut all), Some(own)) if own.triangles.len() == piece.triangles.len() => {
                     let coords = all.coords.len() as u32;
@@ -122,6 +134,16 @@ impl ClothMesh {
         }
         joined.uvs = uvs.filter(|_| !pieces.is_empty());
         joined
+    }
+
+    /// Triangle `t`'s piece (`triangle_pieces`; 0 when the mesh is one piece).
+    pub fn piece_of(&self, t: usize) -> u32 {
+        self.triangle_pieces.get(t).copied().unwrap_or(0)
+    }
+
+    /// How many pieces the mesh has (1 when it is one).
+    pub fn piece_count(&self) -> usize {
+        self.triangle_pieces.iter().max().map_or(1, |&p| p as usize + 1)
     }
 
     /// A `rows x cols` grid of `size` (m) in the XZ plane centred on the origin, as a mesh: the
@@ -138,7 +160,12 @@ impl ClothMesh {
             }
         }
         let triangles = crate::cloth::grid_triangles(rows, cols);
-        ClothMesh { vertices, uvs: Some(ClothUvs { coords, triangles: triangles.clone() }), triangles }
+        ClothMesh {
+            vertices,
+            uvs: Some(ClothUvs { coords, triangles: triangles.clone() }),
+            triangles,
+            triangle_pieces: Vec::new(),
+        }
     }
 
     /// An open tube (no caps) around the Y axis: `radius` (m), `height` (m) from y = 0 up,
@@ -173,7 +200,12 @@ impl ClothMesh {
                 uv_triangles.push([tb, tc, td]);
             }
         }
-        ClothMesh { vertices, triangles, uvs: Some(ClothUvs { coords, triangles: uv_triangles }) }
+        ClothMesh {
+            vertices,
+            triangles,
+            uvs: Some(ClothUvs { coords, triangles: uv_triangles }),
+            triangle_pieces: Vec::new(),
+        }
     }
 
     /// Total area (m^2).
@@ -197,6 +229,9 @@ pub struct SpringTopology {
     /// Vertex `i`'s triangles are `vertex_triangles[offsets[i]..offsets[i + 1]]`.
     pub vertex_triangle_offsets: Vec<u32>,
     pub vertex_triangles: Vec<u32>,
+    /// Structural springs whose stiffness scale's geometric share was capped at
+    /// `MAX_STIFFNESS_SCALE` (each once).
+    pub capped_edges: usize,
 }
 
 /// An undirected spring: its ends, rest length, family and stiffness scale.
@@ -225,15 +260,37 @@ pub fn structural_scale(area: f32, rest: f32) -> f32 {
     if area > 0.0 && rest > 0.0 && scale.is_finite() { scale.min(MAX_STIFFNESS_SCALE) } else { 1.0 }
 }
 
+/// A triangle's stiffness as a multiple of its cloth's, per spring family (its piece's material:
+/// `crate::PieceMaterial`): the structural springs on its edges, and the bend springs across
+/// them. 1 and 1 for a cloth of one material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StiffnessFactors {
+    pub structural: f32,
+    pub bend: f32,
+}
+
+impl Default for StiffnessFactors {
+    fn default() -> Self {
+        StiffnessFactors { structural: 1.0, bend: 1.0 }
+    }
+}
+
 /// Each undirected edge of `triangles` (keyed lower vertex first) with the summed area of its
-/// triangles.
-fn edge_areas(vertices: &[Vec3], triangles: &[[u32; 3]]) -> HashMap<(u32, u32), f32> {
-    let mut areas: HashMap<(u32, u32), f32> = HashMap::new();
-    for &t in triangles {
+/// triangles, and that area with each triangle's weighted by its structural factor.
+fn edge_areas(
+    vertices: &[Vec3],
+    triangles: &[[u32; 3]],
+    factors: &[StiffnessFactors],
+) -> HashMap<(u32, u32), (f32, f32)> {
+    let mut areas: HashMap<(u32, u32), (f32, f32)> = HashMap::new();
+    for (i, &t) in triangles.iter().enumerate() {
         let area = triangle_area(vertices, t);
+        let factor = factors.get(i).map_or(1.0, |f| f.structural);
         let [a, b, c] = t;
         for (p, q) in [(a, b), (b, c), (c, a)] {
-            *areas.entry((p.min(q), p.max(q))).or_default() += area;
+            let sums = areas.entry((p.min(q), p.max(q))).or_default();
+            sums.0 += area;
+            sums.1 += area * factor;
         }
     }
     areas
@@ -242,40 +299,61 @@ fn edge_areas(vertices: &[Vec3], triangles: &[[u32; 3]]) -> HashMap<(u32, u32), 
 impl SpringTopology {
     /// The springs of `mesh` (placed in the world: rest lengths are its edge lengths, stiffness
     /// scales from its triangles' areas: `structural_scale`) with per-vertex `masses` (kg; a
-    /// vertex of mass 0 gets inverse mass 0, i.e. it must be pinned).
-    pub fn of_mesh(vertices: &[Vec3], triangles: &[[u32; 3]], masses: &[f32]) -> Self {
+    /// vertex of mass 0 gets inverse mass 0, i.e. it must be pinned), each triangle's springs
+    /// at its `factors` (one per triangle; empty: all 1). A structural spring takes its
+    /// triangles' factors weighted by their areas (an edge between two materials is as stiff as
+    /// the material around it); a bend spring the same of the two triangles it crosses.
+    pub fn of_mesh(vertices: &[Vec3], triangles: &[[u32; 3]], masses: &[f32], factors: &[StiffnessFactors]) -> Self {
         let length = |a: u32, b: u32| (vertices[a as usize] - vertices[b as usize]).length();
-        let areas = edge_areas(vertices, triangles);
+        let areas = edge_areas(vertices, triangles, factors);
+        let factor = |t: usize| factors.get(t).copied().unwrap_or_default();
         let mut families: HashMap<(u32, u32), u32> = HashMap::new();
         let mut links: Vec<Link> = Vec::new();
-        let mut add = |a: u32, b: u32, family: u32, links: &mut Vec<Link>| {
+        let mut capped = 0;
+        let mut add = |a: u32, b: u32, family: u32, bend_factor: f32, links: &mut Vec<Link>| {
             let key = (a.min(b), a.max(b));
             if a != b && !families.contains_key(&key) {
                 families.insert(key, family);
                 let rest = length(a, b);
-                let scale = if family == STRUCTURAL { structural_scale(areas[&key], rest) } else { 1.0 };
+                let scale = if family == STRUCTURAL {
+                    let (area, weighted) = areas[&key];
+                    let geometric = structural_scale(area, rest);
+                    capped += usize::from(geometric >= MAX_STIFFNESS_SCALE);
+                    // The material's share: the triangles' factors by area (1 without area).
+                    geometric * if area > 0.0 { weighted / area } else { 1.0 }
+                } else {
+                    bend_factor
+                };
                 links.push((a, b, rest, family, scale));
             }
         };
-        for &[a, b, c] in triangles {
+        for (t, &[a, b, c]) in triangles.iter().enumerate() {
+            let own = factor(t).structural;
             for (p, q) in [(a, b), (b, c), (c, a)] {
-                add(p, q, STRUCTURAL, &mut links);
+                add(p, q, STRUCTURAL, own, &mut links);
             }
         }
         // Bend springs join the corners opposite each shared edge, for every pair of triangles
         // on it (a non-manifold edge has more than one pair).
-        let mut opposite: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-        for &[a, b, c] in triangles {
+        let mut opposite: HashMap<(u32, u32), Vec<(u32, usize)>> = HashMap::new();
+        for (t, &[a, b, c]) in triangles.iter().enumerate() {
             for (p, q, o) in [(a, b, c), (b, c, a), (c, a, b)] {
-                opposite.entry((p.min(q), p.max(q))).or_default().push(o);
+                opposite.entry((p.min(q), p.max(q))).or_default().push((o, t));
             }
         }
         let mut edges: Vec<_> = opposite.into_iter().collect();
         edges.sort_unstable_by_key(|(edge, _)| *edge); // a deterministic spring order
         for (_, corners) in &edges {
-            for (i, &o) in corners.iter().enumerate() {
-                for &o2 in &corners[i + 1..] {
-                    add(o, o2, BEND, &mut links);
+            for (i, &(o, t)) in corners.iter().enumerate() {
+                for &(o2, t2) in &corners[i + 1..] {
+                    let (area, area2) = (triangle_area(vertices, triangles[t]), triangle_area(vertices, triangles[t2]));
+                    let (bend, bend2) = (factor(t).bend, factor(t2).bend);
+                    let across = if area + area2 > 0.0 {
+                        (area * bend + area2 * bend2) / (area + area2)
+                    } else {
+                        0.5 * (bend + bend2)
+                    };
+                    add(o, o2, BEND, across, &mut links);
                 }
             }
         }
@@ -286,6 +364,7 @@ impl SpringTopology {
         }
         let mut topology = Self::of_lists(per_particle, masses);
         (topology.vertex_triangle_offsets, topology.vertex_triangles) = vertex_triangles(vertices.len(), triangles);
+        topology.capped_edges = capped;
         topology
     }
 
@@ -326,13 +405,7 @@ impl SpringTopology {
             });
             springs.extend(list);
         }
-        SpringTopology { particles, springs, vertex_triangle_offsets: Vec::new(), vertex_triangles: Vec::new() }
-    }
-
-    /// Structural springs whose stiffness scale was capped at `MAX_STIFFNESS_SCALE` (each once).
-    pub fn capped_edges(&self) -> usize {
-        let capped = self.springs.iter().filter(|s| s.family == STRUCTURAL && s.stiffness_scale >= MAX_STIFFNESS_SCALE);
-        capped.count() / 2
+        SpringTopology { particles, springs, ..Default::default() }
     }
 
     /// Each structural spring once (i < j): (i, j, rest).
@@ -372,15 +445,14 @@ fn vertex_triangles(vertex_count: usize, triangles: &[[u32; 3]]) -> (Vec<u32>, V
     (offsets, list)
 }
 
-/// Lumped masses: each triangle's share `total / area` spread evenly over its corners. A
-/// vertex of only collapsed triangles gets the smallest mass of the others (it still moves);
-/// a vertex of no triangle gets 0 (the builder pins it).
-pub fn lumped_masses(vertices: &[Vec3], triangles: &[[u32; 3]], total: f32) -> Vec<f32> {
-    let area: f32 = triangles.iter().map(|&t| triangle_area(vertices, t)).sum();
-    let density = if area > 0.0 { total / area } else { 0.0 };
+/// Lumped masses: each triangle's mass (its area times its areal density, `densities[t]` in
+/// kg/m^2) spread evenly over its corners. A vertex of only collapsed triangles gets the
+/// smallest mass of the others (it still moves); a vertex of no triangle gets 0 (the builder
+/// pins it).
+pub fn lumped_masses(vertices: &[Vec3], triangles: &[[u32; 3]], densities: &[f32]) -> Vec<f32> {
     let mut masses = vec![0.0f32; vertices.len()];
     let mut used = vec![false; vertices.len()];
-    for &t in triangles {
+    for (&t, &density) in triangles.iter().zip(densities) {
         let share = triangle_area(vertices, t) * density / 3.0;
         for v in t {
             masses[v as usize] += share;
@@ -388,7 +460,7 @@ pub fn lumped_masses(vertices: &[Vec3], triangles: &[[u32; 3]], total: f32) -> V
         }
     }
     let lightest = masses.iter().copied().filter(|&m| m > 0.0).fold(f32::INFINITY, f32::min);
-    let fallback = if lightest.is_finite() { lightest } else { total / vertices.len().max(1) as f32 };
+    let fallback = if lightest.is_finite() { lightest } else { 0.0 };
     for (m, used) in masses.iter_mut().zip(used) {
         if used && *m <= 0.0 {
             *m = fallback;
@@ -440,7 +512,7 @@ fn parse_obj(text: &str) -> std::result::Result<ClothMesh, String> {
         }
     }
     let uvs = (every_face_has_uvs && !uv_triangles.is_empty()).then_some(ClothUvs { coords, triangles: uv_triangles });
-    Ok(ClothMesh { vertices, triangles, uvs })
+    Ok(ClothMesh { vertices, triangles, uvs, triangle_pieces: Vec::new() })
 }
 
 /// A 1-based (or negative, relative) OBJ index among `count` elements defined so far, as a

@@ -86,7 +86,7 @@ pub mod timing;
 pub mod topology;
 pub mod usd;
 
-pub use cloth::{Cloth, ClothBuilder, ClothTopology, DEFAULT_SELF_FRICTION};
+pub use cloth::{Cloth, ClothBuilder, ClothTopology, DEFAULT_SELF_FRICTION, PieceMaterial};
 pub use cloth_mesh::{ClothMesh, ClothUvs};
 pub use cpu_solver::CpuSolver;
 pub use drape_types::{RigidPose, SimParams};

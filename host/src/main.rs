@@ -100,6 +100,18 @@ fn mesh_cloth(paths: &[std::path::PathBuf], weld: bool, scene: Option<&DrapeScen
     Ok(builder.transform(glam::Mat4::from_translation(shift)))
 }
 
+/// The `--piece-*` flags as each piece's material, by the library's piece index (from 0).
+fn piece_materials(args: &Args) -> std::collections::BTreeMap<usize, drape::PieceMaterial> {
+    let mut materials = std::collections::BTreeMap::<usize, drape::PieceMaterial>::new();
+    for &(piece, k) in &args.piece_stiffness {
+        materials.entry(piece - 1).or_default().stiffness = Some(k);
+    }
+    for &(piece, density) in &args.piece_density {
+        materials.entry(piece - 1).or_default().density = Some(density);
+    }
+    materials
+}
+
 fn run(args: &Args) -> drape::Result<()> {
     cli::set_quiet(args.quiet);
     check_outputs(args)?;
@@ -167,6 +179,7 @@ fn run(args: &Args) -> drape::Result<()> {
         let wind = if args.scene == SceneArg::Swing { args.wind } else { Vec3::ZERO };
         mesh_cloth(&args.cloth_mesh, args.weld, scene.as_ref())?.external_force(wind)
     };
+    let builder = piece_materials(args).into_iter().fold(builder, |b, (piece, m)| b.piece_material(piece, m));
     let builder = args.pin_vertices.iter().fold(builder, |b, &i| b.pin_vertex(i));
     let builder = match args.pin_box {
         Some((lo, hi)) => builder.pin_within(lo, hi),

@@ -132,6 +132,18 @@ pub(crate) struct Args {
     /// way), and with --self-collision on the pieces keep apart as the cloth does from itself.
     #[arg(long, conflicts_with = "grid", action = clap::ArgAction::Append)]
     pub(crate) cloth_mesh: Vec<PathBuf>,
+    /// A `--cloth-mesh` piece's own stiffness (N/m) as PIECE=K_STRUCT,K_SHEAR,K_BEND, PIECE
+    /// counting the --cloth-mesh files from 1, e.g. `--piece-stiffness 2=160,0,8` for a coat
+    /// four times as stiff as the shirt under it; given once per piece. The piece's springs take
+    /// it as a multiple of --stiffness (so their damping scales with it, and a family the cloth
+    /// has at 0 cannot be given); the other pieces keep --stiffness.
+    #[arg(long, action = clap::ArgAction::Append, value_parser = parse_piece_stiffness, value_name = "PIECE=K_STRUCT,K_SHEAR,K_BEND")]
+    pub(crate) piece_stiffness: Vec<(usize, Vec3)>,
+    /// A `--cloth-mesh` piece's own areal density (kg/m^2) as PIECE=DENSITY, PIECE counting the
+    /// --cloth-mesh files from 1, e.g. `--piece-density 2=0.4` (a heavy coat), in (0, 1000];
+    /// given once per piece. The other pieces weigh 0.2 kg/m^2.
+    #[arg(long, action = clap::ArgAction::Append, value_parser = parse_piece_density, value_name = "PIECE=DENSITY")]
+    pub(crate) piece_density: Vec<(usize, f32)>,
     /// Join the `--cloth-mesh` vertices that lie at exactly the same position, as a file split
     /// at UV or normal seams has them (many exporters write one vertex per UV): without it the
     /// cloth comes apart along those seams (drape warns). The particles are then the joined
@@ -289,11 +301,43 @@ pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), Strin
             return Err(reason);
         }
     }
+    check_pieces(args)?;
     if args.obj_every.is_some() && args.obj_dir.is_none() {
         return Err("--obj-every needs --obj-dir (the directory to write the frames into)".into());
     }
     if args.png_dir.is_some() && args.no_normals {
         return Err("--png-dir shades the cloth with its vertex normals, which --no-normals skips: drop one".into());
+    }
+    Ok(())
+}
+
+/// Each `--piece-*` flag names one of the --cloth-mesh files, once.
+fn check_pieces(args: &Args) -> Result<(), String> {
+    let files = args.cloth_mesh.len();
+    let named = [
+        ("--piece-stiffness", args.piece_stiffness.iter().map(|p| p.0).collect::<Vec<_>>()),
+        ("--piece-density", args.piece_density.iter().map(|p| p.0).collect()),
+    ];
+    for (flag, pieces) in named {
+        if let Some(piece) = pieces.iter().find(|&&p| p > files) {
+            return Err(format!(
+                "{flag} {piece}=...: there is no piece {piece}, the cloth has {files} (one per --cloth-mesh file, \
+                 counted from 1)"
+            ));
+        }
+        if let Some(piece) = pieces.iter().enumerate().find(|(i, p)| pieces[..*i].contains(p)).map(|(_, p)| p) {
+            return Err(format!("{flag} gives piece {piece} twice: give each piece once"));
+        }
+    }
+    let names = ["structural", "shear", "bend"];
+    for &(piece, k) in &args.piece_stiffness {
+        if let Some(f) = (0..3).find(|&f| k[f] > 0.0 && args.stiffness[f] == 0.0) {
+            return Err(format!(
+                "--piece-stiffness {piece}=...: its {} stiffness is {} where --stiffness has 0, and a piece's \
+                 stiffness is a multiple of the cloth's: give --stiffness a {} stiffness too",
+                names[f], k[f], names[f]
+            ));
+        }
     }
     Ok(())
 }
@@ -330,6 +374,9 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
     }
     if id == "grid" && !args.cloth_mesh.is_empty() {
         return Some("--grid does nothing with --cloth-mesh, whose mesh is the cloth".into());
+    }
+    if ["piece_stiffness", "piece_density"].contains(&id) && args.cloth_mesh.is_empty() {
+        return Some(format!("{flag} only applies to the pieces of a cloth from --cloth-mesh (one piece per file)"));
     }
     if id == "weld" && args.cloth_mesh.is_empty() {
         return Some("--weld only applies to a cloth from --cloth-mesh (a grid has no seams to join)".into());
@@ -387,6 +434,26 @@ pub(crate) fn parse_stiffness(text: &str) -> Result<Vec3, String> {
         )),
         _ => Err(format!("expected three stiffnesses K_STRUCT,K_SHEAR,K_BEND, got `{text}`")),
     }
+}
+
+/// "PIECE=VALUE" with PIECE a whole number from 1, and the value parsed by `value`.
+fn parse_piece<T>(text: &str, what: &str, value: fn(&str) -> Result<T, String>) -> Result<(usize, T), String> {
+    let (piece, rest) =
+        text.split_once('=').ok_or_else(|| format!("expected PIECE={what} (e.g. 2={what}), got `{text}`"))?;
+    match piece.trim().parse::<usize>() {
+        Ok(n) if n >= 1 => Ok((n, value(rest)?)),
+        _ => Err(format!("the piece must be a whole number from 1 (the --cloth-mesh files' order), got `{piece}`")),
+    }
+}
+
+/// "PIECE=K_STRUCT,K_SHEAR,K_BEND" (`parse_stiffness`).
+pub(crate) fn parse_piece_stiffness(text: &str) -> Result<(usize, Vec3), String> {
+    parse_piece(text, "K_STRUCT,K_SHEAR,K_BEND", parse_stiffness)
+}
+
+/// "PIECE=DENSITY", the density in (0, 1000] kg/m^2.
+pub(crate) fn parse_piece_density(text: &str) -> Result<(usize, f32), String> {
+    parse_piece(text, "DENSITY", |d| number_in(d, 0.0, 1000.0, true))
 }
 
 /// Every output the flags name can be written, checked before any setup; the error names the

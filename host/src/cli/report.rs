@@ -106,9 +106,23 @@ pub(crate) fn cloth_description(args: &Args, builder: &ClothBuilder) -> String {
             if args.listed_springs { " (listed springs)" } else { "" }
         ),
     };
+    let mut materials = String::new();
+    for (piece, m) in builder.piece_materials.iter().enumerate().filter(|(_, m)| **m != drape::PieceMaterial::default())
+    {
+        let mut own = Vec::new();
+        if let Some(k) = m.stiffness {
+            own.push(format!("stiffness {},{},{} N/m", k.x, k.y, k.z));
+        }
+        if let Some(d) = m.density {
+            own.push(format!("{d} kg/m^2"));
+        }
+        materials += &format!(", piece {} ({})", piece + 1, own.join(", "));
+    }
     match builder.self_collision {
-        Some(t) => format!("{shape}, self-collision on ({:.1} mm, friction {})", t * 1e3, builder.self_friction),
-        None => format!("{shape}, self-collision off"),
+        Some(t) => {
+            format!("{shape}{materials}, self-collision on ({:.1} mm, friction {})", t * 1e3, builder.self_friction)
+        }
+        None => format!("{shape}{materials}, self-collision off"),
     }
 }
 

@@ -1,6 +1,7 @@
 //! Scene files: `--scene-file FILE.toml` holds any of the flags as `key = value` (the long flag's
-//! name, `grid = 64`, `pin-box = [-1, 0.9, -1, 1, 1, 1]`, `no-timestamps = true`, a list of paths
-//! for a flag given once per file, `cloth-mesh = ["a.obj", "b.obj"]`), and flags typed
+//! name, `grid = 64`, `pin-box = [-1, 0.9, -1, 1, 1, 1]`, `no-timestamps = true`, a list of
+//! strings for a flag given once per item, `cloth-mesh = ["a.obj", "b.obj"]`,
+//! `piece-stiffness = ["2=160,0,8"]`), and flags typed
 //! on the command line override it. The file's values go through the flags' own parsers and
 //! checks, so a bad value gets the flag's message, prefixed with the file, line and key. An
 //! unknown key or a value of the wrong kind is a usage error naming the key and its line.
@@ -138,11 +139,19 @@ fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
                 usage(line, format!("unknown key `{key}`: the keys are the long flags (`drape --help` lists them)"))
             })?;
         let flag = format!("--{}", arg.get_long().unwrap_or(&id));
-        let args = if reads_several_files(arg, &id) && value.is_array() {
-            // A flag given again per file (`cloth-mesh = ["a.obj", "b.obj"]`): once per file.
-            let files = file_list(value)
-                .ok_or_else(|| usage(line, format!("`{key}` takes a path or a list of paths (strings), not empty")))?;
-            files.iter().map(|f| format!("{flag}={}", beside(scene_dir(path), &id, f))).collect()
+        let args = if given_per_item(arg, &id) && value.is_array() {
+            // A flag given again per item (`cloth-mesh = ["a.obj", "b.obj"]`): once per item.
+            let what = if READ_FROM_FILES.contains(&id.as_str()) {
+                "a path or a list of paths"
+            } else {
+                "a string or a list of strings"
+            };
+            let items =
+                string_list(value).ok_or_else(|| usage(line, format!("`{key}` takes {what} (strings), not empty")))?;
+            let read = |f: &String| {
+                if READ_FROM_FILES.contains(&id.as_str()) { beside(scene_dir(path), &id, f) } else { f.clone() }
+            };
+            items.iter().map(|f| format!("{flag}={}", read(f))).collect()
         } else if arg.get_action().takes_values() {
             let mut value = flag_value(value).ok_or_else(|| usage(line, format!("`{key}` takes {}", kind_of(arg))))?;
             if READ_FROM_FILES.contains(&id.as_str()) {
@@ -163,14 +172,17 @@ fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
     Ok(entries)
 }
 
-/// Whether a key names files the run reads and its flag may be given again, one file each
-/// (`cloth-mesh`): its value may be a list of paths.
-fn reads_several_files(arg: &clap::Arg, id: &str) -> bool {
-    READ_FROM_FILES.contains(&id) && matches!(arg.get_action(), clap::ArgAction::Append)
+/// Flags given again per item whose scene-file value may be a list of strings, one item each:
+/// the cloth's pieces (`cloth-mesh`) and their own materials (`piece-stiffness`, ...).
+const GIVEN_PER_ITEM: [&str; 3] = ["cloth_mesh", "piece_stiffness", "piece_density"];
+
+/// Whether key `id` is a flag given again per item (`GIVEN_PER_ITEM`).
+fn given_per_item(arg: &clap::Arg, id: &str) -> bool {
+    GIVEN_PER_ITEM.contains(&id) && matches!(arg.get_action(), clap::ArgAction::Append)
 }
 
-/// A list of paths (`reads_several_files`); None when it is empty or holds anything but strings.
-fn file_list(value: &toml::Value) -> Option<Vec<String>> {
+/// A list of strings (`given_per_item`); None when it is empty or holds anything but strings.
+fn string_list(value: &toml::Value) -> Option<Vec<String>> {
     let items = value.as_array().filter(|items| !items.is_empty())?;
     items.iter().map(|v| v.as_str().map(str::to_string)).collect()
 }
@@ -265,10 +277,12 @@ pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
                 // Absolute, so the printed file reads the same mesh wherever it is saved.
                 values = values.iter().map(|v| beside(Path::new("."), id, v)).collect();
             }
-            if reads_several_files(arg, id) && values.len() > 1 {
-                // Files, each its own string (a path may hold a comma).
-                let files = values.iter().map(|v| toml::Value::String(v.clone()).to_string());
-                format!("[{}]", files.collect::<Vec<_>>().join(", "))
+            if given_per_item(arg, id) && values.len() > 1 {
+                // Items, each its own string (a path or a stiffness may hold a comma).
+                let items = values.iter().map(|v| toml::Value::String(v.clone()).to_string());
+                format!("[{}]", items.collect::<Vec<_>>().join(", "))
+            } else if given_per_item(arg, id) {
+                toml::Value::String(values.join(",")).to_string()
             } else {
                 toml_value(&values.join(","))
             }
