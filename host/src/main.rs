@@ -126,8 +126,11 @@ fn run(args: &Args) -> drape::Result<()> {
     let mut scene = None;
     let builder = match args.scene {
         SceneArg::Swing => drape::scenes::swinging_cloth(args.grid).external_force(args.wind),
-        SceneArg::Garment => {
-            let s = drape::scenes::garment(args.grid);
+        SceneArg::Garment | SceneArg::Layers => {
+            let s = match args.scene {
+                SceneArg::Layers => drape::scenes::layered_garment(args.grid),
+                _ => drape::scenes::garment(args.grid),
+            };
             say!(
                 "body: an ellipsoid of {} triangles, turning at {} rad/s",
                 s.mesh.triangles.len(),
@@ -185,7 +188,7 @@ fn run(args: &Args) -> drape::Result<()> {
         Some((lo, hi)) => builder.pin_within(lo, hi),
         None => builder,
     };
-    let on_by_default = matches!(args.scene, SceneArg::Pile | SceneArg::Garment);
+    let on_by_default = matches!(args.scene, SceneArg::Pile | SceneArg::Garment | SceneArg::Layers);
     let self_collision = args.self_collision.unwrap_or(if on_by_default { OnOff::On } else { OnOff::Off });
     let builder =
         builder.self_collision((self_collision == OnOff::On).then_some(args.thickness)).self_friction(args.friction);
@@ -225,7 +228,7 @@ fn run(args: &Args) -> drape::Result<()> {
         s.friction = args.friction;
         let (name, motion) = match args.scene {
             SceneArg::Pile => ("ground", Motion::default()),
-            SceneArg::Garment => {
+            SceneArg::Garment | SceneArg::Layers => {
                 ("body", Motion { axis: Vec3::Y, spin_rate: drape::scenes::GARMENT_TURN_RATE, ..Motion::default() })
             }
             _ => ("collider", Motion::default()),

@@ -80,6 +80,34 @@ pub fn garment(around: u32) -> DrapeScene {
     DrapeScene { mesh: body, cloth, thickness: DEFAULT_THICKNESS, friction: DEFAULT_FRICTION }
 }
 
+/// The layered garment scene's overskirt: its gap outside the skirt (m), its length (m, from
+/// the skirt's waist down) and its material, a coat's over a skirt's: four times the default
+/// stiffness (`ClothBuilder::new`'s 40, 10, 2 N/m) and twice the density.
+pub const OVERSKIRT_GAP: f32 = 0.015;
+pub const OVERSKIRT_LENGTH: f32 = 0.3;
+pub const OVERSKIRT: crate::PieceMaterial =
+    crate::PieceMaterial { stiffness: Some(Vec3::new(160.0, 40.0, 8.0)), density: Some(0.4) };
+
+/// The layered garment scene: the garment scene (`garment`) with an overskirt around the skirt
+/// (`OVERSKIRT_GAP` outside it, `OVERSKIRT_LENGTH` long from its waist, as many particles
+/// around), a piece of the same cloth (`ClothMesh::join`) of its own material (`OVERSKIRT`).
+/// The two fall together over the turning body, the overskirt settling onto the skirt, and
+/// the cloth's self-collision keeps the layers apart as the body carries them round.
+pub fn layered_garment(around: u32) -> DrapeScene {
+    let around = around.max(8);
+    let mut scene = garment(around);
+    let (radius, length) = (0.2 + OVERSKIRT_GAP, OVERSKIRT_LENGTH);
+    let rings = ((length / (std::f32::consts::TAU * radius / around as f32)).round() as u32 + 1).max(2);
+    let mut over = crate::cloth_mesh::ClothMesh::tube(radius, length, around, rings);
+    for v in &mut over.vertices {
+        v.y += 0.5 - length; // the skirt's waist is at its local y = 0.5
+    }
+    let skirt = scene.cloth.mesh.take().unwrap_or_default();
+    let layered = ClothBuilder::from_mesh(crate::cloth_mesh::ClothMesh::join(&[skirt, over]));
+    scene.cloth = ClothBuilder { mesh: layered.mesh, mass: layered.mass, ..scene.cloth }.piece_material(1, OVERSKIRT);
+    scene
+}
+
 /// The garment scene's body rotation at time `t` (s): turned about +Y by
 /// `GARMENT_TURN_RATE * t` (it does not translate).
 pub fn garment_rotation(t: f32) -> glam::Quat {

@@ -18,6 +18,10 @@ pub(crate) enum SceneArg {
     /// An open tube of cloth (a skirt, `--grid` particles around) falls over a body that turns
     /// about its vertical axis.
     Garment,
+    /// The garment scene with an overskirt around the skirt: a piece of the same cloth of its
+    /// own material (four times as stiff, twice as heavy), kept apart from the skirt by the
+    /// cloth's self-collision.
+    Layers,
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -368,7 +372,7 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
         if args.scene == SceneArg::Pile {
             return Some(format!("{flag} does nothing in the pile scene, whose collider is the ground plane"));
         }
-        if args.scene == SceneArg::Garment {
+        if matches!(args.scene, SceneArg::Garment | SceneArg::Layers) {
             return Some(format!("{flag} does nothing in the garment scene, whose collider is its body"));
         }
     }
