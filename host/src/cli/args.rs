@@ -163,7 +163,7 @@ pub(crate) struct Args {
     pub(crate) pin_box: Option<(Vec3, Vec3)>,
     /// Self-collision: the cloth keeps `--thickness` from itself (vertex against triangle, edge
     /// against edge), and from a triangle collider's vertices and edges (so no spike or ridge
-    /// cuts a cell between particles). Default: on in the pile and garment scenes, off elsewhere.
+    /// cuts a cell between particles). Default: on in the pile, garment and layers scenes, off elsewhere.
     #[arg(long, value_enum)]
     pub(crate) self_collision: Option<OnOff>,
     /// Build the grid with listed springs (the kernels of mesh cloths) instead of its fast path:
