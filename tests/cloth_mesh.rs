@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{assert_fused_contact_equals_walk_and_cpu, assert_validation_clean, context, max_distance};
+use common::{assert_fused_contact_equals_walk_and_cpu, assert_validation_clean, context, max_distance, sheet_obj};
 use drape::cloth_mesh::SpringTopology;
 use drape::reference::ReferenceCloth;
 use drape::stability::{SpringProfile, spectral_bounds};
@@ -304,25 +304,10 @@ fn bad_mesh_cloths_are_refused_and_loose_vertices_pinned() {
     assert_eq!(sim.positions(CLOTH).unwrap().last(), cloth.positions.last());
 }
 
-/// A `width x depth` sheet of `columns x rows` vertices in the y = 0 plane, each cell split
-/// along its diagonal.
+/// A `width x depth` sheet of `columns x rows` vertices in the y = 0 plane centred on the
+/// origin, each cell split along its diagonal.
 fn sheet(columns: u32, rows: u32, (width, depth): (f32, f32)) -> ClothMesh {
-    let mut vertices = Vec::new();
-    for r in 0..rows {
-        for c in 0..columns {
-            let (u, v) = (c as f32 / (columns - 1) as f32, r as f32 / (rows - 1) as f32);
-            vertices.push(Vec3::new((u - 0.5) * width, 0.0, (v - 0.5) * depth));
-        }
-    }
-    let mut triangles = Vec::new();
-    for r in 0..rows - 1 {
-        for c in 0..columns - 1 {
-            let a = r * columns + c;
-            triangles.push([a, a + 1, a + columns + 1]);
-            triangles.push([a, a + columns + 1, a + columns]);
-        }
-    }
-    ClothMesh::from_parts(vertices, triangles).unwrap()
+    common::sheet(columns, rows, (width, depth), Vec3::new(-0.5 * width, 0.0, -0.5 * depth))
 }
 
 /// The pull (N) a mesh cloth's structural springs give its half beyond its middle when the
@@ -660,20 +645,6 @@ fn cli_pile_scene_reports_exact_intersections() {
     assert!(stdout.contains("self-collision off"), "{stdout}");
     assert!(without > 500, "without self-collision the strip crosses itself ({without})");
     assert!(with * 20 < without, "self-collision must remove nearly all crossings: {without} -> {with}");
-}
-
-/// A `size` m square sheet of `n x n` vertices at height `y`, as OBJ text with UVs.
-fn sheet_obj(n: u32, size: f32, y: f32) -> String {
-    let mesh = sheet(n, n, (size, size));
-    let mut text = String::new();
-    for v in &mesh.vertices {
-        text += &format!("v {} {} {}\nvt {} {}\n", v.x, y, v.z, 0.5 + v.x / size, 0.5 + v.z / size);
-    }
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|i| i + 1);
-        text += &format!("f {a}/{a} {b}/{b} {c}/{c}\n");
-    }
-    text
 }
 
 /// `--cloth-mesh` given twice makes the two files pieces of one cloth (`ClothMesh::join`): a

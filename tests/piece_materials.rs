@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{assert_validation_clean, context};
+use common::{assert_validation_clean, context, sheet, sheet_obj};
 use drape::cloth_mesh::SpringTopology;
 use drape::{
     Cloth, ClothBuilder, ClothId, ClothMesh, ClothTopology, CpuSolver, Error, Model, PieceMaterial, SimSettings, Solver,
@@ -16,27 +16,6 @@ use drape_kernels::cloth::{BEND, STRUCTURAL};
 use glam::{Vec3, Vec4};
 
 const CLOTH: ClothId = ClothId::new(0);
-
-/// A `columns x rows` sheet of `width x depth` (m) in the XZ plane at height `y`, its cells cut
-/// along one diagonal.
-fn sheet(columns: u32, rows: u32, (width, depth): (f32, f32), origin: Vec3) -> ClothMesh {
-    let mut vertices = Vec::new();
-    for r in 0..rows {
-        for c in 0..columns {
-            let (u, v) = (c as f32 / (columns - 1) as f32, r as f32 / (rows - 1) as f32);
-            vertices.push(origin + Vec3::new(u * width, 0.0, v * depth));
-        }
-    }
-    let mut triangles = Vec::new();
-    for r in 0..rows - 1 {
-        for c in 0..columns - 1 {
-            let a = r * columns + c;
-            triangles.push([a, a + 1, a + columns + 1]);
-            triangles.push([a, a + columns + 1, a + columns]);
-        }
-    }
-    ClothMesh::from_parts(vertices, triangles).unwrap()
-}
 
 /// A strip hanging in the XY plane: `columns x rows` vertices, `width` across and `length`
 /// down from its top row at y = 0, its left edge at `x`.
@@ -254,24 +233,6 @@ fn temp_dir(name: &str) -> std::path::PathBuf {
     let dir = std::env::temp_dir().join(format!("drape-piece-materials-{name}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir
-}
-
-/// An `n x n` sheet of `size` (m) at height `y` as OBJ text.
-fn sheet_obj(n: u32, size: f32, y: f32) -> String {
-    let mut text = String::new();
-    for r in 0..n {
-        for c in 0..n {
-            let (u, v) = (c as f32 / (n - 1) as f32 - 0.5, r as f32 / (n - 1) as f32 - 0.5);
-            text += &format!("v {} {y} {}\n", u * size, v * size);
-        }
-    }
-    for r in 0..n - 1 {
-        for c in 0..n - 1 {
-            let a = r * n + c + 1;
-            text += &format!("f {a} {} {}\nf {a} {} {}\n", a + 1, a + n + 1, a + n + 1, a + n);
-        }
-    }
-    text
 }
 
 fn drape(args: &[&str]) -> (Option<i32>, String, String) {

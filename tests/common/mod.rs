@@ -145,3 +145,39 @@ pub fn slab(size: glam::Vec3) -> drape::Mesh {
     let triangles = quads.iter().flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]]).collect();
     drape::Mesh { vertices: (0..8).map(corner).collect(), triangles }
 }
+
+/// A `width x depth` (m) sheet of `columns x rows` vertices in the XZ plane, its lowest corner at
+/// `corner`, each cell cut along its diagonal.
+pub fn sheet(columns: u32, rows: u32, (width, depth): (f32, f32), corner: glam::Vec3) -> drape::ClothMesh {
+    let mut vertices = Vec::new();
+    for r in 0..rows {
+        for c in 0..columns {
+            let (u, v) = (c as f32 / (columns - 1) as f32, r as f32 / (rows - 1) as f32);
+            vertices.push(corner + glam::Vec3::new(u * width, 0.0, v * depth));
+        }
+    }
+    let mut triangles = Vec::new();
+    for r in 0..rows - 1 {
+        for c in 0..columns - 1 {
+            let a = r * columns + c;
+            triangles.push([a, a + 1, a + columns + 1]);
+            triangles.push([a, a + columns + 1, a + columns]);
+        }
+    }
+    drape::ClothMesh::from_parts(vertices, triangles).unwrap()
+}
+
+/// A `size` m square sheet of `n x n` vertices centred over the origin at height `y`, as OBJ
+/// text with UVs.
+pub fn sheet_obj(n: u32, size: f32, y: f32) -> String {
+    let mesh = sheet(n, n, (size, size), glam::Vec3::new(-0.5 * size, y, -0.5 * size));
+    let mut text = String::new();
+    for v in &mesh.vertices {
+        text += &format!("v {} {} {}\nvt {} {}\n", v.x, v.y, v.z, 0.5 + v.x / size, 0.5 + v.z / size);
+    }
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| i + 1);
+        text += &format!("f {a}/{a} {b}/{b} {c}/{c}\n");
+    }
+    text
+}
