@@ -250,7 +250,7 @@ fn omega_max(stdout: &str) -> f32 {
 /// `--piece-stiffness` and `--piece-density` from the command line and from a scene file (a
 /// string or a list of strings) give the second piece its material: the run says so, and its
 /// stiffest mode is sqrt(4 / 2) as fast as the plain cloth's (4x the stiffness, 2x the mass);
-/// `--print-scene` writes them back; a piece the cloth does not have, one given twice, a value
+/// `--print-scene` writes them back and the JSON report lists them; a piece the cloth does not have, one given twice, a value
 /// of the wrong kind in the file and the flags without `--cloth-mesh` are usage errors.
 #[test]
 fn cli_pieces_take_their_own_materials() {
@@ -263,9 +263,14 @@ fn cli_pieces_take_their_own_materials() {
     let meshes = ["--cloth-mesh", lower, "--cloth-mesh", upper];
     let (code, plain, stderr) = drape(&[&meshes[..], &run[..]].concat());
     assert_eq!(code, Some(0), "{stderr}");
-    let flags = ["--piece-stiffness", "2=160,10,8", "--piece-density", "2=0.4"];
+    let json = dir.join("report.json");
+    let flags = ["--piece-stiffness", "2=160,10,8", "--piece-density", "2=0.4", "--json", json.to_str().unwrap()];
     let (code, own, stderr) = drape(&[&meshes[..], &run[..], &flags[..]].concat());
     assert_eq!(code, Some(0), "{stderr}");
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let expected =
+        serde_json::json!([{ "piece": 2, "stiffness_n_per_m": [160.0, 10.0, 8.0], "density_kg_per_m2": 0.4 }]);
+    assert_eq!(report["cloth"]["piece_materials"], expected, "{report}");
     assert!(own.contains("piece 2 (stiffness 160,10,8 N/m, 0.4 kg/m^2), self-collision on"), "{own}");
     let ratio = omega_max(&own) / omega_max(&plain);
     assert!((ratio - 2f32.sqrt()).abs() < 0.02, "omega_max {ratio}x the plain cloth's");

@@ -112,6 +112,23 @@ fn piece_materials(args: &Args) -> std::collections::BTreeMap<usize, drape::Piec
     materials
 }
 
+/// The pieces' own materials for the report: each piece that has one (numbered from 1, as
+/// `--piece-stiffness` counts), its stiffness (N/m) and density (kg/m^2), null where it takes
+/// the cloth's.
+fn piece_materials_json(materials: &[drape::PieceMaterial]) -> serde_json::Value {
+    let own = materials.iter().enumerate().filter(|(_, m)| **m != drape::PieceMaterial::default());
+    // As typed (0.4, not the f32's 0.4000000059604645 widened).
+    let decimal = |x: f32| x.to_string().parse::<f64>().unwrap_or(x as f64);
+    own.map(|(piece, m)| {
+        json!({
+            "piece": piece + 1,
+            "stiffness_n_per_m": m.stiffness.map(|k| [decimal(k.x), decimal(k.y), decimal(k.z)]),
+            "density_kg_per_m2": m.density.map(decimal),
+        })
+    })
+    .collect()
+}
+
 fn run(args: &Args) -> drape::Result<()> {
     cli::set_quiet(args.quiet);
     check_outputs(args)?;
@@ -197,6 +214,7 @@ fn run(args: &Args) -> drape::Result<()> {
         Some(v) => builder.velocity(v),
         None => builder,
     };
+    let pieces = piece_materials_json(&builder.piece_materials);
     let built = builder
         .stiffness(args.stiffness.x, args.stiffness.y, args.stiffness.z)
         .spring_damping(args.spring_damping)
@@ -276,7 +294,12 @@ fn run(args: &Args) -> drape::Result<()> {
     print_setup(args, &cloth_description, &sim, cloth, &settings)?;
     json.insert(
         "cloth".into(),
-        json!({ "description": cloth_description, "particles": built.particle_count(), "triangles": built.triangles.len() }),
+        json!({
+            "description": cloth_description,
+            "particles": built.particle_count(),
+            "triangles": built.triangles.len(),
+            "piece_materials": pieces,
+        }),
     );
     json.insert("integrator".into(), json!(format!("{:?}", settings.integrator)));
     json.insert("stability".into(), stability_json(sim.stability(cloth)?));
