@@ -373,7 +373,8 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
             return Some(format!("{flag} does nothing in the pile scene, whose collider is the ground plane"));
         }
         if matches!(args.scene, SceneArg::Garment | SceneArg::Layers) {
-            return Some(format!("{flag} does nothing in the garment scene, whose collider is its body"));
+            let scene = format!("{:?}", args.scene).to_lowercase();
+            return Some(format!("{flag} does nothing in the {scene} scene, whose collider is its body"));
         }
     }
     if id == "grid" && !args.cloth_mesh.is_empty() {
