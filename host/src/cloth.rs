@@ -328,13 +328,17 @@ impl ClothBuilder {
         Ok(cloth)
     }
 
+    /// The pieces (from 0) that have a material of their own, with it.
+    pub fn own_piece_materials(&self) -> impl Iterator<Item = (usize, &PieceMaterial)> {
+        self.piece_materials.iter().enumerate().filter(|(_, m)| **m != PieceMaterial::default())
+    }
+
     /// Each piece material names a piece the mesh has, with stiffnesses the cloth's can scale
     /// to and a density of some mass.
     fn check_piece_materials(&self) -> Result<()> {
         let bad = |problem: String| Err(Error::InvalidParameter { name: "piece material", problem });
-        let set = self.piece_materials.iter().enumerate().filter(|(_, m)| **m != PieceMaterial::default());
         let pieces = self.mesh.as_ref().map(ClothMesh::piece_count);
-        for (piece, material) in set {
+        for (piece, material) in self.own_piece_materials() {
             match pieces {
                 None => {
                     return bad(format!(

@@ -276,24 +276,19 @@ impl Default for StiffnessFactors {
 }
 
 /// Each undirected edge of `triangles` (keyed lower vertex first) with the summed area of its
-/// triangles, and that area with each triangle's weighted by its structural factor.
-fn edge_areas(
-    vertices: &[Vec3],
-    triangles: &[[u32; 3]],
-    factors: &[StiffnessFactors],
-) -> HashMap<(u32, u32), (f32, f32)> {
-    let mut areas: HashMap<(u32, u32), (f32, f32)> = HashMap::new();
-    for (i, &t) in triangles.iter().enumerate() {
-        let area = triangle_area(vertices, t);
+/// triangles (`areas`, per triangle), and that area with each triangle's weighted by its
+/// structural factor.
+fn edge_areas(triangles: &[[u32; 3]], areas: &[f32], factors: &[StiffnessFactors]) -> HashMap<(u32, u32), (f32, f32)> {
+    let mut sums: HashMap<(u32, u32), (f32, f32)> = HashMap::new();
+    for (i, (&[a, b, c], &area)) in triangles.iter().zip(areas).enumerate() {
         let factor = factors.get(i).map_or(1.0, |f| f.structural);
-        let [a, b, c] = t;
         for (p, q) in [(a, b), (b, c), (c, a)] {
-            let sums = areas.entry((p.min(q), p.max(q))).or_default();
-            sums.0 += area;
-            sums.1 += area * factor;
+            let edge = sums.entry((p.min(q), p.max(q))).or_default();
+            edge.0 += area;
+            edge.1 += area * factor;
         }
     }
-    areas
+    sums
 }
 
 impl SpringTopology {
@@ -305,32 +300,32 @@ impl SpringTopology {
     /// the material around it); a bend spring the same of the two triangles it crosses.
     pub fn of_mesh(vertices: &[Vec3], triangles: &[[u32; 3]], masses: &[f32], factors: &[StiffnessFactors]) -> Self {
         let length = |a: u32, b: u32| (vertices[a as usize] - vertices[b as usize]).length();
-        let areas = edge_areas(vertices, triangles, factors);
-        let factor = |t: usize| factors.get(t).copied().unwrap_or_default();
+        let triangle_areas: Vec<f32> = triangles.iter().map(|&t| triangle_area(vertices, t)).collect();
+        let edges = edge_areas(triangles, &triangle_areas, factors);
+        let bend_factor = |t: usize| factors.get(t).map_or(1.0, |f| f.bend);
         let mut families: HashMap<(u32, u32), u32> = HashMap::new();
         let mut links: Vec<Link> = Vec::new();
         let mut capped = 0;
-        let mut add = |a: u32, b: u32, family: u32, bend_factor: f32, links: &mut Vec<Link>| {
+        // A structural spring (`bend` None) on a mesh edge, or a bend spring at its factor.
+        let mut add = |a: u32, b: u32, bend: Option<f32>, links: &mut Vec<Link>| {
             let key = (a.min(b), a.max(b));
+            let family = if bend.is_some() { BEND } else { STRUCTURAL };
             if a != b && !families.contains_key(&key) {
                 families.insert(key, family);
                 let rest = length(a, b);
-                let scale = if family == STRUCTURAL {
-                    let (area, weighted) = areas[&key];
+                let scale = bend.unwrap_or_else(|| {
+                    let (area, weighted) = edges[&key];
                     let geometric = structural_scale(area, rest);
                     capped += usize::from(geometric >= MAX_STIFFNESS_SCALE);
                     // The material's share: the triangles' factors by area (1 without area).
                     geometric * if area > 0.0 { weighted / area } else { 1.0 }
-                } else {
-                    bend_factor
-                };
+                });
                 links.push((a, b, rest, family, scale));
             }
         };
-        for (t, &[a, b, c]) in triangles.iter().enumerate() {
-            let own = factor(t).structural;
+        for &[a, b, c] in triangles {
             for (p, q) in [(a, b), (b, c), (c, a)] {
-                add(p, q, STRUCTURAL, own, &mut links);
+                add(p, q, None, &mut links);
             }
         }
         // Bend springs join the corners opposite each shared edge, for every pair of triangles
@@ -341,19 +336,19 @@ impl SpringTopology {
                 opposite.entry((p.min(q), p.max(q))).or_default().push((o, t));
             }
         }
-        let mut edges: Vec<_> = opposite.into_iter().collect();
-        edges.sort_unstable_by_key(|(edge, _)| *edge); // a deterministic spring order
-        for (_, corners) in &edges {
+        let mut shared: Vec<_> = opposite.into_iter().collect();
+        shared.sort_unstable_by_key(|(edge, _)| *edge); // a deterministic spring order
+        for (_, corners) in &shared {
             for (i, &(o, t)) in corners.iter().enumerate() {
                 for &(o2, t2) in &corners[i + 1..] {
-                    let (area, area2) = (triangle_area(vertices, triangles[t]), triangle_area(vertices, triangles[t2]));
-                    let (bend, bend2) = (factor(t).bend, factor(t2).bend);
+                    let (area, area2) = (triangle_areas[t], triangle_areas[t2]);
+                    let (bend, bend2) = (bend_factor(t), bend_factor(t2));
                     let across = if area + area2 > 0.0 {
                         (area * bend + area2 * bend2) / (area + area2)
                     } else {
                         0.5 * (bend + bend2)
                     };
-                    add(o, o2, BEND, across, &mut links);
+                    add(o, o2, Some(across), &mut links);
                 }
             }
         }

@@ -115,18 +115,19 @@ fn piece_materials(args: &Args) -> std::collections::BTreeMap<usize, drape::Piec
 /// The pieces' own materials for the report: each piece that has one (numbered from 1, as
 /// `--piece-stiffness` counts), its stiffness (N/m) and density (kg/m^2), null where it takes
 /// the cloth's.
-fn piece_materials_json(materials: &[drape::PieceMaterial]) -> serde_json::Value {
-    let own = materials.iter().enumerate().filter(|(_, m)| **m != drape::PieceMaterial::default());
+fn piece_materials_json(builder: &ClothBuilder) -> serde_json::Value {
     // As typed (0.4, not the f32's 0.4000000059604645 widened).
     let decimal = |x: f32| x.to_string().parse::<f64>().unwrap_or(x as f64);
-    own.map(|(piece, m)| {
-        json!({
-            "piece": piece + 1,
-            "stiffness_n_per_m": m.stiffness.map(|k| [decimal(k.x), decimal(k.y), decimal(k.z)]),
-            "density_kg_per_m2": m.density.map(decimal),
+    builder
+        .own_piece_materials()
+        .map(|(piece, m)| {
+            json!({
+                "piece": piece + 1,
+                "stiffness_n_per_m": m.stiffness.map(|k| [decimal(k.x), decimal(k.y), decimal(k.z)]),
+                "density_kg_per_m2": m.density.map(decimal),
+            })
         })
-    })
-    .collect()
+        .collect()
 }
 
 fn run(args: &Args) -> drape::Result<()> {
@@ -214,7 +215,7 @@ fn run(args: &Args) -> drape::Result<()> {
         Some(v) => builder.velocity(v),
         None => builder,
     };
-    let pieces = piece_materials_json(&builder.piece_materials);
+    let pieces = piece_materials_json(&builder);
     let built = builder
         .stiffness(args.stiffness.x, args.stiffness.y, args.stiffness.z)
         .spring_damping(args.spring_damping)

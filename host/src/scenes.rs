@@ -72,8 +72,7 @@ pub fn garment(around: u32) -> DrapeScene {
     let body = crate::mesh::Mesh::icosphere(1.0, 3)
         .transformed(Mat4::from_translation(Vec3::new(0.0, 0.5, 0.0)) * Mat4::from_scale(Vec3::new(0.32, 0.5, 0.2)));
     let (radius, length) = (0.2, 0.5);
-    let rings = ((length / (std::f32::consts::TAU * radius / around as f32)).round() as u32 + 1).max(2);
-    let tube = crate::cloth_mesh::ClothMesh::tube(radius, length, around, rings);
+    let tube = crate::cloth_mesh::ClothMesh::tube(radius, length, around, square_rings(radius, length, around));
     let cloth = ClothBuilder::from_mesh(tube)
         .transform(Mat4::from_translation(Vec3::new(0.0, 1.05, 0.0)))
         .self_collision(Some(DEFAULT_THICKNESS));
@@ -97,8 +96,7 @@ pub fn layered_garment(around: u32) -> DrapeScene {
     let around = around.max(8);
     let mut scene = garment(around);
     let (radius, length) = (0.2 + OVERSKIRT_GAP, OVERSKIRT_LENGTH);
-    let rings = ((length / (std::f32::consts::TAU * radius / around as f32)).round() as u32 + 1).max(2);
-    let mut over = crate::cloth_mesh::ClothMesh::tube(radius, length, around, rings);
+    let mut over = crate::cloth_mesh::ClothMesh::tube(radius, length, around, square_rings(radius, length, around));
     for v in &mut over.vertices {
         v.y += 0.5 - length; // the skirt's waist is at its local y = 0.5
     }
@@ -106,6 +104,12 @@ pub fn layered_garment(around: u32) -> DrapeScene {
     let layered = ClothBuilder::from_mesh(crate::cloth_mesh::ClothMesh::join(&[skirt, over]));
     scene.cloth = ClothBuilder { mesh: layered.mesh, mass: layered.mass, ..scene.cloth }.piece_material(1, OVERSKIRT);
     scene
+}
+
+/// The rings a tube of `radius` and `length` (m) with `around` vertices per ring needs for cells
+/// about as tall as they are wide.
+fn square_rings(radius: f32, length: f32, around: u32) -> u32 {
+    ((length / (std::f32::consts::TAU * radius / around as f32)).round() as u32 + 1).max(2)
 }
 
 /// The garment scene's body rotation at time `t` (s): turned about +Y by

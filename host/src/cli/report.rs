@@ -107,8 +107,7 @@ pub(crate) fn cloth_description(args: &Args, builder: &ClothBuilder) -> String {
         ),
     };
     let mut materials = String::new();
-    for (piece, m) in builder.piece_materials.iter().enumerate().filter(|(_, m)| **m != drape::PieceMaterial::default())
-    {
+    for (piece, m) in builder.own_piece_materials() {
         let mut own = Vec::new();
         if let Some(k) = m.stiffness {
             own.push(format!("stiffness {},{},{} N/m", k.x, k.y, k.z));
