@@ -390,7 +390,7 @@ impl Controls {
                 "cloth {index}: fastest particle {} m/s, moving at {} m/s over the last substep, {} self-contact \
                  corrections, fastest pair that may touch {} m over the frame (closing {} m), {} self-collision walks, \
                  {} full lists, largest collider vertex push {} thicknesses, {} particles put back by the fail-safe{} ({} \
-                 cloth triangles through a collider's), {} crowded contacts",
+                 carried with a moving collider, {} cloth triangles through a collider's), {} crowded contacts",
                 crate::motion::max_speed(health),
                 crate::motion::max_motion(health, substep),
                 health.self_contacts,
@@ -401,6 +401,7 @@ impl Controls {
                 f32::from_bits(health.collider_feature_push_bits),
                 health.self_rollbacks,
                 if health.self_rollback_all != 0 { " (the whole cloth)" } else { "" },
+                health.self_rollbacks_carried,
                 health.self_rollback_collider_pairs,
                 health.crowded_contacts
             );

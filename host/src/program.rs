@@ -69,7 +69,8 @@ impl SolverProgram {
         let mut cloths = Vec::new();
         for (i, (cloth, (params, _, _, _, _))) in model.cloths().iter().zip(&resolved).enumerate() {
             let triangles = &cloth.triangles;
-            let mut b = ClothBuffers::declare(&mut resources, &numbered("cloth", i), cloth);
+            let colliders = model.colliders().len() as u32;
+            let mut b = ClothBuffers::declare(&mut resources, &numbered("cloth", i), cloth, colliders);
             if let Some(sleep) = settings.tile_policy() {
                 let policy = (sleep, settings.frame_dt);
                 b.tiles =

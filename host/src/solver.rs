@@ -59,6 +59,8 @@ pub struct FrameReport {
     /// Of the pairs the fail-safe found, those of a cloth triangle and a collider triangle (a
     /// collider's vertex or edge through a cloth cell, or a cloth edge through its face).
     pub self_rollback_collider_pairs: u32,
+    /// Of the particles put back, those carried with a moving collider.
+    pub self_rollbacks_carried: u32,
     /// Cloths that slept through the frame (ran nothing).
     pub cloths_asleep: u32,
     /// Tiles of the awake cloths that slept through the frame (`SimSettings::tile_sleep`),
@@ -189,6 +191,7 @@ impl Solver {
                 report.self_rollbacks += health.self_rollbacks;
                 report.self_rollbacks_whole += health.self_rollback_all;
                 report.self_rollback_collider_pairs += health.self_rollback_collider_pairs;
+                report.self_rollbacks_carried += health.self_rollbacks_carried;
                 let passes = plan.self_passes.clamp(1, plan.substeps.max(1));
                 report.self_triangle_passes += s.tree.leaves * passes;
                 // Without lists every triangle walks; with them, those that escaped and those

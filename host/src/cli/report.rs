@@ -48,6 +48,7 @@ pub(crate) struct Rollbacks {
     whole: u32,
     first_frame: Option<u32>,
     collider_pairs: u64,
+    carried: u64,
 }
 
 impl Rollbacks {
@@ -55,6 +56,7 @@ impl Rollbacks {
         self.particles += u64::from(r.self_rollbacks);
         self.whole += r.self_rollbacks_whole;
         self.collider_pairs += u64::from(r.self_rollback_collider_pairs);
+        self.carried += u64::from(r.self_rollbacks_carried);
         if r.self_rollbacks > 0 {
             self.frames += 1;
             self.first_frame.get_or_insert(frame);
@@ -67,10 +69,10 @@ impl Rollbacks {
         }
         let first = self.first_frame.map_or(String::new(), |f| format!(", the first at frame {f}"));
         format!(
-            "self-collision fail-safe: {} particles put back where their frame started (with a moving collider: \
-             carried with it), in {} of {frames} frames{first}; \
+            "self-collision fail-safe: {} particles put back where their frame started ({} of them carried with a \
+             moving collider), in {} of {frames} frames{first}; \
              whole cloth put back {} times; {} cloth triangles found through a collider's",
-            self.particles, self.frames, self.whole, self.collider_pairs
+            self.particles, self.carried, self.frames, self.whole, self.collider_pairs
         )
     }
 
@@ -81,6 +83,7 @@ impl Rollbacks {
             "first_frame": self.first_frame,
             "whole_cloth_rollbacks": self.whole,
             "collider_pairs_found": self.collider_pairs,
+            "particles_carried": self.carried,
         })
     }
 }

@@ -19,7 +19,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 59] = [
+pub const ALL: [&Kernel; 61] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &integrate::INTEGRATE_SUBSTEPS,
@@ -46,6 +46,8 @@ pub const ALL: [&Kernel; 59] = [
     &self_contact::APPLY_COLLIDER_PUSHES,
     &self_failsafe::FAILSAFE_BOXES,
     &self_failsafe::FAILSAFE_CHECK,
+    &self_failsafe::FAILSAFE_CARRIERS_TRIANGLES,
+    &self_failsafe::FAILSAFE_CARRIERS_SPHERES,
     &self_failsafe::FAILSAFE_COLLIDER_CHECK,
     &self_failsafe::FAILSAFE_ROLL_BACK,
     &sort::RADIX_COUNT,

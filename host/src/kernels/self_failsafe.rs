@@ -1,15 +1,18 @@
 //! Self-collision's fail-safe kernels (`drape_kernels::self_failsafe`): the triangles' boxes over
-//! the frame, the check of every pair of triangles at the frame's end (and of a triangle
-//! collider's sharp triangles against the cloth's), and the roll-back of the particles of the
-//! pairs found.
+//! the frame, which moving collider carries each particle, the check of every pair of triangles
+//! at the frame's end (and of a triangle collider's sharp triangles against the cloth's), and
+//! the roll-back of the particles of the pairs found.
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
+use drape_kernels::contact::LeafKind;
 use drape_kernels::self_failsafe::{
-    CHECK_THREADS, Found, WITH_LISTS, Walkers, check_collider_triangle_at, check_frame_at, frame_box_at,
-    note_everything, roll_back_at,
+    CHECK_THREADS, Carriers, Found, WITH_LISTS, Walkers, carriers_at, check_collider_triangle_at, check_frame_at,
+    frame_box_at, note_everything, roll_back_at,
 };
-use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health};
+use drape_kernels::spheres::Spheres;
+use drape_kernels::triangles::Triangles;
+use drape_types::{Aabb, BvhNode, CarrierPush, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health};
 use glam::{UVec4, Vec4};
 
 const fn read(name: &'static str) -> BindingSpec {
@@ -52,13 +55,50 @@ pub static FAILSAFE_CHECK: Kernel = Kernel {
             read("strays"),
             read("lists"),
             read("counts"),
+            read("carriers"),
+            read("carrier_poses"),
             write("flags"),
             write("counters"),
+            write("carried"),
         ],
         push_constant_size: size_of::<FailsafePush>() as u32,
         workgroup_size: CHECK_THREADS,
     },
     cpu: check_cpu,
+};
+
+/// The bindings of the carriers passes (`drape_kernels::self_failsafe::carriers_at`).
+pub const CARRIERS_BINDINGS: &[BindingSpec] = &[
+    read("params"),
+    read("collider"),
+    read("pose"),
+    read("nodes"),
+    read("aabbs"),
+    read("leaf_bounds"),
+    read("leaves"),
+    read("anchors"),
+    write("carriers"),
+    write("carrier_poses"),
+];
+
+pub static FAILSAFE_CARRIERS_TRIANGLES: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_failsafe::failsafe_carriers_triangles",
+        bindings: CARRIERS_BINDINGS,
+        push_constant_size: size_of::<CarrierPush>() as u32,
+        workgroup_size: CHECK_THREADS,
+    },
+    cpu: carriers_cpu::<Triangles>,
+};
+
+pub static FAILSAFE_CARRIERS_SPHERES: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_failsafe::failsafe_carriers_spheres",
+        bindings: CARRIERS_BINDINGS,
+        push_constant_size: size_of::<CarrierPush>() as u32,
+        workgroup_size: CHECK_THREADS,
+    },
+    cpu: carriers_cpu::<Spheres>,
 };
 
 pub static FAILSAFE_COLLIDER_CHECK: Kernel = Kernel {
@@ -126,18 +166,59 @@ fn boxes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 fn check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let push: FailsafePush = d.push_as();
     let threads = d.invocations();
-    let [self_params, nodes, aabbs, leaf_bounds, sorted, x, anchors, escaped, strays, lists, counts, flags, counters] =
-        d.bindings()?;
+    let [
+        self_params,
+        nodes,
+        aabbs,
+        leaf_bounds,
+        sorted,
+        x,
+        anchors,
+        escaped,
+        strays,
+        lists,
+        counts,
+        carriers,
+        carrier_poses,
+        flags,
+        counters,
+        carried,
+    ] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let (x, anchors) = (x.slice::<Vec4>(), anchors.slice::<Vec4>());
-    let (flags, counters) = (flags.slice_mut::<u32>(), counters.slice_mut::<u32>());
+    let carriers = Carriers { carriers: carriers.slice::<u32>(), poses: carrier_poses.slice::<ColliderPose>() };
+    let (flags, counters, carried) =
+        (flags.slice_mut::<u32>(), counters.slice_mut::<u32>(), carried.slice_mut::<u32>());
     let pairs = counters.get_mut(2 * push.round as usize).ok_or("fail-safe round out of range")?;
     let walkers = Walkers { escaped: escaped.slice::<u32>(), counts: counts.slice::<u32>() };
     let with_lists = (push.flags & WITH_LISTS != 0, walkers, lists.slice::<u32>(), strays.slice::<f32>());
     for leaf in 0..threads.min(c.leaf_count) {
-        let found = Found { flags: &mut *flags, pairs: &mut *pairs };
-        check_frame_at(leaf, &c, tree, (x, anchors), with_lists, found);
+        let found = Found { flags: &mut *flags, pairs: &mut *pairs, carried: &mut *carried };
+        check_frame_at(leaf, &c, tree, (x, anchors, carriers), with_lists, found);
+    }
+    Ok(())
+}
+
+/// CPU adapter of leaf kind `K`'s carriers pass (`CARRIERS_BINDINGS`).
+fn carriers_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String>
+where
+    K::Leaf: bytemuck::Pod,
+{
+    let push: CarrierPush = d.push_as();
+    let threads = d.invocations();
+    let [params, collider, pose, nodes, aabbs, leaf_bounds, leaves, anchors, carriers, carrier_poses] = d.bindings()?;
+    let p: drape_types::SimParams = params.first()?;
+    let (c, pose): (ColliderParams, ColliderPose) = (collider.first()?, pose.first()?);
+    let tree =
+        (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), leaves.slice::<K::Leaf>());
+    let (anchors, carriers, poses) =
+        (anchors.slice::<Vec4>(), carriers.slice_mut::<u32>(), carrier_poses.slice_mut::<ColliderPose>());
+    if push.slot as usize >= poses.len() {
+        return Err("a carriers pass's collider slot is past the carrier poses".into());
+    }
+    for i in 0..threads.min(p.particle_count) {
+        carriers_at::<K>(i, (push.slot, p.particle_count), (&c, &pose), tree, anchors, (&mut *carriers, &mut *poses));
     }
     Ok(())
 }
@@ -182,8 +263,8 @@ fn collider_check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         if 3 * t as usize + 2 >= mesh.2.len() {
             return Err("a listed sharp triangle is past the collider's triangles".into());
         }
-        let found = Found { flags: &mut *flags, pairs: &mut *pairs };
-        let marks = (found, &mut *carried, &mut *health);
+        let found = Found { flags: &mut *flags, pairs: &mut *pairs, carried: &mut *carried };
+        let marks = (found, &mut *health);
         check_collider_triangle_at(t, mesh, &c, tree, (x, anchors), marks);
     }
     Ok(())
@@ -205,7 +286,8 @@ fn roll_back_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     }
     for i in 0..threads.min(p.particle_count) {
         let next = (&mut *next_check, &mut *next_rollback);
-        roll_back_at(i, &push, (&mut *x, &mut *v), (anchors, &mut *carried), flags, counters, next, health);
+        let push = (&push, p.substep);
+        roll_back_at(i, push, (&mut *x, &mut *v), (anchors, &mut *carried), flags, counters, next, health);
     }
     Ok(())
 }

@@ -54,7 +54,8 @@ pub struct ClothBuffers {
 }
 
 impl ClothBuffers {
-    pub fn declare(resources: &mut Resources, name: &str, cloth: &Cloth) -> Self {
+    /// `colliders`: how many the model has (the fail-safe keeps a pose of each).
+    pub fn declare(resources: &mut Resources, name: &str, cloth: &Cloth, colliders: u32) -> Self {
         let particles = cloth.params.particle_count;
         let triangles = cloth.triangles.len() as u32;
         let springs = match &cloth.topology {
@@ -89,7 +90,7 @@ impl ClothBuffers {
             springs,
             self_contact: cloth
                 .self_collision
-                .map(|_| SelfContactBuffers::declare(resources, name, particles, triangles)),
+                .map(|_| SelfContactBuffers::declare(resources, name, (particles, triangles), colliders)),
             tiles: None,
         }
     }
@@ -327,7 +328,8 @@ pub fn frame_steps(
     }
     if let Some(s) = cloth.self_contact.as_ref().filter(|_| plan.self_failsafe) {
         let collider_buffers: Vec<_> = colliders.iter().map(|(collider, _)| *collider).collect();
-        s.failsafe.frame_end_steps((s, &cloth.self_contact_cloth()), plan.self_lists, &collider_buffers, &mut steps);
+        let frame = (plan.self_lists, plan.substeps);
+        s.failsafe.frame_end_steps((s, &cloth.self_contact_cloth()), frame, &collider_buffers, &mut steps);
     }
     if !plan.normals {
         steps.push(Step::Skip { label: "normals" });

@@ -74,6 +74,9 @@ pub trait ContactLeaves {
     /// (`kernels::contact::UPDATE_CONTACT_BINDINGS`, `..._SPRINGS_BINDINGS` for a spring-list
     /// cloth).
     fn update_contact_kernel(&self, springs: bool) -> &'static Kernel;
+    /// Which particles of a self-colliding cloth the collider carries when the fail-safe puts
+    /// them back (`kernels::self_failsafe::CARRIERS_BINDINGS`).
+    fn failsafe_carriers_kernel(&self) -> &'static Kernel;
     /// Builds the tree from the leaves' input.
     fn build_steps(&self) -> Vec<Step>;
     /// Refits the tree after the input moved (same leaves).

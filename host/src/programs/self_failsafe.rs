@@ -2,9 +2,10 @@
 //! the frame's end, the self-collision tree refit to each triangle's box over the frame, every
 //! pair of triangles tested for intersection at the end (and each triangle collider's sharp
 //! triangles against the cloth's), and the particles of the pairs that cross there (and did not
-//! at the start) put back where the frame found them; the rounds after
-//! the first run only when the one before put a particle back (indirect dispatches the
-//! roll-back writes).
+//! at the start) put back where the frame found them (with the collider that carries them, for
+//! those near a collider that moved: each collider's carriers pass, before the first round);
+//! the rounds after the first run only when the one before put a particle back (indirect
+//! dispatches the roll-back writes).
 
 use super::contact::{ColliderBuffers, ColliderLeaves};
 use super::empty_dispatch;
@@ -12,8 +13,10 @@ use super::self_contact::{SelfContactBuffers, SelfContactCloth};
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_failsafe::{FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_COLLIDER_CHECK, FAILSAFE_ROLL_BACK};
 use drape_kernels::WORKGROUP_SIZE;
-use drape_kernels::self_failsafe::{CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, WITH_LISTS};
-use drape_types::{DispatchArgs, FailsafePush};
+use drape_kernels::self_failsafe::{
+    CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, SUBSTEPS_SHIFT, WITH_LISTS,
+};
+use drape_types::{CarrierPush, ColliderPose, DispatchArgs, FailsafePush};
 
 /// The timing table's line of the fail-safe's check (every round's).
 pub const FAILSAFE_CHECK_LABEL: &str = "self: fail-safe check";
@@ -22,6 +25,8 @@ pub const FAILSAFE_CHECK_LABEL: &str = "self: fail-safe check";
 pub const FAILSAFE_COLLIDER_CHECK_LABEL: &str = "self: fail-safe collider check";
 /// The timing table's line of the fail-safe's roll-back (every round's).
 pub const FAILSAFE_ROLL_BACK_LABEL: &str = "self: fail-safe roll-back";
+/// The timing table's line of the fail-safe's carriers passes (every collider's).
+pub const FAILSAFE_CARRIERS_LABEL: &str = "self: fail-safe carriers";
 
 /// The buffers of one cloth's fail-safe.
 pub struct FailsafeBuffers {
@@ -29,8 +34,15 @@ pub struct FailsafeBuffers {
     /// moving collider's triangle found carries it.
     pub flags: Handle<u32>,
     /// Per particle: the fixed-point sum of its carries and their count (4 words;
-    /// `drape_kernels::self_failsafe::surface_motion`), cleared as the roll-back reads them.
+    /// `drape_kernels::self_failsafe::surface_motion`, `pose_carry`), cleared as the roll-back
+    /// reads them.
     pub carried: Handle<u32>,
+    /// Per particle: which collider that moved carries it this frame, if any
+    /// (`drape_kernels::self_failsafe::carrier_at`).
+    pub carriers: Handle<u32>,
+    /// Per collider (the model's order): its pose over the frame, written by its carriers pass
+    /// when it moved.
+    pub carrier_poses: Handle<ColliderPose>,
     /// Per round: the pairs found and the particles put back (`FAILSAFE_COUNTER_WORDS`).
     pub counters: Handle<u32>,
     /// The check's and the roll-back's dispatches of rounds 1, 2, ... (the roll-back of the round
@@ -39,7 +51,8 @@ pub struct FailsafeBuffers {
 }
 
 impl FailsafeBuffers {
-    pub fn declare(resources: &mut Resources, name: &str, particles: u32) -> Self {
+    /// `colliders`: how many the model has.
+    pub fn declare(resources: &mut Resources, name: &str, particles: u32, colliders: u32) -> Self {
         let rounds = (1..=ROLLBACK_ROUNDS)
             .map(|r| {
                 (
@@ -51,18 +64,21 @@ impl FailsafeBuffers {
         FailsafeBuffers {
             flags: resources.device(format!("{name}: fail-safe flags"), particles),
             carried: resources.device(format!("{name}: fail-safe carries"), 4 * particles),
+            carriers: resources.device(format!("{name}: fail-safe carriers"), particles),
+            carrier_poses: resources.device(format!("{name}: fail-safe carrier poses"), colliders.max(1)),
             counters: resources.device(format!("{name}: fail-safe counters"), FAILSAFE_COUNTER_WORDS),
             rounds,
         }
     }
 
     /// The frame's fail-safe, after its last self-collision pass and before anything reads the
-    /// frame's end; `lists`: the frame built pair lists (the check takes them); `colliders`: the
-    /// model's, in its order (each triangle collider's sharp triangles are checked too).
+    /// frame's end; `lists`: the frame built pair lists (the check takes them); `substeps`: the
+    /// frame's; `colliders`: the model's, in its order (each may carry particles, and each
+    /// triangle collider's sharp triangles are checked too).
     pub fn frame_end_steps(
         &self,
         (own, cloth): (&SelfContactBuffers, &SelfContactCloth),
-        lists: bool,
+        (lists, substeps): (bool, u32),
         colliders: &[&ColliderBuffers],
         steps: &mut Vec<Step>,
     ) {
@@ -70,9 +86,13 @@ impl FailsafeBuffers {
         steps.push(Step::fill(self.flags, 0));
         steps.push(Step::fill(self.carried, 0));
         steps.push(Step::fill(self.counters, 0));
+        steps.push(Step::fill(self.carriers, 0));
         for &(check, roll_back) in &self.rounds {
             steps.push(empty_dispatch(check));
             steps.push(empty_dispatch(roll_back));
+        }
+        for (slot, collider) in colliders.iter().enumerate() {
+            steps.push(self.carriers_step((own, cloth), collider, slot as u32));
         }
         let boxes = |dispatch| {
             Step::run(
@@ -98,7 +118,7 @@ impl FailsafeBuffers {
             let last = if round + 1 == ROLLBACK_ROUNDS { LAST_ROUND } else { 0 };
             let push = FailsafePush {
                 round,
-                flags: last | if lists { WITH_LISTS } else { 0 },
+                flags: last | if lists { WITH_LISTS } else { 0 } | substeps << SUBSTEPS_SHIFT,
                 check_groups: t.leaves.div_ceil(CHECK_THREADS),
                 rollback_groups: particles.div_ceil(WORKGROUP_SIZE),
             };
@@ -126,8 +146,11 @@ impl FailsafeBuffers {
                     own.strays.id(),
                     own.lists.id(),
                     own.counts.id(),
+                    self.carriers.id(),
+                    self.carrier_poses.id(),
                     self.flags.id(),
                     self.counters.id(),
+                    self.carried.id(),
                 ],
                 bytemuck::cast(push),
                 check,
@@ -155,6 +178,36 @@ impl FailsafeBuffers {
                 roll_back,
             ));
         }
+    }
+
+    /// Which particles collider `collider` (the model's `slot`-th) carries this frame, when it
+    /// moved (`drape_kernels::self_failsafe::carriers_at`).
+    fn carriers_step(
+        &self,
+        (own, cloth): (&SelfContactBuffers, &SelfContactCloth),
+        collider: &ColliderBuffers,
+        slot: u32,
+    ) -> Step {
+        let (leaves, tree) = (collider.leaves.kind(), collider.tree());
+        let push = CarrierPush { slot, _pad: [0; 3] };
+        Step::run_with(
+            FAILSAFE_CARRIERS_LABEL,
+            leaves.failsafe_carriers_kernel(),
+            vec![
+                cloth.params.id(),
+                tree.collider.id(),
+                collider.pose.id(),
+                tree.nodes.id(),
+                tree.aabbs.id(),
+                tree.sorted_bounds.id(),
+                leaves.sorted_leaves(),
+                own.anchors.id(),
+                self.carriers.id(),
+                self.carrier_poses.id(),
+            ],
+            bytemuck::cast(push),
+            Dispatch::Threads(own.particles()),
+        )
     }
 
     /// A round's check of triangle collider `collider` (the model's `index`-th): its triangles

@@ -82,6 +82,9 @@ impl ContactLeaves for SphereBvh {
     fn detect_candidates_kernel(&self) -> &'static Kernel {
         &DETECT_SPHERES_CANDIDATES
     }
+    fn failsafe_carriers_kernel(&self) -> &'static Kernel {
+        &crate::kernels::self_failsafe::FAILSAFE_CARRIERS_SPHERES
+    }
     fn detect_crowded_kernel(&self) -> &'static Kernel {
         &DETECT_SPHERES_CROWDED
     }

@@ -99,6 +99,9 @@ impl ContactLeaves for TriangleBvh {
     fn detect_candidates_kernel(&self) -> &'static Kernel {
         &DETECT_TRIANGLES_CANDIDATES
     }
+    fn failsafe_carriers_kernel(&self) -> &'static Kernel {
+        &crate::kernels::self_failsafe::FAILSAFE_CARRIERS_TRIANGLES
+    }
     fn detect_crowded_kernel(&self) -> &'static Kernel {
         &DETECT_TRIANGLES_CROWDED
     }

@@ -123,6 +123,10 @@ pub struct Health {
     /// crossed at the frame's end (summed over its rounds; `drape_kernels::self_failsafe`): a
     /// collider's vertex or edge through a cloth cell, or a cloth edge through its face.
     pub self_rollback_collider_pairs: u32,
+    /// Of the particles self-collision's fail-safe put back (`self_rollbacks`), those carried
+    /// with a moving collider (its surface under them, or its pose for a pair of the cloth's own
+    /// near it).
+    pub self_rollbacks_carried: u32,
     /// Particle-substeps whose narrow phase over candidate lists was crowded (see
     /// `ContactPush::crowded`; counted only where the frame asks): what the host's choice of
     /// handing them to a workgroup each follows (`SimSettings::crowded_contact`).
@@ -175,8 +179,9 @@ const _: () = assert!(core::mem::size_of::<Spring>() == 16);
 const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
 const _: () = assert!(core::mem::size_of::<SubstepsPush>() == 16);
-const _: () = assert!(core::mem::size_of::<Health>() == 92);
+const _: () = assert!(core::mem::size_of::<Health>() == 96);
 const _: () = assert!(core::mem::size_of::<FailsafePush>() == 16);
+const _: () = assert!(core::mem::size_of::<CarrierPush>() == 16);
 const _: () = assert!(core::mem::size_of::<TileParams>() == 32);
 
 /// Marks a child index in `BvhNode` as a leaf (sorted sphere index) rather than an internal node.
@@ -337,6 +342,16 @@ pub struct FailsafePush {
     pub flags: u32,
     pub check_groups: u32,
     pub rollback_groups: u32,
+}
+
+/// Push constants of the fail-safe's carriers pass (`drape_kernels::self_failsafe`): which of
+/// the model's colliders the pass queries (its slot in the carrier poses).
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct CarrierPush {
+    pub slot: u32,
+    pub _pad: [u32; 3],
 }
 
 /// A cloth's tile sleeping (`drape_kernels::tiles`): its particles in tiles of
