@@ -305,7 +305,7 @@ impl Controls {
                 params_dirty: false,
                 end_of_last_frame: pose,
                 target: pose,
-                written: ColliderPose { previous: pose, current: pose },
+                written: ColliderPose { previous: pose, current: pose, sweep: glam::Vec4::ZERO },
                 deformed: None,
             })
             .collect();
@@ -681,7 +681,8 @@ impl Controls {
             if std::mem::take(&mut c.params_dirty) {
                 steps.push(Step::write(buffers.tree().collider, 0, &[c.params]));
             }
-            let pose = ColliderPose { previous: c.end_of_last_frame, current: c.target };
+            let sweep = glam::Vec4::new(c.frame_sweep(), 0.0, 0.0, 0.0);
+            let pose = ColliderPose { previous: c.end_of_last_frame, current: c.target, sweep };
             if pose != c.written {
                 steps.push(Step::write(buffers.pose, 0, &[pose]));
                 c.written = pose;
@@ -833,6 +834,26 @@ impl ColliderControl {
             }
         }
         Some((speed, world))
+    }
+
+    /// How far any point of the collider's surface moves over the coming frame at most (m,
+    /// `ColliderPose::sweep`): its box centre's motion, the turn about the centre (a point r
+    /// from it moves at most 2 sin(angle / 2) r: twice the turn quaternion's vector part, exact
+    /// for small turns, where an angle through `acos` rounds to 0), its leaves' own motion, and
+    /// that motion turned; 0 when it stands still.
+    fn frame_sweep(&self) -> f32 {
+        let (from, to) = (self.end_of_last_frame, self.target);
+        let centre = self.extent.centre();
+        let moved = (to_world(&to, centre) - to_world(&from, centre)).length();
+        let turn = Quat::from_vec4(to.rotation) * Quat::from_vec4(from.rotation).conjugate();
+        let chord = 2.0 * Vec3::new(turn.x, turn.y, turn.z).length();
+        let deformed = self.deformed.as_ref().map_or(0.0, |next| {
+            next.iter()
+                .zip(&self.current)
+                .map(|(a, b)| (a.truncate() - b.truncate()).length() + (a.w - b.w).abs())
+                .fold(0.0, f32::max)
+        });
+        moved + chord * (self.extent.radius + deformed) + deformed
     }
 }
 

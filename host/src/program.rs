@@ -69,8 +69,7 @@ impl SolverProgram {
         let mut cloths = Vec::new();
         for (i, (cloth, (params, _, _, _, _))) in model.cloths().iter().zip(&resolved).enumerate() {
             let triangles = &cloth.triangles;
-            let colliders = model.colliders().len() as u32;
-            let mut b = ClothBuffers::declare(&mut resources, &numbered("cloth", i), cloth, colliders);
+            let mut b = ClothBuffers::declare(&mut resources, &numbered("cloth", i), cloth);
             if let Some(sleep) = settings.tile_policy() {
                 let policy = (sleep, settings.frame_dt);
                 b.tiles =
@@ -156,7 +155,7 @@ impl SolverProgram {
                 b.features = Some((handle, features.len() as u32));
             }
             initial.push((b.tree().collider.id(), bytemuck::bytes_of(&params).to_vec()));
-            let pose = ColliderPose { previous: c.pose, current: c.pose };
+            let pose = ColliderPose { previous: c.pose, current: c.pose, sweep: glam::Vec4::ZERO };
             initial.push((b.pose.id(), bytemuck::bytes_of(&pose).to_vec()));
             colliders.push(b);
             starts.push(collider_start(params, c.pose, &c.shape));

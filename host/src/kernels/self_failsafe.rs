@@ -5,14 +5,13 @@
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
-use drape_kernels::contact::LeafKind;
 use drape_kernels::self_failsafe::{
-    CHECK_THREADS, Carriers, Found, WITH_LISTS, Walkers, carriers_at, check_collider_triangle_at, check_frame_at,
-    frame_box_at, note_everything, roll_back_at,
+    CHECK_THREADS, CarrierOut, Carriers, Found, WITH_LISTS, Walkers, check_collider_triangle_at, check_frame_at,
+    frame_box_at, note_everything, roll_back_at, sphere_carrier_at, triangle_carrier_at,
 };
-use drape_kernels::spheres::Spheres;
-use drape_kernels::triangles::Triangles;
-use drape_types::{Aabb, BvhNode, CarrierPush, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health};
+use drape_types::{
+    Aabb, BvhNode, CarrierPush, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health, Triangle,
+};
 use glam::{UVec4, Vec4};
 
 const fn read(name: &'static str) -> BindingSpec {
@@ -34,6 +33,7 @@ pub static FAILSAFE_BOXES: Kernel = Kernel {
             write("leaf_bounds"),
             write("escaped"),
             write("strays"),
+            write("refit_flags"),
         ],
         CHECK_THREADS,
     ),
@@ -56,7 +56,7 @@ pub static FAILSAFE_CHECK: Kernel = Kernel {
             read("lists"),
             read("counts"),
             read("carriers"),
-            read("carrier_poses"),
+            read("carrier_frames"),
             write("flags"),
             write("counters"),
             write("carried"),
@@ -67,38 +67,50 @@ pub static FAILSAFE_CHECK: Kernel = Kernel {
     cpu: check_cpu,
 };
 
-/// The bindings of the carriers passes (`drape_kernels::self_failsafe::carriers_at`).
-pub const CARRIERS_BINDINGS: &[BindingSpec] = &[
-    read("params"),
-    read("collider"),
-    read("pose"),
-    read("nodes"),
-    read("aabbs"),
-    read("leaf_bounds"),
-    read("leaves"),
-    read("anchors"),
-    write("carriers"),
-    write("carrier_poses"),
-];
-
 pub static FAILSAFE_CARRIERS_TRIANGLES: Kernel = Kernel {
     spec: KernelSpec {
         entry: "self_failsafe::failsafe_carriers_triangles",
-        bindings: CARRIERS_BINDINGS,
+        bindings: &[
+            read("params"),
+            read("collider"),
+            read("pose"),
+            read("nodes"),
+            read("aabbs"),
+            read("leaves"),
+            read("vertices"),
+            read("previous"),
+            read("indices"),
+            read("order"),
+            read("anchors"),
+            write("carriers"),
+            write("carrier_frames"),
+            write("carrier_choice"),
+        ],
         push_constant_size: size_of::<CarrierPush>() as u32,
         workgroup_size: CHECK_THREADS,
     },
-    cpu: carriers_cpu::<Triangles>,
+    cpu: triangle_carriers_cpu,
 };
 
 pub static FAILSAFE_CARRIERS_SPHERES: Kernel = Kernel {
     spec: KernelSpec {
         entry: "self_failsafe::failsafe_carriers_spheres",
-        bindings: CARRIERS_BINDINGS,
+        bindings: &[
+            read("params"),
+            read("collider"),
+            read("pose"),
+            read("nodes"),
+            read("aabbs"),
+            read("leaves"),
+            read("anchors"),
+            write("carriers"),
+            write("carrier_frames"),
+            write("carrier_choice"),
+        ],
         push_constant_size: size_of::<CarrierPush>() as u32,
         workgroup_size: CHECK_THREADS,
     },
-    cpu: carriers_cpu::<Spheres>,
+    cpu: sphere_carriers_cpu,
 };
 
 pub static FAILSAFE_COLLIDER_CHECK: Kernel = Kernel {
@@ -143,6 +155,8 @@ pub static FAILSAFE_ROLL_BACK: Kernel = Kernel {
             write("next_check"),
             write("next_rollback"),
             write("health"),
+            read("carrier_frames"),
+            read("carrier_choice"),
         ],
         push_constant_size: size_of::<FailsafePush>() as u32,
         workgroup_size: WORKGROUP_SIZE,
@@ -152,13 +166,17 @@ pub static FAILSAFE_ROLL_BACK: Kernel = Kernel {
 
 fn boxes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, sorted, x, anchors, indices, leaf_bounds, escaped, strays] = d.bindings()?;
+    let [self_params, sorted, x, anchors, indices, leaf_bounds, escaped, strays, refit_flags] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let (sorted, x, anchors) = (sorted.slice::<UVec4>(), x.slice::<Vec4>(), anchors.slice::<Vec4>());
     let (indices, leaf_bounds) = (indices.slice::<u32>(), leaf_bounds.slice_mut::<Aabb>());
     let (escaped, strays) = (escaped.slice_mut::<u32>(), strays.slice_mut::<f32>());
     for s in 0..threads.min(c.leaf_count) {
         leaf_bounds[s as usize] = frame_box_at(s, sorted, (x, anchors), indices, (&mut *escaped, &mut *strays));
+    }
+    let refit_flags = refit_flags.slice_mut::<u32>();
+    for node in 0..threads.min(c.leaf_count.saturating_sub(1)) {
+        refit_flags[node as usize] = 0;
     }
     Ok(())
 }
@@ -179,7 +197,7 @@ fn check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         lists,
         counts,
         carriers,
-        carrier_poses,
+        carrier_frames,
         flags,
         counters,
         carried,
@@ -187,7 +205,7 @@ fn check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let c: ColliderParams = self_params.first()?;
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let (x, anchors) = (x.slice::<Vec4>(), anchors.slice::<Vec4>());
-    let carriers = Carriers { carriers: carriers.slice::<u32>(), poses: carrier_poses.slice::<ColliderPose>() };
+    let carriers = Carriers { carriers: carriers.slice::<u32>(), frames: carrier_frames.slice::<Vec4>() };
     let (flags, counters, carried) =
         (flags.slice_mut::<u32>(), counters.slice_mut::<u32>(), carried.slice_mut::<u32>());
     let pairs = counters.get_mut(2 * push.round as usize).ok_or("fail-safe round out of range")?;
@@ -200,25 +218,52 @@ fn check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     Ok(())
 }
 
-/// CPU adapter of leaf kind `K`'s carriers pass (`CARRIERS_BINDINGS`).
-fn carriers_cpu<K: LeafKind>(d: &mut HostDispatch<'_>) -> Result<(), String>
-where
-    K::Leaf: bytemuck::Pod,
-{
+fn triangle_carriers_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let push: CarrierPush = d.push_as();
     let threads = d.invocations();
-    let [params, collider, pose, nodes, aabbs, leaf_bounds, leaves, anchors, carriers, carrier_poses] = d.bindings()?;
+    let [
+        params,
+        collider,
+        pose,
+        nodes,
+        aabbs,
+        leaves,
+        vertices,
+        previous,
+        indices,
+        order,
+        anchors,
+        carriers,
+        frames,
+        choice,
+    ] = d.bindings()?;
     let p: drape_types::SimParams = params.first()?;
     let (c, pose): (ColliderParams, ColliderPose) = (collider.first()?, pose.first()?);
-    let tree =
-        (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), leaves.slice::<K::Leaf>());
-    let (anchors, carriers, poses) =
-        (anchors.slice::<Vec4>(), carriers.slice_mut::<u32>(), carrier_poses.slice_mut::<ColliderPose>());
-    if push.slot as usize >= poses.len() {
-        return Err("a carriers pass's collider slot is past the carrier poses".into());
-    }
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<Triangle>());
+    let mesh = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>(), order.slice::<u32>());
+    let (anchors, carriers, frames) =
+        (anchors.slice::<Vec4>(), carriers.slice_mut::<u32>(), frames.slice_mut::<Vec4>());
+    let choice = choice.first_mut::<u32>()?;
     for i in 0..threads.min(p.particle_count) {
-        carriers_at::<K>(i, (push.slot, p.particle_count), (&c, &pose), tree, anchors, (&mut *carriers, &mut *poses));
+        let out = CarrierOut { carriers: &mut *carriers, frames: &mut *frames, choice: &mut *choice };
+        triangle_carrier_at((i, p.particle_count, push.slot), (&c, &pose), tree, mesh, anchors, out);
+    }
+    Ok(())
+}
+
+fn sphere_carriers_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: CarrierPush = d.push_as();
+    let threads = d.invocations();
+    let [params, collider, pose, nodes, aabbs, leaves, anchors, carriers, frames, choice] = d.bindings()?;
+    let p: drape_types::SimParams = params.first()?;
+    let (c, pose): (ColliderParams, ColliderPose) = (collider.first()?, pose.first()?);
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<Vec4>());
+    let (anchors, carriers, frames) =
+        (anchors.slice::<Vec4>(), carriers.slice_mut::<u32>(), frames.slice_mut::<Vec4>());
+    let choice = choice.first_mut::<u32>()?;
+    for i in 0..threads.min(p.particle_count) {
+        let out = CarrierOut { carriers: &mut *carriers, frames: &mut *frames, choice: &mut *choice };
+        sphere_carrier_at((i, p.particle_count, push.slot), (&c, &pose), tree, anchors, out);
     }
     Ok(())
 }
@@ -273,10 +318,12 @@ fn collider_check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 fn roll_back_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let push: FailsafePush = d.push_as();
     let threads = d.invocations();
-    let [params, x, v, anchors, carried, flags, counters, next_check, next_rollback, health] = d.bindings()?;
+    let [params, x, v, anchors, carried, flags, counters, next_check, next_rollback, health, frames, choice] =
+        d.bindings()?;
     let p: drape_types::SimParams = params.first()?;
     let (x, v) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>());
     let (anchors, carried) = (anchors.slice::<Vec4>(), carried.slice_mut::<u32>());
+    let carriers = (frames.slice::<Vec4>(), choice.first()?);
     let (flags, counters) = (flags.slice_mut::<u32>(), counters.slice_mut::<u32>());
     let (next_check, next_rollback) =
         (next_check.first_mut::<DispatchArgs>()?, next_rollback.first_mut::<DispatchArgs>()?);
@@ -287,7 +334,8 @@ fn roll_back_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     for i in 0..threads.min(p.particle_count) {
         let next = (&mut *next_check, &mut *next_rollback);
         let push = (&push, p.substep);
-        roll_back_at(i, push, (&mut *x, &mut *v), (anchors, &mut *carried), flags, counters, next, health);
+        let starts = (anchors, &mut *carried, carriers);
+        roll_back_at(i, push, (&mut *x, &mut *v), starts, flags, counters, next, health);
     }
     Ok(())
 }

@@ -54,8 +54,7 @@ pub struct ClothBuffers {
 }
 
 impl ClothBuffers {
-    /// `colliders`: how many the model has (the fail-safe keeps a pose of each).
-    pub fn declare(resources: &mut Resources, name: &str, cloth: &Cloth, colliders: u32) -> Self {
+    pub fn declare(resources: &mut Resources, name: &str, cloth: &Cloth) -> Self {
         let particles = cloth.params.particle_count;
         let triangles = cloth.triangles.len() as u32;
         let springs = match &cloth.topology {
@@ -90,7 +89,7 @@ impl ClothBuffers {
             springs,
             self_contact: cloth
                 .self_collision
-                .map(|_| SelfContactBuffers::declare(resources, name, (particles, triangles), colliders)),
+                .map(|_| SelfContactBuffers::declare(resources, name, particles, triangles)),
             tiles: None,
         }
     }

@@ -75,8 +75,10 @@ pub trait ContactLeaves {
     /// cloth).
     fn update_contact_kernel(&self, springs: bool) -> &'static Kernel;
     /// Which particles of a self-colliding cloth the collider carries when the fail-safe puts
-    /// them back (`kernels::self_failsafe::CARRIERS_BINDINGS`).
-    fn failsafe_carriers_kernel(&self) -> &'static Kernel;
+    /// them back, and by which frames (`kernels::self_failsafe::FAILSAFE_CARRIERS_*`): the kind's
+    /// kernel and its bindings between the tree's boxes and the cloth's anchors (its leaves, and
+    /// what places them where the frame started and ended).
+    fn failsafe_carriers(&self) -> (&'static Kernel, Vec<BufferId>);
     /// Builds the tree from the leaves' input.
     fn build_steps(&self) -> Vec<Step>;
     /// Refits the tree after the input moved (same leaves).

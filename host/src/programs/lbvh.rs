@@ -4,7 +4,7 @@
 //! the tree's order after it.
 
 use super::sort::RadixSort;
-use crate::graph::{Dispatch, Handle, Resources, Step};
+use crate::graph::{BufferId, Dispatch, Handle, Resources, Step};
 use crate::kernels::lbvh::{BUILD_NODES, GATHER_BOUNDS, MORTON_CODES, REFIT, REFIT_TWO};
 use drape_types::{Aabb, BvhNode, ColliderParams, DispatchArgs};
 
@@ -113,6 +113,23 @@ impl LbvhBuffers {
         let mut steps = Vec::new();
         self.push_refit_of(label, (leaf_bounds, aabbs), Dispatch::Threads(self.leaves), &mut steps);
         steps
+    }
+
+    /// `refit_other_steps`' refit alone, dispatched as `dispatch` (at least one thread per
+    /// leaf), for a caller that cleared the refit flags (`refit_flags`) itself and whose
+    /// internal boxes' w words are already zero.
+    pub fn refit_other_step(
+        &self,
+        label: &'static str,
+        (leaf_bounds, aabbs): (Handle<Aabb>, Handle<Aabb>),
+        dispatch: Dispatch,
+    ) -> Step {
+        self.refit_step(label, (leaf_bounds, aabbs), dispatch)
+    }
+
+    /// The refit's flags (one word per internal node, zero before a refit climbs).
+    pub fn refit_flags(&self) -> BufferId {
+        self.flags.id()
     }
 
     /// The refit of `refit_sorted_steps` and, in the same climb, of a second set of boxes over

@@ -274,7 +274,7 @@ pub fn window_ends(substeps: u32, passes: u32, windows: u32) -> Vec<u32> {
 }
 
 impl SelfContactBuffers {
-    pub fn declare(resources: &mut Resources, name: &str, (particles, triangles): (u32, u32), colliders: u32) -> Self {
+    pub fn declare(resources: &mut Resources, name: &str, particles: u32, triangles: u32) -> Self {
         let name = format!("{name} self-collision");
         SelfContactBuffers {
             tree: LbvhBuffers::declare(resources, &name, triangles),
@@ -302,7 +302,7 @@ impl SelfContactBuffers {
             features_found: resources.device(format!("{name}: second refit dispatch"), 1),
             pass_refit: resources.device(format!("{name}: pass refit dispatch"), 1),
             tree_every_pass: resources.device(format!("{name}: tree at every pass"), 1),
-            failsafe: FailsafeBuffers::declare(resources, &name, particles, colliders),
+            failsafe: FailsafeBuffers::declare(resources, &name, particles),
             sharp: Vec::new(),
             particles,
         }

@@ -13,10 +13,12 @@ use super::self_contact::{SelfContactBuffers, SelfContactCloth};
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_failsafe::{FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_COLLIDER_CHECK, FAILSAFE_ROLL_BACK};
 use drape_kernels::WORKGROUP_SIZE;
+use drape_kernels::self_failsafe::CARRIER_FRAME_WORDS;
 use drape_kernels::self_failsafe::{
     CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, SUBSTEPS_SHIFT, WITH_LISTS,
 };
-use drape_types::{CarrierPush, ColliderPose, DispatchArgs, FailsafePush};
+use drape_types::{CarrierPush, DispatchArgs, FailsafePush};
+use glam::Vec4;
 
 /// The timing table's line of the fail-safe's check (every round's).
 pub const FAILSAFE_CHECK_LABEL: &str = "self: fail-safe check";
@@ -34,15 +36,18 @@ pub struct FailsafeBuffers {
     /// moving collider's triangle found carries it.
     pub flags: Handle<u32>,
     /// Per particle: the fixed-point sum of its carries and their count (4 words;
-    /// `drape_kernels::self_failsafe::surface_motion`, `pose_carry`), cleared as the roll-back
+    /// `drape_kernels::self_failsafe::surface_motion`), cleared as the roll-back
     /// reads them.
     pub carried: Handle<u32>,
     /// Per particle: which collider that moved carries it this frame, if any
-    /// (`drape_kernels::self_failsafe::carrier_at`).
+    /// (`drape_kernels::self_failsafe::triangle_carrier_at`).
     pub carriers: Handle<u32>,
-    /// Per collider (the model's order): its pose over the frame, written by its carriers pass
-    /// when it moved.
-    pub carrier_poses: Handle<ColliderPose>,
+    /// Per particle with a carrier: the frames its carrier's surface carries it by
+    /// (`CARRIER_FRAME_WORDS`), written with its carrier.
+    pub carrier_frames: Handle<Vec4>,
+    /// The particle whose carrier carries the whole cloth when the last round puts it all back
+    /// (`drape_kernels::self_failsafe::CarrierOut::choice`; 0 for none).
+    pub carrier_choice: Handle<u32>,
     /// Per round: the pairs found and the particles put back (`FAILSAFE_COUNTER_WORDS`).
     pub counters: Handle<u32>,
     /// The check's and the roll-back's dispatches of rounds 1, 2, ... (the roll-back of the round
@@ -51,8 +56,7 @@ pub struct FailsafeBuffers {
 }
 
 impl FailsafeBuffers {
-    /// `colliders`: how many the model has.
-    pub fn declare(resources: &mut Resources, name: &str, particles: u32, colliders: u32) -> Self {
+    pub fn declare(resources: &mut Resources, name: &str, particles: u32) -> Self {
         let rounds = (1..=ROLLBACK_ROUNDS)
             .map(|r| {
                 (
@@ -65,7 +69,9 @@ impl FailsafeBuffers {
             flags: resources.device(format!("{name}: fail-safe flags"), particles),
             carried: resources.device(format!("{name}: fail-safe carries"), 4 * particles),
             carriers: resources.device(format!("{name}: fail-safe carriers"), particles),
-            carrier_poses: resources.device(format!("{name}: fail-safe carrier poses"), colliders.max(1)),
+            carrier_frames: resources
+                .device(format!("{name}: fail-safe carrier frames"), CARRIER_FRAME_WORDS * particles),
+            carrier_choice: resources.device(format!("{name}: fail-safe carrier choice"), 1),
             counters: resources.device(format!("{name}: fail-safe counters"), FAILSAFE_COUNTER_WORDS),
             rounds,
         }
@@ -87,6 +93,7 @@ impl FailsafeBuffers {
         steps.push(Step::fill(self.carried, 0));
         steps.push(Step::fill(self.counters, 0));
         steps.push(Step::fill(self.carriers, 0));
+        steps.push(Step::fill(self.carrier_choice, 0));
         for &(check, roll_back) in &self.rounds {
             steps.push(empty_dispatch(check));
             steps.push(empty_dispatch(roll_back));
@@ -107,6 +114,7 @@ impl FailsafeBuffers {
                     t.sorted_bounds.id(),
                     own.escaped.id(),
                     own.strays.id(),
+                    t.refit_flags(),
                 ],
                 dispatch,
             )
@@ -126,9 +134,12 @@ impl FailsafeBuffers {
                 (Dispatch::Threads(t.leaves), Dispatch::Threads(particles))
             } else {
                 // The particles put back moved: where their triangles ended against their
-                // predicted regions, and their boxes (inside the refit tree's), again.
+                // predicted regions, and their boxes, again, and the tree refit to them (one
+                // carried back may lie outside its triangle's box of the round before).
                 let (check, roll_back) = self.rounds[round as usize - 1];
                 steps.push(boxes(Dispatch::Indirect(check)));
+                let boxes_over_frame = (t.sorted_bounds, t.aabbs);
+                steps.push(t.refit_other_step("self: fail-safe refit", boxes_over_frame, Dispatch::Indirect(check)));
                 (Dispatch::Indirect(check), Dispatch::Indirect(roll_back))
             };
             steps.push(Step::run_with(
@@ -147,7 +158,7 @@ impl FailsafeBuffers {
                     own.lists.id(),
                     own.counts.id(),
                     self.carriers.id(),
-                    self.carrier_poses.id(),
+                    self.carrier_frames.id(),
                     self.flags.id(),
                     self.counters.id(),
                     self.carried.id(),
@@ -173,6 +184,8 @@ impl FailsafeBuffers {
                     next_check.id(),
                     next_roll_back.id(),
                     cloth.health.id(),
+                    self.carrier_frames.id(),
+                    self.carrier_choice.id(),
                 ],
                 bytemuck::cast(push),
                 roll_back,
@@ -181,7 +194,7 @@ impl FailsafeBuffers {
     }
 
     /// Which particles collider `collider` (the model's `slot`-th) carries this frame, when it
-    /// moved (`drape_kernels::self_failsafe::carriers_at`).
+    /// moved (`drape_kernels::self_failsafe::triangle_carrier_at`, `sphere_carrier_at`).
     fn carriers_step(
         &self,
         (own, cloth): (&SelfContactBuffers, &SelfContactCloth),
@@ -190,21 +203,15 @@ impl FailsafeBuffers {
     ) -> Step {
         let (leaves, tree) = (collider.leaves.kind(), collider.tree());
         let push = CarrierPush { slot, _pad: [0; 3] };
+        let (kernel, leaf_bindings) = leaves.failsafe_carriers();
+        let mut bindings =
+            vec![cloth.params.id(), tree.collider.id(), collider.pose.id(), tree.nodes.id(), tree.aabbs.id()];
+        bindings.extend(leaf_bindings);
+        bindings.extend([own.anchors.id(), self.carriers.id(), self.carrier_frames.id(), self.carrier_choice.id()]);
         Step::run_with(
             FAILSAFE_CARRIERS_LABEL,
-            leaves.failsafe_carriers_kernel(),
-            vec![
-                cloth.params.id(),
-                tree.collider.id(),
-                collider.pose.id(),
-                tree.nodes.id(),
-                tree.aabbs.id(),
-                tree.sorted_bounds.id(),
-                leaves.sorted_leaves(),
-                own.anchors.id(),
-                self.carriers.id(),
-                self.carrier_poses.id(),
-            ],
+            kernel,
+            bindings,
             bytemuck::cast(push),
             Dispatch::Threads(own.particles()),
         )

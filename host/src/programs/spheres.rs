@@ -82,8 +82,8 @@ impl ContactLeaves for SphereBvh {
     fn detect_candidates_kernel(&self) -> &'static Kernel {
         &DETECT_SPHERES_CANDIDATES
     }
-    fn failsafe_carriers_kernel(&self) -> &'static Kernel {
-        &crate::kernels::self_failsafe::FAILSAFE_CARRIERS_SPHERES
+    fn failsafe_carriers(&self) -> (&'static Kernel, Vec<BufferId>) {
+        (&crate::kernels::self_failsafe::FAILSAFE_CARRIERS_SPHERES, vec![self.sorted.id()])
     }
     fn detect_crowded_kernel(&self) -> &'static Kernel {
         &DETECT_SPHERES_CROWDED

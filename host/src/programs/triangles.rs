@@ -99,8 +99,10 @@ impl ContactLeaves for TriangleBvh {
     fn detect_candidates_kernel(&self) -> &'static Kernel {
         &DETECT_TRIANGLES_CANDIDATES
     }
-    fn failsafe_carriers_kernel(&self) -> &'static Kernel {
-        &crate::kernels::self_failsafe::FAILSAFE_CARRIERS_TRIANGLES
+    fn failsafe_carriers(&self) -> (&'static Kernel, Vec<BufferId>) {
+        let leaves =
+            [self.sorted.id(), self.vertices.id(), self.previous.id(), self.indices.id(), self.tree.order.id()];
+        (&crate::kernels::self_failsafe::FAILSAFE_CARRIERS_TRIANGLES, leaves.to_vec())
     }
     fn detect_crowded_kernel(&self) -> &'static Kernel {
         &DETECT_TRIANGLES_CROWDED

@@ -21,8 +21,9 @@
 //!   collider's) go back to their positions at the frame's start, at rest; for a collider
 //!   triangle that moved over the frame, to those positions carried as its surface moved
 //!   (`surface_motion`), unless that carries them more than `CARRY_REACH` of their triangle's
-//!   sides; for a pair of the cloth's own near a collider that moved (`carrier_at`), all six
-//!   carried as that collider's pose moved (`pose_carry`), within the same reach.
+//!   sides; for a pair of the cloth's own near a collider that moved (`triangle_carrier_at`),
+//!   all six carried as that collider's surface nearest one of them moved (by its pose and its
+//!   vertices), within the same reach.
 //!
 //! Why a pair of the cloth's is carried: where it started the frame may lie inside a collider
 //! that moved since. Two layers pressed together on a turning body (the layers scene at a
@@ -30,7 +31,8 @@
 //! the inner layer's particles lay up to 1.8 mm inside the turned body, and the contact, which
 //! keeps a particle on the side of a face it is found on, held them inside from then on (99 of
 //! 150 frames with a cloth edge through the body). Every particle of the pair takes the same
-//! rigid motion, so the pair stays as it started, against the other and against that body.
+//! motion, that of one triangle's frame, so the pair stays as it started against itself, and
+//! against that body where it moves rigidly or deforms smoothly.
 //!
 //! The state's end, not the straight path from its start: on a cloth folding over itself at
 //! 5-7 cm a frame (the 64^2 swing from frame 30), that path ran two layers a thickness apart
@@ -45,7 +47,9 @@
 //! (`ROLLBACK_ROUNDS` rounds, each after the first dispatched only when the round before put a
 //! particle back). If the last round still finds a pair, the whole cloth goes back: the frame's
 //! start has no new crossing, so the frame's end has none either (against colliders that did
-//! not move; one that moved may have swept into where the cloth started).
+//! not move). Near a collider that moved, the whole cloth goes back carried by one particle's
+//! carrier (`CarrierOut::choice`): put back in the world, the layers on a body turned by its
+//! vertices lay inside it (109 of 150 frames crossed the body).
 //!
 //! A collider triangle is checked only when the frame listed it as possibly sharp for the cloth:
 //! where the surface folds too little to reach into a cloth cell, only a particle can cross it,
@@ -54,8 +58,7 @@
 //! The frame's start: each particle's anchor (`self_pairs::anchor_at`) holds it.
 
 use crate::atomics;
-use crate::candidates::BroadPhaseTree;
-use crate::contact::{LeafKind, root_aabb, traverse};
+use crate::contact::{LeafKind, traverse};
 use crate::lbvh::PairWalk;
 use crate::pose::{to_local, to_world};
 use crate::self_contact::{
@@ -69,8 +72,6 @@ use drape_types::{
     Aabb, BvhNode, CarrierPush, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health, NO_LEAF, RigidPose,
     SelfPassPush, SimParams, Triangle,
 };
-#[cfg(target_arch = "spirv")]
-use spirv_std::num_traits::Float;
 use spirv_std::spirv;
 
 /// How near (a share of the thickness) two triangles' boxes at the frame's end must come to be
@@ -275,100 +276,171 @@ impl Found<'_> {
 /// `k + 1`.
 pub const NO_CARRIER: u32 = 0;
 
-/// Which collider carries each particle this frame (`carrier_at`), and each collider's pose
-/// over the frame (written by its carriers pass, read only for a collider that carries one).
+/// Words (`Vec4`) per particle of its carrier's frames (`Carriers::frames`): three points of
+/// the carrying surface where the frame started them, then where it ended them (world; the
+/// `then` and `now` of `surface_motion`).
+pub const CARRIER_FRAME_WORDS: u32 = 6;
+
+/// Which collider carries each particle this frame (`triangle_carrier_at`), and how: its
+/// carrier's frames (`CARRIER_FRAME_WORDS` per particle, written with its carrier).
 #[derive(Copy, Clone)]
 pub struct Carriers<'a> {
     pub carriers: &'a [u32],
-    pub poses: &'a [ColliderPose],
+    pub frames: &'a [Vec4],
 }
 
 impl Carriers<'_> {
-    /// The carrier of the particles `a` and `b` (two triangles' corners): the largest of
-    /// theirs, so the whole pair goes with one collider whatever the order of the threads.
+    /// The particle among the corners of `a` and `b` whose carrier carries the whole pair: the
+    /// largest carrier, of those the lowest particle, so the pair goes with one surface
+    /// whatever the order of the threads; `None` when no corner has a carrier.
     #[inline]
-    fn of_pair(self, a: UVec4, b: UVec4) -> u32 {
-        let c = self.carriers;
-        let of = |ids: UVec4| c[ids.x as usize].max(c[ids.y as usize]).max(c[ids.z as usize]);
-        of(a).max(of(b))
+    fn of_pair(self, a: UVec4, b: UVec4) -> Option<u32> {
+        let corners = [a.x, a.y, a.z, b.x, b.y, b.z];
+        let (mut best, mut chosen) = (NO_CARRIER, u32::MAX);
+        let mut k = 0;
+        while k < 6 {
+            let carrier = self.carriers[corners[k] as usize];
+            if carrier > best || (carrier == best && corners[k] < chosen) {
+                (best, chosen) = (carrier, corners[k]);
+            }
+            k += 1;
+        }
+        if best == NO_CARRIER { None } else { Some(chosen) }
+    }
+
+    /// How particle `i`'s carrier carries a point (`carry_by_frames`).
+    #[inline]
+    fn carry(self, i: u32, p: Vec3) -> Vec3 {
+        carry_by_frames(self.frames, i, p)
     }
 }
 
-/// How far collider pose `pose` carries world point `p` over the frame: `p` in the collider's
-/// frame where the frame started, placed where it ended.
+/// How particle `i`'s carrier carries point `p`: `surface_motion` by its frames in `frames`
+/// (`CARRIER_FRAME_WORDS` per particle).
 #[inline]
-pub fn pose_carry(pose: &ColliderPose, p: Vec3) -> Vec3 {
-    to_world(&pose.current, to_local(&pose.previous, p)) - p
+fn carry_by_frames(frames: &[Vec4], i: u32, p: Vec3) -> Vec3 {
+    let base = (CARRIER_FRAME_WORDS * i) as usize;
+    let then = [frames[base].xyz(), frames[base + 1].xyz(), frames[base + 2].xyz()];
+    let now = [frames[base + 3].xyz(), frames[base + 4].xyz(), frames[base + 5].xyz()];
+    surface_motion(p, then, now)
 }
 
-/// Whether the collider's pose moved over the frame.
+/// The leaf (tree order) of a collider where the frame ends nearest to where particle `i`
+/// started the frame, within the collider's thickness plus how far its surface moved
+/// (`ColliderPose::sweep`); `NO_LEAF` when none is. Only there can going back where the frame
+/// started put the particle inside the collider, or within its thickness on its wrong side:
+/// farther out, the surface did not reach it.
 #[inline]
-pub fn pose_moved(pose: &ColliderPose) -> bool {
-    let (a, b) = (pose.previous, pose.current);
-    a.rotation != b.rotation || a.translation != b.translation
-}
-
-/// How far any point of box `b` (the collider's frame) moved with pose `pose` over the frame,
-/// at most: the farthest of its corners (a rigid motion moves a point by an affine function of
-/// it, whose length is convex, so its largest over a box is at a corner).
-#[inline]
-pub fn box_sweep(pose: &ColliderPose, b: &Aabb) -> f32 {
-    let (lo, hi) = (b.min.xyz(), b.max.xyz());
-    let mut farthest2 = 0.0f32;
-    let mut k = 0u32;
-    while k < 8 {
-        let corner = Vec3::new(
-            if k & 1 != 0 { hi.x } else { lo.x },
-            if k & 2 != 0 { hi.y } else { lo.y },
-            if k & 4 != 0 { hi.z } else { lo.z },
-        );
-        let moved = to_world(&pose.current, corner) - to_world(&pose.previous, corner);
-        farthest2 = farthest2.max(moved.length_squared());
-        k += 1;
-    }
-    farthest2.sqrt()
-}
-
-/// Particle `i`'s carrier among collider `slot`'s (its tree, its leaves of kind `K` and its
-/// pose): when where the particle started the frame lies within the collider's thickness plus
-/// `sweep` (how far its surface moved at most, `box_sweep`) of its leaves where the frame
-/// ends, `slot + 1` (the largest carrier wins, so the order of the colliders' passes changes
-/// nothing). Only there can going back where the frame started put the particle inside the
-/// collider, or within its thickness on the wrong side: farther out, the surface did not
-/// reach it.
-pub fn carrier_at<K: LeafKind>(
+fn nearest_leaf<K: LeafKind>(
     i: u32,
-    slot: u32,
-    (collider, pose, sweep): (&ColliderParams, &ColliderPose, f32),
+    (collider, pose): (&ColliderParams, &ColliderPose),
     (nodes, aabbs, leaves): (&[BvhNode], &[Aabb], &[K::Leaf]),
     anchors: &[Vec4],
-    carriers: &mut [u32],
-) {
+) -> u32 {
     let start = to_local(&pose.current, frame_start_of(anchors, i));
-    let reach = ColliderParams { thickness: collider.thickness + sweep, ..*collider };
-    if traverse::<K>(&reach, nodes, aabbs, leaves, start, start).leaf != NO_LEAF {
-        atomics::max(&mut carriers[i as usize], slot + 1);
+    let reach = ColliderParams { thickness: collider.thickness + pose.sweep.x, ..*collider };
+    traverse::<K>(&reach, nodes, aabbs, leaves, start, start).leaf
+}
+
+/// A choice key that names no particle (`choice_key`).
+const NO_CHOICE: u32 = u32::MAX;
+
+/// Bits of `CarrierOut::choice` below its collider part: the particle.
+const CHOICE_PARTICLE_BITS: u32 = 24;
+
+/// Where a carriers pass writes: each particle's carrier and frames (`Carriers`), and the
+/// whole cloth's choice, the particle whose carrier carries the whole cloth when the fail-safe
+/// puts it all back: of the last collider with a carrier (the largest carrier), the lowest
+/// particle (`choice_key`; the smallest key wins, kept complemented by an atomic maximum, so
+/// thread order changes nothing and 0, where the frame starts it, means none).
+pub struct CarrierOut<'a> {
+    pub carriers: &'a mut [u32],
+    pub frames: &'a mut [Vec4],
+    pub choice: &'a mut u32,
+}
+
+/// The whole cloth's choice key of particle `i` carried by collider `slot`: the collider's
+/// distance from the last slot above the particle (24 bits: a particle past 2^24, or a slot past
+/// 255, is not chosen; the fail-safe then puts the whole cloth back in the world).
+#[inline]
+fn choice_key(slot: u32, i: u32) -> u32 {
+    if slot > 255 || i >= 1 << CHOICE_PARTICLE_BITS {
+        return NO_CHOICE;
+    }
+    ((255 - slot) << CHOICE_PARTICLE_BITS) | i
+}
+
+/// The particle a whole cloth's choice (`CarrierOut::choice`) names, if any.
+#[inline]
+pub fn chosen_particle(choice: u32) -> Option<u32> {
+    if choice == 0 { None } else { Some(!choice & ((1 << CHOICE_PARTICLE_BITS) - 1)) }
+}
+
+/// Particle `i`'s carrier `slot + 1` and its frames `then` and `now` (each collider's pass runs
+/// after the one before, so the last collider near a particle carries it), and the whole
+/// cloth's choice.
+#[inline]
+fn set_carrier(i: u32, slot: u32, (then, now): ([Vec3; 3], [Vec3; 3]), out: CarrierOut) {
+    let CarrierOut { carriers, frames, choice } = out;
+    atomics::max(choice, !choice_key(slot, i));
+    carriers[i as usize] = slot + 1;
+    let base = (CARRIER_FRAME_WORDS * i) as usize;
+    let mut k = 0;
+    while k < 3 {
+        frames[base + k] = then[k].extend(0.0);
+        frames[base + 3 + k] = now[k].extend(0.0);
+        k += 1;
     }
 }
 
-/// The carriers pass of collider `slot` for particle `i` of `count` (`carrier_at`; the first
-/// thread writes its pose into `poses[slot]`): nothing when its pose did not move.
-pub fn carriers_at<K: LeafKind>(
-    i: u32,
-    (slot, count): (u32, u32),
+/// Particle `i` (of `count`) against triangle collider `slot` (its tree in its frame and its
+/// mesh: `vertices` where the frame ends, `previous` where it started, `indices`, and the
+/// tree's `order` of them), when the collider moved (`ColliderPose::sweep`): if it started the
+/// frame near the collider (`nearest_leaf`), the collider carries it, by the nearest triangle's
+/// frames where the frame started and ended it (placed by the pose then and now), so a rigid
+/// motion carries it rigidly and a deformation with that triangle.
+pub fn triangle_carrier_at(
+    (i, count, slot): (u32, u32, u32),
     (collider, pose): (&ColliderParams, &ColliderPose),
-    (nodes, aabbs, leaf_bounds, leaves): BroadPhaseTree<K::Leaf>,
+    (nodes, aabbs, leaves): (&[BvhNode], &[Aabb], &[Triangle]),
+    (vertices, previous, indices, order): (&[Vec4], &[Vec4], &[u32], &[u32]),
     anchors: &[Vec4],
-    (carriers, poses): (&mut [u32], &mut [ColliderPose]),
+    out: CarrierOut,
 ) {
-    if i >= count || !pose_moved(pose) {
+    if i >= count || pose.sweep.x <= 0.0 {
         return;
     }
-    if i == 0 {
-        poses[slot as usize] = *pose;
+    let leaf = nearest_leaf::<crate::triangles::Triangles>(i, (collider, pose), (nodes, aabbs, leaves), anchors);
+    if leaf == NO_LEAF {
+        return;
     }
-    let sweep = box_sweep(pose, &root_aabb(collider, aabbs, leaf_bounds));
-    carrier_at::<K>(i, slot, (collider, pose, sweep), (nodes, aabbs, leaves), anchors, carriers);
+    let t = 3 * order[leaf as usize] as usize;
+    let ids = [indices[t] as usize, indices[t + 1] as usize, indices[t + 2] as usize];
+    let frames = (placed(&pose.previous, previous, ids), placed(&pose.current, vertices, ids));
+    set_carrier(i, slot, frames, out);
+}
+
+/// `triangle_carrier_at` for a sphere collider: the nearest sphere's centre and two points a
+/// metre from it, placed by the pose then and now (a sphere's own motion is not swept over the
+/// frame: its contact takes it where it stands).
+pub fn sphere_carrier_at(
+    (i, count, slot): (u32, u32, u32),
+    (collider, pose): (&ColliderParams, &ColliderPose),
+    (nodes, aabbs, leaves): (&[BvhNode], &[Aabb], &[Vec4]),
+    anchors: &[Vec4],
+    out: CarrierOut,
+) {
+    if i >= count || pose.sweep.x <= 0.0 {
+        return;
+    }
+    let leaf = nearest_leaf::<crate::spheres::Spheres>(i, (collider, pose), (nodes, aabbs, leaves), anchors);
+    if leaf == NO_LEAF {
+        return;
+    }
+    let c = leaves[leaf as usize].xyz();
+    let local = [c, c + Vec3::X, c + Vec3::Y];
+    let at = |p: &RigidPose| [to_world(p, local[0]), to_world(p, local[1]), to_world(p, local[2])];
+    set_carrier(i, slot, (at(&pose.previous), at(&pose.current)), out);
 }
 
 /// How far (a share of the triangle's shortest side) the fail-safe carries a cloth triangle's
@@ -432,24 +504,18 @@ pub fn check_triangle_pair(
     if !triangles_cross(a.now, b.now) || triangles_cross(start_a, start_b) {
         return;
     }
-    let carrier = carriers.of_pair(a.ids, b.ids);
-    if carrier == NO_CARRIER {
+    let Some(carrier) = carriers.of_pair(a.ids, b.ids) else {
         found.mark(a.ids, b.ids);
         return;
-    }
-    let pose = &carriers.poses[(carrier - 1) as usize];
-    let (moves_a, moves_b) = (carried_by(pose, start_a), carried_by(pose, start_b));
+    };
+    let carry =
+        |s: [Vec3; 3]| [carriers.carry(carrier, s[0]), carriers.carry(carrier, s[1]), carriers.carry(carrier, s[2])];
+    let (moves_a, moves_b) = (carry(start_a), carry(start_b));
     if gentle(start_a, moves_a) && gentle(start_b, moves_b) {
         found.mark_pair_carried((a.ids, b.ids), (moves_a, moves_b));
     } else {
         found.mark(a.ids, b.ids);
     }
-}
-
-/// Each corner's carry (`pose_carry`).
-#[inline]
-fn carried_by(pose: &ColliderPose, corners: [Vec3; 3]) -> [Vec3; 3] {
-    [pose_carry(pose, corners[0]), pose_carry(pose, corners[1]), pose_carry(pose, corners[2])]
 }
 
 /// Sorted leaf `s`'s box over the frame (its corners at the frame's start and now); with the
@@ -716,8 +782,12 @@ pub const SUBSTEPS_SHIFT: u32 = 8;
 /// (or, carried by a moving collider, to there carried by the mean of its carries: `carried`,
 /// which it clears), at rest (its sleep flag kept): a carried particle at rest against what
 /// carried it, moving as its carry over the frame (of `substep` s substeps, `SUBSTEPS_SHIFT`).
-/// On the last round, every particle back to where the frame started, at rest, when the round
-/// found any pair. Pinned particles stay (their motion is the caller's). Counts the particles
+/// On the last round, when the round found any pair, every particle back to where the frame
+/// started, at rest; near a collider that moved (`choice`, `CarrierOut`), all carried by the
+/// chosen particle's carrier and at rest against it: one affine map for the whole cloth keeps
+/// it as free of crossings as it started, and off the collider where it moves rigidly. Each
+/// particle carried by its own carrier instead, the layers at friction 2.1 ended 20 frames with
+/// layers through each other. Pinned particles stay (their motion is the caller's). Counts the particles
 /// that moved back (into the round's counter and the frame's health); the first of a round
 /// that is not the last dispatches the next round (`next_check`, `next_rollback`).
 ///
@@ -731,7 +801,7 @@ pub fn roll_back_at(
     i: u32,
     (push, substep): (&FailsafePush, f32),
     (x, v): (&mut [Vec4], &mut [Vec4]),
-    (anchors, carried): (&[Vec4], &mut [u32]),
+    (anchors, carried, (carrier_frames, choice)): (&[Vec4], &mut [u32], (&[Vec4], u32)),
     flags: &mut [u32],
     counters: &mut [u32],
     (next_check, next_rollback): (&mut DispatchArgs, &mut DispatchArgs),
@@ -748,16 +818,24 @@ pub fn roll_back_at(
         return;
     }
     let start = frame_start_of(anchors, i);
-    let target = if everything { start } else { start + carry };
+    let (carry, carried_back) = if everything {
+        match chosen_particle(choice) {
+            Some(chosen) => (carry_by_frames(carrier_frames, chosen, start), true),
+            None => (Vec3::ZERO, false),
+        }
+    } else {
+        (carry, flag >= CARRIED)
+    };
+    let target = start + carry;
     if p.xyz() == target {
         return;
     }
     x[i as usize] = target.extend(p.w);
     let frame_time = substep * (push.flags >> SUBSTEPS_SHIFT) as f32;
-    let carried_along = if everything || frame_time <= 0.0 { Vec3::ZERO } else { carry * (1.0 / frame_time) };
+    let carried_along = if frame_time <= 0.0 { Vec3::ZERO } else { carry * (1.0 / frame_time) };
     v[i as usize] = carried_along.extend(v[i as usize].w);
     atomics::add(&mut health.self_rollbacks, 1);
-    if flag >= CARRIED && !everything {
+    if carried_back {
         atomics::add(&mut health.self_rollbacks_carried, 1);
     }
     if atomics::add(&mut counters[(2 * round + 1) as usize], 1) == 0 && !last {
@@ -792,8 +870,9 @@ pub fn note_everything(push: &FailsafePush, counters: &[u32], health: &mut Healt
 pub const CHECK_THREADS: u32 = 64;
 
 /// One thread per sorted leaf: the leaf's box over the frame, and where it ended against its
-/// predicted region (`frame_box_at`; the first round's boxes then refit the tree, a later
-/// round's only shrink inside it).
+/// predicted region (`frame_box_at`), and the tree's refit flags cleared (each round's boxes
+/// then refit the tree: a particle carried back lies where neither its start nor its end
+/// was, outside the box the round before gave its triangle, where a walk would miss it).
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
 pub fn failsafe_boxes(
@@ -806,9 +885,13 @@ pub fn failsafe_boxes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_bounds: &mut [Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] escaped: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] strays: &mut [f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] refit_flags: &mut [u32],
 ) {
     if id.x < self_params.leaf_count {
         leaf_bounds[id.x as usize] = frame_box_at(id.x, sorted, (x, anchors), indices, (escaped, strays));
+    }
+    if id.x + 1 < self_params.leaf_count {
+        refit_flags[id.x as usize] = 0;
     }
 }
 
@@ -831,7 +914,7 @@ pub fn failsafe_check(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] lists: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] counts: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] carriers: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] carrier_poses: &[ColliderPose],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] carrier_frames: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] flags: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] counters: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] carried: &mut [u32],
@@ -842,7 +925,7 @@ pub fn failsafe_check(
     let found = Found { flags, pairs: &mut counters[(2 * push.round) as usize], carried };
     let with_lists = (push.flags & WITH_LISTS != 0, Walkers { escaped, counts }, lists, strays);
     let tree = (nodes, aabbs, leaf_bounds, sorted);
-    let carriers = Carriers { carriers, poses: carrier_poses };
+    let carriers = Carriers { carriers, frames: carrier_frames };
     check_frame_at(id.x, self_params, tree, (x, anchors, carriers), with_lists, found);
 }
 
@@ -892,8 +975,8 @@ pub fn failsafe_collider_check(
     }
 }
 
-/// One thread per particle: its carrier among a triangle collider's (`carriers_at`), before the
-/// first round's check; push constants: `CarrierPush` (the collider's slot).
+/// One thread per particle: its carrier among a triangle collider's (`triangle_carrier_at`),
+/// before the first round's check; push constants: `CarrierPush` (the collider's slot).
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
 pub fn failsafe_carriers_triangles(
@@ -904,23 +987,28 @@ pub fn failsafe_carriers_triangles(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_bounds: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] leaves: &[Triangle],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] anchors: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] carriers: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] carrier_poses: &mut [ColliderPose],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[Triangle],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] vertices: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] previous: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] order: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] anchors: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] carriers: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] carrier_frames: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] carrier_choice: &mut u32,
 ) {
-    carriers_at::<crate::triangles::Triangles>(
-        id.x,
-        (push.slot, params.particle_count),
+    triangle_carrier_at(
+        (id.x, params.particle_count, push.slot),
         (collider, pose),
-        (nodes, aabbs, leaf_bounds, leaves),
+        (nodes, aabbs, leaves),
+        (vertices, previous, indices, order),
         anchors,
-        (carriers, carrier_poses),
+        CarrierOut { carriers, frames: carrier_frames, choice: carrier_choice },
     );
 }
 
-/// `failsafe_carriers_triangles` for a sphere collider.
+/// One thread per particle: its carrier among a sphere collider's (`sphere_carrier_at`);
+/// push constants: `CarrierPush`.
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
 pub fn failsafe_carriers_spheres(
@@ -931,19 +1019,18 @@ pub fn failsafe_carriers_spheres(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_bounds: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] leaves: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] anchors: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] carriers: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] carrier_poses: &mut [ColliderPose],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] anchors: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] carriers: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] carrier_frames: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] carrier_choice: &mut u32,
 ) {
-    carriers_at::<crate::spheres::Spheres>(
-        id.x,
-        (push.slot, params.particle_count),
+    sphere_carrier_at(
+        (id.x, params.particle_count, push.slot),
         (collider, pose),
-        (nodes, aabbs, leaf_bounds, leaves),
+        (nodes, aabbs, leaves),
         anchors,
-        (carriers, carrier_poses),
+        CarrierOut { carriers, frames: carrier_frames, choice: carrier_choice },
     );
 }
 
@@ -963,12 +1050,14 @@ pub fn failsafe_roll_back(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] next_check: &mut DispatchArgs,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] next_rollback: &mut DispatchArgs,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] carrier_frames: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] carrier_choice: &u32,
 ) {
     if id.x == 0 {
         note_everything(push, counters, health);
     }
     if id.x < params.particle_count {
-        let starts = (anchors, carried);
+        let starts = (anchors, carried, (carrier_frames, *carrier_choice));
         let push = (push, params.substep);
         roll_back_at(id.x, push, (x, v), starts, flags, counters, (next_check, next_rollback), health);
     }

@@ -182,6 +182,7 @@ const _: () = assert!(core::mem::size_of::<SubstepsPush>() == 16);
 const _: () = assert!(core::mem::size_of::<Health>() == 96);
 const _: () = assert!(core::mem::size_of::<FailsafePush>() == 16);
 const _: () = assert!(core::mem::size_of::<CarrierPush>() == 16);
+const _: () = assert!(core::mem::size_of::<ColliderPose>() == 80);
 const _: () = assert!(core::mem::size_of::<TileParams>() == 32);
 
 /// Marks a child index in `BvhNode` as a leaf (sorted sphere index) rather than an internal node.
@@ -287,6 +288,10 @@ impl Default for RigidPose {
 pub struct ColliderPose {
     pub previous: RigidPose,
     pub current: RigidPose,
+    /// x: how far any point of the collider's surface moves over the frame at most (m), by its
+    /// pose and its leaves' own motion together; 0 when it stands still (yzw: 0). What
+    /// self-collision's fail-safe reaches by for the particles the collider may carry.
+    pub sweep: Vec4,
 }
 
 /// Push constants of the contact passes: the substep's span as fractions of the frame
@@ -534,12 +539,11 @@ pub struct DispatchArgs {
 
 const _: () = assert!(core::mem::size_of::<BvhNode>() == 16);
 const _: () = assert!(core::mem::size_of::<Aabb>() == 32);
-const _: () = assert!(core::mem::size_of::<WalkNode>() == 32);
 const _: () = assert!(core::mem::size_of::<Aabb>() == AABB_WORDS as usize * 4);
 const _: () = assert!(core::mem::size_of::<ColliderParams>() == 48);
 const _: () = assert!(core::mem::size_of::<SortPush>() == 16);
 const _: () = assert!(core::mem::size_of::<RigidPose>() == 32);
-const _: () = assert!(core::mem::size_of::<ColliderPose>() == 64);
+const _: () = assert!(core::mem::size_of::<WalkNode>() == 32);
 const _: () = assert!(core::mem::size_of::<ContactPush>() == 16);
 const _: () = assert!(core::mem::size_of::<SelfPassPush>() == 16);
 const _: () = assert!(core::mem::size_of::<SelfListPush>() == 16);
