@@ -955,6 +955,19 @@ fn a_collider_spinning_far_from_the_cloth_leaves_its_substeps_alone() {
     assert_validation_clean(&ctx);
 }
 
+/// Turns collider `body` of `sim` (the GPU or the CPU solver: the same method names, no shared
+/// trait) to `turn`, by its vertices (`world`, as a skinned mesh moves) when `deforming`, else
+/// by its pose.
+macro_rules! turn_body {
+    ($sim:expr, ($deforming:expr, $body:expr), $turn:expr, $world:expr) => {
+        if $deforming {
+            $sim.set_collider_vertices($body, $world).unwrap();
+        } else {
+            $sim.set_collider_pose($body, $turn, Vec3::ZERO).unwrap();
+        }
+    };
+}
+
 /// The garment scene at 10 particles around: the skirt's waist ring is stretched round the
 /// turning body, and its 13 cm edges sag over it nearly a thickness, so the body's vertices
 /// and edges come through its cells (without the fail-safe, in some frames). The fail-safe
@@ -975,16 +988,6 @@ fn coarse_skirt_on_a_turning_body(deforming: bool) {
         let settings = SimSettings::default().with_timestamps(false).with_self_failsafe(failsafe);
         Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap()
     };
-    // Same method names on the GPU and the CPU solver, no shared trait: a macro moves either.
-    macro_rules! turn_body {
-        ($sim:expr, $turn:expr, $world:expr) => {
-            if deforming {
-                $sim.set_collider_vertices(body, $world).unwrap();
-            } else {
-                $sim.set_collider_pose(body, $turn, Vec3::ZERO).unwrap();
-            }
-        };
-    }
     const FRAMES: u32 = 40;
     let run = |model: &Model, twin: bool| {
         let mut sim = Solver::new(&ctx, model).unwrap();
@@ -993,14 +996,14 @@ fn coarse_skirt_on_a_turning_body(deforming: bool) {
         for frame in 1..=FRAMES {
             let turn = drape::scenes::garment_rotation(frame as f32 / 60.0);
             let world: Vec<Vec3> = mesh.vertices.iter().map(|v| turn * *v).collect();
-            turn_body!(sim, turn, &world);
+            turn_body!(sim, (deforming, body), turn, &world);
             let report = sim.step_report().unwrap();
             let x = sim.positions(CLOTH).unwrap();
             crossed += (count_intersections(&x, &cloth.triangles, (&world, &mesh.triangles)).total() > 0) as u32;
             carried += report.self_rollbacks;
             found += report.self_rollback_collider_pairs;
             if let Some(twin) = cpu.as_mut() {
-                turn_body!(twin, turn, &world);
+                turn_body!(twin, (deforming, body), turn, &world);
                 twin.step().unwrap();
                 assert_eq!(x, twin.positions(CLOTH).unwrap(), "frame {frame}: the CPU twin parted");
                 assert_eq!(sim.velocities(CLOTH).unwrap(), twin.velocities(CLOTH).unwrap(), "frame {frame}");
@@ -1592,25 +1595,15 @@ fn layers_on_a_turning_body(deforming: bool, around: u32, frames: u32) -> (u32, 
     let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap();
     let mut gpu = Solver::new(&ctx, &model).unwrap();
     let mut cpu = Some(CpuSolver::new(&model).unwrap());
-    // Same method names on the GPU and the CPU solver, no shared trait: a macro moves either.
-    macro_rules! turn_body {
-        ($sim:expr, $turn:expr, $world:expr) => {
-            if deforming {
-                $sim.set_collider_vertices(body, $world).unwrap();
-            } else {
-                $sim.set_collider_pose(body, $turn, Vec3::ZERO).unwrap();
-            }
-        };
-    }
     let (mut put_back, mut carried, mut crossed, mut compared) = (0, 0, 0, false);
     for frame in 1..=frames {
         let turn = drape::scenes::garment_rotation(frame as f32 * settings.frame_dt);
         let world: Vec<Vec3> = mesh.vertices.iter().map(|v| turn * *v).collect();
-        turn_body!(gpu, turn, &world);
+        turn_body!(gpu, (deforming, body), turn, &world);
         let report = gpu.step_report().unwrap();
         let x = gpu.positions(CLOTH).unwrap();
         if let Some(twin) = cpu.as_mut() {
-            turn_body!(twin, turn, &world);
+            turn_body!(twin, (deforming, body), turn, &world);
             twin.step().unwrap();
             assert_eq!(x, twin.positions(CLOTH).unwrap(), "frame {frame}: positions");
             assert_eq!(gpu.velocities(CLOTH).unwrap(), twin.velocities(CLOTH).unwrap(), "frame {frame}: velocities");

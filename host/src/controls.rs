@@ -799,23 +799,14 @@ impl ColliderControl {
     /// fastest point of its surface (m/s) and the world box its leaves sweep.
     fn frame_motion(&self, frame_dt: f32) -> Option<(f32, (Vec3, Vec3))> {
         let (from, to) = (self.end_of_last_frame, self.target);
-        // Any point's motion: its box centre's, plus the turn about the centre (a collider
-        // placed far from its own origin and spun about its middle moves slowly).
-        let centre = self.extent.centre();
-        let moved = (to_world(&to, centre) - to_world(&from, centre)).length();
-        let turn = Quat::from_vec4(to.rotation) * Quat::from_vec4(from.rotation).conjugate();
+        let (moved, turn) = self.pose_motion();
         let angle = 2.0 * turn.w.abs().min(1.0).acos();
         let (mut low, mut high) = (self.extent.low, self.extent.high);
-        let mut deformed = 0.0f32;
         if let Some(next) = &self.deformed {
             let extent = Extent::of(next);
             (low, high) = (low.min(extent.low), high.max(extent.high));
-            deformed = next
-                .iter()
-                .zip(&self.current)
-                .map(|(a, b)| (a.truncate() - b.truncate()).length() + (a.w - b.w).abs())
-                .fold(0.0, f32::max);
         }
+        let deformed = self.leaves_motion();
         if moved == 0.0 && angle == 0.0 && deformed == 0.0 {
             return None;
         }
@@ -842,18 +833,31 @@ impl ColliderControl {
     /// for small turns, where an angle through `acos` rounds to 0), its leaves' own motion, and
     /// that motion turned; 0 when it stands still.
     fn frame_sweep(&self) -> f32 {
+        let (moved, turn) = self.pose_motion();
+        let chord = 2.0 * Vec3::new(turn.x, turn.y, turn.z).length();
+        let deformed = self.leaves_motion();
+        moved + chord * (self.extent.radius + deformed) + deformed
+    }
+
+    /// Its pose's motion over the coming frame: how far its box centre moves, and the turn.
+    /// Any point's motion is the centre's plus the turn about the centre (a collider placed far
+    /// from its own origin and spun about its middle moves slowly).
+    fn pose_motion(&self) -> (f32, Quat) {
         let (from, to) = (self.end_of_last_frame, self.target);
         let centre = self.extent.centre();
         let moved = (to_world(&to, centre) - to_world(&from, centre)).length();
-        let turn = Quat::from_vec4(to.rotation) * Quat::from_vec4(from.rotation).conjugate();
-        let chord = 2.0 * Vec3::new(turn.x, turn.y, turn.z).length();
-        let deformed = self.deformed.as_ref().map_or(0.0, |next| {
+        (moved, Quat::from_vec4(to.rotation) * Quat::from_vec4(from.rotation).conjugate())
+    }
+
+    /// How far its leaves move over the coming frame in its own frame at most (the deformed
+    /// input against what the GPU holds; 0 when it is not deformed).
+    fn leaves_motion(&self) -> f32 {
+        self.deformed.as_ref().map_or(0.0, |next| {
             next.iter()
                 .zip(&self.current)
                 .map(|(a, b)| (a.truncate() - b.truncate()).length() + (a.w - b.w).abs())
                 .fold(0.0, f32::max)
-        });
-        moved + chord * (self.extent.radius + deformed) + deformed
+        })
     }
 }
 
