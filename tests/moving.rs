@@ -308,3 +308,78 @@ fn pins_can_be_released_and_animated() {
     assert!(sim.pin(CLOTH, n * n, None).is_err(), "out-of-range particle");
     assert_validation_clean(&ctx);
 }
+
+/// A ground of `cells` x `cells` squares, `size` m wide, centred at the origin in the xz plane
+/// (facing up).
+fn ground(size: f32, cells: u32) -> drape::Mesh {
+    let step = size / cells as f32;
+    let mut vertices = Vec::new();
+    for i in 0..=cells {
+        for k in 0..=cells {
+            vertices.push(Vec3::new(i as f32 * step - size / 2.0, 0.0, k as f32 * step - size / 2.0));
+        }
+    }
+    let at = |i: u32, k: u32| i * (cells + 1) + k;
+    let mut triangles = Vec::new();
+    for i in 0..cells {
+        for k in 0..cells {
+            triangles.push([at(i, k), at(i, k + 1), at(i + 1, k + 1)]);
+            triangles.push([at(i, k), at(i + 1, k + 1), at(i + 1, k)]);
+        }
+    }
+    drape::Mesh { vertices, triangles }
+}
+
+/// A ground sliding sideways under a cloth that rests on it drags the cloth along by friction,
+/// moved by its vertices (`set_collider_vertices`, as a skinned body's surface moves) as by its
+/// pose: the response takes the touched leaf's own motion into the surface's velocity. Before,
+/// a surface moved by its vertices held the cloth still in the world (its friction against a
+/// surface at rest) while the ground slid away under it. The GPU equals its CPU twin bit for bit
+/// through the sliding run.
+#[test]
+fn a_ground_sliding_by_its_vertices_drags_the_cloth_as_one_moved_by_its_pose() {
+    const SPEED: f32 = 0.5; // m/s along x, from frame SETTLE on
+    const SETTLE: u32 = 15;
+    const FRAMES: u32 = 60;
+    let ctx = context();
+    let floor = ground(3.0, 6);
+    let cloth = ClothBuilder::new(10, 10).transform(Mat4::from_translation(Vec3::new(0.0, 0.02, 0.0))).build().unwrap();
+    let collider = Collider::mesh(&floor, 0.005).with_friction(0.8);
+    let settings = SimSettings::default().with_timestamps(false);
+    let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap();
+    let shift = |f: u32| Vec3::new(SPEED * f.saturating_sub(SETTLE) as f32 / 60.0, 0.0, 0.0);
+    let mean_x_velocity = |v: &[Vec4]| v.iter().map(|v| v.x).sum::<f32>() / v.len() as f32;
+    // By its pose.
+    let mut posed = Solver::new(&ctx, &model).unwrap();
+    for f in 1..=FRAMES {
+        posed.set_collider_pose(ColliderId::new(0), Quat::IDENTITY, shift(f)).unwrap();
+        posed.step().unwrap();
+    }
+    let by_pose = mean_x_velocity(&posed.velocities(CLOTH).unwrap());
+    // By its vertices, on the GPU and its CPU twin.
+    let (mut gpu, mut cpu) = (Solver::new(&ctx, &model).unwrap(), CpuSolver::new(&model).unwrap());
+    for f in 1..=FRAMES {
+        let vertices: Vec<Vec3> = floor.vertices.iter().map(|v| *v + shift(f)).collect();
+        gpu.set_collider_vertices(ColliderId::new(0), &vertices).unwrap();
+        cpu.set_collider_vertices(ColliderId::new(0), &vertices).unwrap();
+        gpu.step().unwrap();
+        cpu.step().unwrap();
+        assert_eq!(gpu.positions(CLOTH).unwrap(), cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
+        assert_eq!(gpu.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU velocities");
+    }
+    let x = gpu.positions(CLOTH).unwrap();
+    let by_vertices = mean_x_velocity(&gpu.velocities(CLOTH).unwrap());
+    println!(
+        "cloth's mean x velocity after {FRAMES} frames: by pose {by_pose:.4} m/s, by vertices {by_vertices:.4} m/s (ground {SPEED})"
+    );
+    assert!(x.iter().all(|p| p.y > 0.0), "the cloth fell through the ground");
+    assert!(
+        by_pose > 0.9 * SPEED,
+        "the ground moved by its pose must drag the cloth (the scene must test friction): {by_pose}"
+    );
+    assert!(
+        (by_vertices - by_pose).abs() < 0.05 * SPEED,
+        "moved by its vertices, the ground dragged the cloth to {by_vertices} m/s, by its pose to {by_pose}"
+    );
+    assert_validation_clean(&ctx);
+}

@@ -302,13 +302,19 @@ fn surface_of<K: LeafKind>(
     (position - K::still_to_move(leaf, left.1), normal, p0 + (p1 - p0) * best.t)
 }
 
-/// The contact record of `best` at `position` (`Contact::NONE` for no contact).
+/// The contact record of `best` at `position` (`Contact::NONE` for no contact); `leaf_motion`
+/// is the touched leaf's own motion over the frame.
 #[inline]
-pub fn contact_at(best: Candidate, position: Vec3, normal: Vec3) -> Contact {
+pub fn contact_at(best: Candidate, position: Vec3, normal: Vec3, leaf_motion: Vec3) -> Contact {
     if best.t > 1.0 {
         return Contact::NONE;
     }
-    Contact { position: position.extend(best.t), normal: normal.extend(best.key), leaf: best.leaf, _pad: [0; 3] }
+    Contact {
+        position: position.extend(best.t),
+        normal: normal.extend(best.key),
+        leaf: best.leaf,
+        leaf_motion: leaf_motion.to_array(),
+    }
 }
 
 /// Particle `index`'s substep motion in the collider's frame (start, end).
@@ -356,13 +362,15 @@ pub struct Target {
     pub first: Vec3,
     /// Whether the path `p0 -> position` must be checked.
     pub check: bool,
+    /// The touched leaf's own motion over the frame (`Contact::leaf_motion`).
+    pub leaf_motion: Vec3,
 }
 
 impl Target {
     /// The contact record, `blocked` saying whether the path to `position` crosses a leaf.
     #[inline]
     pub fn contact(&self, blocked: bool) -> Contact {
-        contact_at(self.best, if blocked { self.first } else { self.position }, self.normal)
+        contact_at(self.best, if blocked { self.first } else { self.position }, self.normal, self.leaf_motion)
     }
 }
 
@@ -380,14 +388,15 @@ pub fn target_of<K: LeafKind>(
     left: Left,
 ) -> Target {
     if best.t > 1.0 {
-        return Target { best, position: p1, normal: Vec3::ZERO, first: p1, check: false };
+        return Target { best, position: p1, normal: Vec3::ZERO, first: p1, check: false, leaf_motion: Vec3::ZERO };
     }
     let (position, normal, first) = surface_of::<K>(best, leaves, p0, p1, thickness, left);
+    let leaf_motion = K::still_to_move(leaves[best.leaf as usize], 1.0);
     // A path shorter than half the clearance cannot reach any surface (the half covers the
     // crossing test's own margin and rounding): the answer is known without the walk, the
     // same one the walk (or the brute-force loop) would give.
     let short = (position - p0).length() < 0.5 * clearance;
-    Target { best, position, normal, first, check: K::checks_path() && !short }
+    Target { best, position, normal, first, check: K::checks_path() && !short, leaf_motion }
 }
 
 /// The body of every leaf kind's LBVH detect entry point: particle `index` (threads past the
@@ -471,8 +480,8 @@ pub fn respond(position: Vec3, outward: Vec3, v: Vec3, friction: f32) -> (Vec3, 
 }
 
 /// Applies particle `index`'s detected contact, if any: the response acts in the collider's
-/// frame on the velocity relative to the collider's surface at the particle. A sleeping
-/// particle (`tiles`) stays as it is: no collider moves near it.
+/// frame on the velocity relative to the collider's surface at the particle (`surface_velocity`).
+/// A sleeping particle (`tiles`) stays as it is: no collider moves near it.
 #[inline]
 pub fn respond_at(
     index: u32,
@@ -486,12 +495,24 @@ pub fn respond_at(
     if !contact.is_some() || sleeping(v[i]) {
         return;
     }
-    let p1 = to_local(&motion.end, x[i].xyz());
-    let surface = motion.velocity_at(p1);
+    let surface = surface_velocity(contact, motion, x[i].xyz());
     let relative = rotate_inverse(motion.end.rotation, v[i].xyz() - surface);
     let (position, velocity) = respond(contact.position.xyz(), contact.normal.xyz(), relative, collider.friction);
     x[i] = to_world(&motion.end, position).extend(x[i].w);
     v[i] = (rotate(motion.end.rotation, velocity) + surface).extend(0.0);
+}
+
+/// The velocity (world) of the collider's surface where a particle at `p` (world, the
+/// substep's end) touches it: the pose's motion of that point, plus the touched leaf's own
+/// motion over the substep (its share of `Contact::leaf_motion`, which a deforming collider's
+/// vertices give; the leaf's mean motion, so a leaf that also turns or stretches in the frame
+/// is taken at its centroid's velocity). Without the leaf's part, a surface sliding under the
+/// cloth by its vertices (a skinned body) would not drag the cloth along by friction.
+#[inline]
+pub fn surface_velocity(contact: &Contact, motion: &SubstepMotion, p: Vec3) -> Vec3 {
+    let by_pose = motion.velocity_at(to_local(&motion.end, p));
+    let share = (motion.to - motion.from) * (1.0 / motion.h);
+    by_pose + rotate(motion.end.rotation, Vec3::from_array(contact.leaf_motion) * share)
 }
 
 /// The collider's motion over the substep a contact pass runs in.

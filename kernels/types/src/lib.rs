@@ -511,13 +511,16 @@ pub struct Contact {
     pub normal: Vec4,
     /// The leaf touched (tree order), `NO_LEAF` for none.
     pub leaf: u32,
-    pub _pad: [u32; 3],
+    /// How far that leaf itself moves over the frame, in the collider's frame (a deforming
+    /// collider's, from its vertices; zero for a leaf that does not move): the response adds
+    /// its velocity to the pose's, so friction drags the cloth along a surface that slides.
+    pub leaf_motion: [f32; 3],
 }
 
 impl Contact {
     /// No contact.
     pub const NONE: Contact =
-        Contact { position: Vec4::new(0.0, 0.0, 0.0, 2.0), normal: Vec4::ZERO, leaf: NO_LEAF, _pad: [0; 3] };
+        Contact { position: Vec4::new(0.0, 0.0, 0.0, 2.0), normal: Vec4::ZERO, leaf: NO_LEAF, leaf_motion: [0.0; 3] };
 
     /// Whether there is a contact to respond to.
     #[inline]
