@@ -385,7 +385,11 @@ fn scene_files_round_trip_override_and_explain_their_errors() {
         ("no-timestamps = 3\n", 2, &["line 1", "switch"]),
         ("grid = [1,\n", 2, &["line 1"]),
         ("grid = 8\n[[collider]]\nmesh = \"torus\"\nspin = 3\n", 2, &["line 4", "unknown field `spin`"]),
-        ("[[collider]]\nscale = 2\n", 2, &["line 1", "missing field `mesh`"]),
+        ("[[collider]]\nscale = 2\n", 2, &["line 1", "give `mesh`", "or `mesh-sequence`"]),
+        ("[[collider]]\nmesh = \"torus\"\nmesh-sequence = \"a_##.obj\"\n", 2, &["line 1", "not both"]),
+        ("[[collider]]\nmesh = \"torus\"\nsequence-start = 3\n", 2, &["line 1", "`sequence-start` needs"]),
+        ("[[collider]]\nmesh-sequence = \"/nonexistent/body.obj\"\n", 1, &["/nonexistent/body.obj", "no `#`"]),
+        ("[[collider]]\nmesh-sequence = \"/nonexistent/body_####.obj\"\n", 1, &["/nonexistent/body_0001.obj"]),
         ("grid = 8\n\n[[collider]]\nmesh = \"torus\"\nscale = 0\n", 2, &["line 3", "`scale` must be above 0"]),
         ("[[collider]]\nmesh = \"torus\"\nvelocity = [1, 2]\n", 2, &["line 3", "velocity"]),
         ("[[collider]]\nmesh = \"/nonexistent/rock.obj\"\n", 1, &["/nonexistent/rock.obj"]),
@@ -743,4 +747,90 @@ fn cli_one_workgroup_substeps_runs_the_frame_as_one_dispatch_with_the_same_resul
     if on.3 {
         assert!(on.2 == off.2 && on.2 == auto.2, "the final frames differ");
     }
+}
+
+/// A `[[collider]]`'s `mesh-sequence` (one OBJ file a frame, as an animated body is exported)
+/// deforms the collider through the files: a ground whose files rise from y = 0.1 at 0.4 m/s
+/// lifts the swinging cloth as the same ground moved by `velocity` does (to y = 0.5 by t = 1 s,
+/// within a millimetre of it); past its last file it stays, with a warning naming the file it
+/// did not find; the `--usd` cache holds its points per frame. A later file with other
+/// triangles, or the sequence with `--contact spheres`, is an error that says so.
+#[test]
+fn scene_file_mesh_sequence_deforms_a_collider() {
+    let dir = std::env::temp_dir().join(format!("drape-sequence-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // A 3 m ground of 4 x 4 squares at height `y`; `torn` leaves its last square out.
+    let ground = |y: f32, torn: bool| {
+        let mut text = String::new();
+        for i in 0..5 {
+            for k in 0..5 {
+                text += &format!("v {} {y} {}\n", -1.5 + 0.75 * i as f32, -1.5 + 0.75 * k as f32);
+            }
+        }
+        for i in 0..4 {
+            for k in (0..4).filter(|&k| !(torn && i == 3 && k == 3)) {
+                let at = |i: u32, k: u32| i * 5 + k + 1;
+                text += &format!("f {} {} {}\n", at(i, k), at(i, k + 1), at(i + 1, k + 1));
+                text += &format!("f {} {} {}\n", at(i, k), at(i + 1, k + 1), at(i + 1, k));
+            }
+        }
+        text
+    };
+    const FILES: u32 = 61; // the run's start and 60 frames
+    for n in 1..=FILES {
+        let y = 0.1 + 0.4 * (n - 1) as f32 / 60.0;
+        std::fs::write(dir.join(format!("ground_{n:03}.obj")), ground(y, false)).unwrap();
+    }
+    let run = |name: &str, frames: u32, table: &str, extra: &[&str]| {
+        let file = dir.join(format!("{name}.toml"));
+        let json = dir.join(format!("{name}.json"));
+        let text = format!("scene = \"swing\"\ngrid = 16\nframes = {frames}\nno-timestamps = true\n{table}");
+        std::fs::write(&file, text).unwrap();
+        let mut args = vec!["--scene-file", file.to_str().unwrap(), "--quiet", "--json", json.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let output = drape(&args);
+        // A run that failed leaves its report empty.
+        let report =
+            std::fs::read_to_string(&json).ok().and_then(|r| serde_json::from_str::<serde_json::Value>(&r).ok());
+        (output, report)
+    };
+    let first = dir.join("ground_001.obj");
+    let moved = format!("[[collider]]\nmesh = \"{}\"\nvelocity = [0, 0.4, 0]\n", first.display());
+    let sequence = "[[collider]]\nmesh-sequence = \"ground_###.obj\"\n";
+    let usd = dir.join("sequence.usda");
+    let (by_velocity, velocity_report) = run("velocity", 60, &moved, &[]);
+    let (by_files, files_report) = run("files", 60, sequence, &["--usd", usd.to_str().unwrap()]);
+    for output in [&by_velocity, &by_files] {
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    }
+    let lowest = |report: Option<serde_json::Value>| report.unwrap()["lowest_particle_y_m"].as_f64().unwrap();
+    let (moved, deformed) = (lowest(velocity_report), lowest(files_report));
+    eprintln!("lowest particle after 1 s: ground moved by velocity {moved:.4} m, by its files {deformed:.4} m");
+    assert!((0.49..0.6).contains(&deformed), "the rising files lift the cloth to y = 0.5 by t = 1 s ({deformed})");
+    assert!((deformed - moved).abs() < 1e-3, "by its files {deformed}, by velocity {moved}");
+    let cache = std::fs::read_to_string(&usd).unwrap();
+    assert!(cache.contains("point3f[] points.timeSamples"), "the cache holds the deforming collider's points");
+    assert!(cache.contains("            60: [(-1.5, 0.5, -1.5)"), "frame 60's ground at y = 0.5 in the cache");
+
+    // Past the last file it stays where the last one put it.
+    let (past, report) = run("past", 70, sequence, &[]);
+    let stderr = String::from_utf8_lossy(&past.stderr);
+    assert!(past.status.success(), "{stderr}");
+    assert!(stderr.contains("ground_062.obj"), "the warning names the file it did not find: {stderr}");
+    assert!((0.49..0.6).contains(&lowest(report)), "the ground stays at 0.5 after its last file");
+
+    // Bad input: a file with other triangles; the sequence with sphere contact.
+    std::fs::write(dir.join("ground_031.obj"), ground(0.3, true)).unwrap();
+    let (changed, _) = run("changed", 60, sequence, &[]);
+    let stderr = String::from_utf8_lossy(&changed.stderr);
+    assert_eq!(changed.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("ground_031.obj") && stderr.contains("30 triangles"), "{stderr}");
+    let (spheres, _) = run("spheres", 5, sequence, &["--contact", "spheres"]);
+    let stderr = String::from_utf8_lossy(&spheres.stderr);
+    assert_eq!(spheres.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("--contact triangles"), "{stderr}");
+    for output in [&changed, &spheres] {
+        assert!(!String::from_utf8_lossy(&output.stderr).contains("panicked"));
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -252,7 +252,7 @@ fn run(args: &Args) -> drape::Result<()> {
             }
             _ => ("collider", Motion::default()),
         };
-        scene_colliders.push(SceneCollider { name: name.into(), mesh: s.mesh.clone(), motion });
+        scene_colliders.push(SceneCollider { name: name.into(), mesh: s.mesh.clone(), motion, sequence: None });
     }
     for (i, table) in args.colliders.iter().enumerate() {
         let file = args.scene_file.as_deref().unwrap_or(std::path::Path::new("")).display();
@@ -263,6 +263,16 @@ fn run(args: &Args) -> drape::Result<()> {
     }
     let mut colliders = Vec::new();
     for sc in &scene_colliders {
+        if sc.sequence.is_some() && args.contact == ContactArg::Spheres {
+            return Err(drape::Error::InvalidParameter {
+                name: "mesh-sequence",
+                problem: format!(
+                    "{}: a mesh sequence deforms the collider's triangles, which `--contact spheres` does not \
+                     collide with: use `--contact triangles`",
+                    sc.name
+                ),
+            });
+        }
         let start = Instant::now();
         let c = match args.contact {
             ContactArg::Spheres => {
@@ -281,6 +291,10 @@ fn run(args: &Args) -> drape::Result<()> {
             (_, name) => name,
         };
         let moving = if sc.motion.is_static() { String::new() } else { format!(", moving: {:?}", sc.motion) };
+        let moving = match &sc.sequence {
+            Some(sequence) => format!("{moving}, deforming through {} ...", sequence.path(0).display()),
+            None => moving,
+        };
         say!(
             "collider: {name} ({} vertices, {} triangles), {leaves} in {:.1} ms (CPU){moving}",
             sc.mesh.vertices.len(),
@@ -374,9 +388,16 @@ fn run(args: &Args) -> drape::Result<()> {
         // Where each collider stands at the end of this frame (it sweeps there over the frame).
         let t = frame as f32 * frame_dt;
         let poses: Vec<_> = scene_colliders.iter().map(|c| c.motion.pose(t)).collect();
-        for ((id, sc), &(rotation, translation)) in collider_ids.iter().zip(&scene_colliders).zip(&poses) {
+        let mut deformed = Vec::new();
+        for (i, ((id, sc), &(rotation, translation))) in
+            collider_ids.iter().zip(&mut scene_colliders).zip(&poses).enumerate()
+        {
             if !sc.motion.is_static() {
                 sim.set_collider_pose(*id, rotation, translation)?;
+            }
+            if sc.advance(frame)? {
+                sim.set_collider_vertices(*id, &sc.mesh.vertices)?;
+                deformed.push(i);
             }
         }
         let start = Instant::now();
@@ -415,11 +436,15 @@ fn run(args: &Args) -> drape::Result<()> {
                 if !sc.motion.is_static() {
                     cache.collider_pose(i, frame, rotation, translation);
                 }
+                if deformed.contains(&i) {
+                    cache.collider_points(i, frame, &sc.mesh.vertices);
+                }
             }
         }
         if let Some(p) = &mut pictures {
             let rigid: Vec<_> = poses.iter().map(|&(r, t)| drape::rigid_pose(r, t)).collect();
-            p.frame(frame, args.frames, &sim, cloth, &rigid)?;
+            let shapes: Vec<_> = deformed.iter().map(|&i| (i, &scene_colliders[i].mesh)).collect();
+            p.frame(frame, args.frames, (&sim, cloth), &rigid, &shapes)?;
         }
         if args.check_every_frame {
             let solid = union_at(&scene_colliders, t);

@@ -21,6 +21,8 @@ struct ColliderTrack {
     name: String,
     mesh: Mesh,
     poses: Vec<(u32, Quat, Vec3)>,
+    /// A deforming collider's vertices by frame (its own frame's coordinates).
+    points: Vec<(u32, Vec<Vec3>)>,
 }
 
 /// A `.usda` animation cache being written.
@@ -91,7 +93,12 @@ impl UsdCache {
 
     /// Adds a collider (its rest shape, in its own frame); its poses come with `collider_pose`.
     pub fn add_collider(&mut self, name: &str, mesh: &Mesh) -> usize {
-        self.colliders.push(ColliderTrack { name: prim_name(name), mesh: mesh.clone(), poses: Vec::new() });
+        self.colliders.push(ColliderTrack {
+            name: prim_name(name),
+            mesh: mesh.clone(),
+            poses: Vec::new(),
+            points: Vec::new(),
+        });
         self.colliders.len() - 1
     }
 
@@ -99,6 +106,13 @@ impl UsdCache {
     pub fn collider_pose(&mut self, index: usize, frame: u32, rotation: Quat, translation: Vec3) {
         if let Some(c) = self.colliders.get_mut(index) {
             c.poses.push((frame, rotation, translation));
+        }
+    }
+
+    /// Collider `index`'s vertices at `frame` (a deforming collider: the same triangles).
+    pub fn collider_points(&mut self, index: usize, frame: u32, vertices: &[Vec3]) {
+        if let Some(c) = self.colliders.get_mut(index) {
+            c.points.push((frame, vertices.to_vec()));
         }
     }
 
@@ -115,6 +129,13 @@ impl UsdCache {
             let _ = write!(tail, "\n    def Mesh \"{}\"\n    {{\n", c.name);
             let _ = writeln!(tail, "        uniform token subdivisionScheme = \"none\"");
             let _ = writeln!(tail, "        point3f[] points = {}", point_list(c.mesh.vertices.iter().copied()));
+            if !c.points.is_empty() {
+                let _ = writeln!(tail, "        point3f[] points.timeSamples = {{");
+                for (frame, points) in &c.points {
+                    let _ = writeln!(tail, "            {frame}: {},", point_list(points.iter().copied()));
+                }
+                let _ = writeln!(tail, "        }}");
+            }
             let _ = writeln!(tail, "        int[] faceVertexCounts = {}", int_list(c.mesh.triangles.iter().map(|_| 3)));
             let _ = writeln!(
                 tail,

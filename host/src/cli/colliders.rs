@@ -1,6 +1,8 @@
 //! The run's colliders: the scene's own (the drape scene's mesh, the pile's ground, the
 //! garment's turning body) and those a scene file adds as `[[collider]]` tables, each a mesh
-//! placed by a transform and moved by a spin about its centre and a constant velocity.
+//! placed by a transform and moved by a spin about its centre and a constant velocity, or a
+//! sequence of OBJ files, one per frame (an animated body exported frame by frame), that
+//! deforms it.
 
 use drape::mesh::Mesh;
 use drape::scenes::{default_mesh, find_model, ground};
@@ -11,8 +13,19 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields, rename_all = "kebab-case")]
 pub(crate) struct ColliderTable {
-    /// icosphere, torus, plane (a 6 m ground), bunny, dragon, or an OBJ path.
+    /// icosphere, torus, plane (a 6 m ground), bunny, dragon, or an OBJ path (or empty, with
+    /// `mesh-sequence`).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
     pub(crate) mesh: String,
+    /// OBJ files, one per frame, with a run of `#` where the file's number goes, zero-padded to
+    /// the run's width (`walk/body_####.obj`): the collider deforms through them (the same
+    /// triangles in every file, their vertices moved), instead of `mesh`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) mesh_sequence: Option<String>,
+    /// The number of the sequence's file that holds the collider at the run's start (default
+    /// 1): frame f of the run ends on file `sequence-start + f`; past the last file it stays.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) sequence_start: Option<u32>,
     /// Uniform scale, or per axis as [x, y, z].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(crate) scale: Option<Scale>,
@@ -67,19 +80,137 @@ impl Motion {
 pub(crate) struct SceneCollider {
     /// Its name in caches and messages (a USD prim name: letters, digits, underscores).
     pub(crate) name: String,
-    /// The mesh at rest, in the world.
+    /// The mesh at rest, in the world (a sequence's: its shape at the last frame loaded).
     pub(crate) mesh: Mesh,
     pub(crate) motion: Motion,
+    /// The files it deforms through, if any.
+    pub(crate) sequence: Option<MeshSequence>,
 }
 
 impl SceneCollider {
-    /// The mesh where it stands at time `t`.
+    /// The mesh where it stands at time `t` (a sequence's as its last frame loaded it).
     pub(crate) fn posed(&self, t: f32) -> Mesh {
         if self.motion.is_static() {
             return self.mesh.clone();
         }
         let (rotation, translation) = self.motion.pose(t);
         self.mesh.transformed(Mat4::from_rotation_translation(rotation, translation))
+    }
+
+    /// Loads its sequence's shape at the end of frame `frame` into `mesh`: true when it
+    /// changed (false without a sequence, or past the sequence's last file, where it stays).
+    pub(crate) fn advance(&mut self, frame: u32) -> drape::Result<bool> {
+        let Some(sequence) = &mut self.sequence else {
+            return Ok(false);
+        };
+        match sequence.load(frame)? {
+            Some(mesh) => {
+                self.mesh = mesh;
+                Ok(true)
+            }
+            None => Ok(false),
+        }
+    }
+}
+
+/// A collider's OBJ files, one per frame (`ColliderTable::mesh_sequence`).
+pub(crate) struct MeshSequence {
+    /// The path with its run of `#` split out: before, the run's width, after.
+    before: String,
+    width: usize,
+    after: String,
+    /// The file number at the run's start.
+    start: u32,
+    /// The table's placement, applied to every file.
+    transform: Mat4,
+    /// The first file's triangles (every file must have them).
+    triangles: Vec<[u32; 3]>,
+    vertex_count: usize,
+    /// Whether a frame found no file (the collider stays as the last one left it).
+    pub(crate) ended_at: Option<u32>,
+}
+
+impl MeshSequence {
+    /// The sequence `pattern` (one run of `#` in its file name) starting at file `start`,
+    /// placed by `transform`, and its first file's mesh.
+    fn open(pattern: &str, start: u32, transform: Mat4) -> drape::Result<(Self, Mesh)> {
+        let invalid = |problem: String| drape::Error::InvalidParameter { name: "mesh-sequence", problem };
+        let name_at = pattern.rfind(['/', '\\']).map_or(0, |i| i + 1);
+        let hashes: Vec<usize> = pattern.match_indices('#').map(|(i, _)| i).collect();
+        let (Some(&first), Some(&last)) = (hashes.first(), hashes.last()) else {
+            return Err(invalid(format!(
+                "`{pattern}` has no `#` where the frame's file number goes: write e.g. `body_####.obj` for \
+                 body_0001.obj, body_0002.obj, ..."
+            )));
+        };
+        if first < name_at || last + 1 - first != hashes.len() {
+            return Err(invalid(format!(
+                "`{pattern}` must have one run of `#` in its file name (where the frame's number goes, e.g. \
+                 `body_####.obj`)"
+            )));
+        }
+        let mut sequence = MeshSequence {
+            before: pattern[..first].to_string(),
+            width: hashes.len(),
+            after: pattern[last + 1..].to_string(),
+            start,
+            transform,
+            triangles: Vec::new(),
+            vertex_count: 0,
+            ended_at: None,
+        };
+        let path = sequence.path(0);
+        if !path.is_file() {
+            return Err(invalid(format!(
+                "its first file {} (number {start}, `sequence-start`) does not exist: check the pattern `{pattern}` \
+                 and `sequence-start`",
+                path.display()
+            )));
+        }
+        let mesh = Mesh::load_obj(&path)?.transformed(transform);
+        sequence.triangles = mesh.triangles.clone();
+        sequence.vertex_count = mesh.vertices.len();
+        Ok((sequence, mesh))
+    }
+
+    /// The file holding the collider at the end of frame `frame` (0: the run's start).
+    pub(crate) fn path(&self, frame: u32) -> std::path::PathBuf {
+        let number = u64::from(self.start) + u64::from(frame);
+        format!("{}{number:0width$}{}", self.before, self.after, width = self.width).into()
+    }
+
+    /// The collider's mesh at the end of frame `frame`, placed; `None` once the files run out
+    /// (the first missing number ends the sequence). A file with other triangles than the
+    /// first (or another vertex count) is an error naming it.
+    fn load(&mut self, frame: u32) -> drape::Result<Option<Mesh>> {
+        if self.ended_at.is_some() {
+            return Ok(None);
+        }
+        let path = self.path(frame);
+        if !path.is_file() {
+            log::warn!(
+                "mesh sequence: no {} for frame {frame}: the collider stays as frame {} left it",
+                path.display(),
+                frame.saturating_sub(1)
+            );
+            self.ended_at = Some(frame);
+            return Ok(None);
+        }
+        let mesh = Mesh::load_obj(&path)?.transformed(self.transform);
+        if mesh.vertices.len() != self.vertex_count || mesh.triangles != self.triangles {
+            return Err(drape::Error::Mesh {
+                path,
+                problem: format!(
+                    "{} vertices and {} triangles, not the first file's {} and {} (the same triangles in the same \
+                     order): a mesh sequence deforms one mesh, each file moving its vertices",
+                    mesh.vertices.len(),
+                    mesh.triangles.len(),
+                    self.vertex_count,
+                    self.triangles.len()
+                ),
+            });
+        }
+        Ok(Some(mesh))
     }
 }
 
@@ -102,6 +233,14 @@ pub(crate) fn load_mesh(name: &str) -> drape::Result<Mesh> {
 impl ColliderTable {
     /// Checks the numbers (finite, a scale above zero, a spin axis of non-zero length).
     pub(crate) fn check(&self) -> Result<(), String> {
+        match (self.mesh.is_empty(), &self.mesh_sequence) {
+            (true, None) => return Err("give `mesh` (a built-in name or an OBJ path) or `mesh-sequence`".into()),
+            (false, Some(_)) => return Err("give `mesh` or `mesh-sequence`, not both".into()),
+            _ => {}
+        }
+        if self.sequence_start.is_some() && self.mesh_sequence.is_none() {
+            return Err("`sequence-start` needs `mesh-sequence`".into());
+        }
         let finite = |name: &str, v: &[f64]| {
             if v.iter().all(|x| x.is_finite() && x.abs() < 1e30) {
                 Ok(())
@@ -146,7 +285,13 @@ impl ColliderTable {
 
     /// The collider: its mesh loaded and placed, its motion about its placed centre.
     pub(crate) fn build(&self, index: usize) -> drape::Result<SceneCollider> {
-        let mesh = load_mesh(&self.mesh)?.transformed(self.transform());
+        let (mesh, sequence) = match &self.mesh_sequence {
+            Some(pattern) => {
+                let (sequence, mesh) = MeshSequence::open(pattern, self.sequence_start.unwrap_or(1), self.transform())?;
+                (mesh, Some(sequence))
+            }
+            None => (load_mesh(&self.mesh)?.transformed(self.transform()), None),
+        };
         let (lo, hi) = mesh.bounds();
         let motion = Motion {
             pivot: 0.5 * (lo + hi),
@@ -154,7 +299,7 @@ impl ColliderTable {
             spin_rate: self.spin_rate.unwrap_or(0.0) as f32,
             velocity: vec3(self.velocity.unwrap_or_default()),
         };
-        Ok(SceneCollider { name: format!("collider{}", index + 1), mesh, motion })
+        Ok(SceneCollider { name: format!("collider{}", index + 1), mesh, motion, sequence })
     }
 }
 

@@ -15,7 +15,11 @@ pub(crate) struct Pictures {
     every: Option<u32>,
     renderer: Renderer,
     camera: Camera,
+    ctx: Arc<Context>,
     colliders: Vec<SurfaceMesh>,
+    /// Each collider's triangles, and its new vertices when it deformed since its last picture.
+    triangles: Vec<Vec<[u32; 3]>>,
+    shapes: Vec<Option<Vec<glam::Vec3>>>,
     pub(crate) written: Vec<PathBuf>,
 }
 
@@ -41,24 +45,37 @@ impl Pictures {
                 .iter()
                 .map(|m| SurfaceMesh::new(ctx, &m.vertices, &m.triangles))
                 .collect::<drape::Result<_>>()?,
+            ctx: Arc::clone(ctx),
+            triangles: colliders.iter().map(|m| m.triangles.clone()).collect(),
+            shapes: vec![None; colliders.len()],
             written: Vec::new(),
         })
     }
 
     /// Draws and writes `frame_NNNNN.png` if `frame` is one to write (of `frames`), each
-    /// collider at its pose in `collider_poses`.
+    /// collider at its pose in `collider_poses`; `deformed`: the colliders whose shape this
+    /// frame changed (index, mesh: the same triangles), kept for the pictures to come.
     pub(crate) fn frame(
         &mut self,
         frame: u32,
         frames: u32,
-        solver: &Solver,
-        cloth: ClothId,
+        (solver, cloth): (&Solver, ClothId),
         collider_poses: &[RigidPose],
+        deformed: &[(usize, &Mesh)],
     ) -> drape::Result<()> {
+        for &(i, mesh) in deformed {
+            self.shapes[i] = Some(mesh.vertices.clone());
+        }
         // Every n-th frame and the last (a run shorter than n still gets its picture).
         let due = frame == frames || self.every.is_some_and(|n| frame.is_multiple_of(n));
         if !due {
             return Ok(());
+        }
+        // A deformed collider's surface is uploaded again only for a picture that shows it.
+        for (i, shape) in self.shapes.iter_mut().enumerate() {
+            if let Some(vertices) = shape.take() {
+                self.colliders[i] = SurfaceMesh::new(&self.ctx, &vertices, &self.triangles[i])?;
+            }
         }
         let mut draws = vec![Draw::Cloth { solver, cloth, color: CLOTH_COLOR }];
         for (i, (mesh, &pose)) in self.colliders.iter().zip(collider_poses).enumerate() {

@@ -70,6 +70,7 @@ pub(crate) fn matches(cli: Vec<OsString>) -> Result<(ArgMatches, Vec<ColliderTab
     let mut colliders = collider_tables(&path, &text)?;
     for table in &mut colliders {
         table.mesh = beside(scene_dir(&path), "mesh", &table.mesh);
+        table.mesh_sequence = table.mesh_sequence.as_ref().map(|m| beside(scene_dir(&path), "mesh_sequence", m));
     }
     let mut merged = vec![cli[0].clone()];
     for entry in &entries {
