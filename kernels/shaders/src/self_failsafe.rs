@@ -308,21 +308,35 @@ impl Carriers<'_> {
         if best == NO_CARRIER { None } else { Some(chosen) }
     }
 
-    /// How particle `i`'s carrier carries a point (`carry_by_frames`).
+    /// Particle `i`'s carrier triangle where the frame started and ended (`carrier_frames`).
     #[inline]
-    fn carry(self, i: u32, p: Vec3) -> Vec3 {
-        carry_by_frames(self.frames, i, p)
+    fn frames_of(self, i: u32) -> ([Vec3; 3], [Vec3; 3]) {
+        carrier_frames(self.frames, i)
     }
 }
 
-/// How particle `i`'s carrier carries point `p`: `surface_motion` by its frames in `frames`
+/// Particle `i`'s carrier triangle where the frame started and where it ended, from `frames`
 /// (`CARRIER_FRAME_WORDS` per particle).
 #[inline]
-fn carry_by_frames(frames: &[Vec4], i: u32, p: Vec3) -> Vec3 {
+fn carrier_frames(frames: &[Vec4], i: u32) -> ([Vec3; 3], [Vec3; 3]) {
     let base = (CARRIER_FRAME_WORDS * i) as usize;
     let then = [frames[base].xyz(), frames[base + 1].xyz(), frames[base + 2].xyz()];
     let now = [frames[base + 3].xyz(), frames[base + 4].xyz(), frames[base + 5].xyz()];
+    (then, now)
+}
+
+/// How particle `i`'s carrier carries point `p`: `surface_motion` by its frames.
+#[inline]
+fn carry_by_frames(frames: &[Vec4], i: u32, p: Vec3) -> Vec3 {
+    let (then, now) = carrier_frames(frames, i);
     surface_motion(p, then, now)
+}
+
+/// How a cloth triangle's corners `start` (where the frame started) move with a collider
+/// triangle's surface from `then` to `now`: each corner's `surface_motion`.
+#[inline]
+fn corners_motion(start: [Vec3; 3], (then, now): ([Vec3; 3], [Vec3; 3])) -> [Vec3; 3] {
+    [surface_motion(start[0], then, now), surface_motion(start[1], then, now), surface_motion(start[2], then, now)]
 }
 
 /// The leaf (tree order) of a collider where the frame ends nearest to where particle `i`
@@ -508,9 +522,8 @@ pub fn check_triangle_pair(
         found.mark(a.ids, b.ids);
         return;
     };
-    let carry =
-        |s: [Vec3; 3]| [carriers.carry(carrier, s[0]), carriers.carry(carrier, s[1]), carriers.carry(carrier, s[2])];
-    let (moves_a, moves_b) = (carry(start_a), carry(start_b));
+    let frames = carriers.frames_of(carrier);
+    let (moves_a, moves_b) = (corners_motion(start_a, frames), corners_motion(start_b, frames));
     if gentle(start_a, moves_a) && gentle(start_b, moves_b) {
         found.mark_pair_carried((a.ids, b.ids), (moves_a, moves_b));
     } else {
@@ -706,12 +719,7 @@ impl LeafVisitor for ColliderFramePairs<'_> {
         if !moved {
             self.found.mark(cloth.ids, cloth.ids);
         } else {
-            let now = self.corners;
-            let moves = [
-                surface_motion(start[0], then, now),
-                surface_motion(start[1], then, now),
-                surface_motion(start[2], then, now),
-            ];
+            let moves = corners_motion(start, (then, self.corners));
             if !gentle(start, moves) {
                 return;
             }
