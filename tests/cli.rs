@@ -22,6 +22,7 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         (&["--voxels", "8"], usage, "--voxels only applies with --contact spheres"),
         (&["--weld"], usage, "--weld only applies to a cloth from --cloth-mesh"),
         (&["--obj-every", "3"], usage, "--obj-every needs --obj-dir"),
+        (&["--scene", "garment", "--grid", "4"], usage, "--grid 4 is too few particles around the garment"),
         (&["--thickness", "1000"], usage, "(0, 0.5]"),
         (&["--friction", "-1"], usage, "[0, 10]"),
         (&["--stiffness", "1e30,1,1"], usage, "[0, 1000000]"),
@@ -390,7 +391,13 @@ fn scene_files_round_trip_override_and_explain_their_errors() {
         ("[[collider]]\nmesh = \"torus\"\nsequence-start = 3\n", 2, &["line 1", "`sequence-start` needs"]),
         ("[[collider]]\nmesh-sequence = \"/nonexistent/body.obj\"\n", 1, &["/nonexistent/body.obj", "no `#`"]),
         ("[[collider]]\nmesh-sequence = \"/nonexistent/body_####.obj\"\n", 1, &["/nonexistent/body_0001.obj"]),
+        ("[[collider]]\nmesh-sequence = \"/nonexistent/a_#/b_#.obj\"\n", 1, &["`#` in its directory"]),
+        ("[[collider]]\nmesh-sequence = \"/nonexistent/b_#_#.obj\"\n", 1, &["more than one run of `#`"]),
         ("grid = 8\n\n[[collider]]\nmesh = \"torus\"\nscale = 0\n", 2, &["line 3", "`scale` must be above 0"]),
+        ("[[collider]]\nmesh = \"torus\"\nscale = [1, 2]\n", 2, &["line 3", "a number or three numbers"]),
+        ("[[collider]]\nmesh = \"torus\"\nscale = 1e30\n", 2, &["line 1", "below 1e30"]),
+        ("[[collider]]\nmesh = \"torus\"\ntranslate = [1, 2, 3, 4]\n", 2, &["line 3", "three numbers", "got 4"]),
+        ("grid = 8\n[collider]\nmesh = \"torus\"\n", 2, &["line 2", "`[[collider]]` table, in double brackets"]),
         ("[[collider]]\nmesh = \"torus\"\nvelocity = [1, 2]\n", 2, &["line 3", "velocity"]),
         ("[[collider]]\nmesh = \"/nonexistent/rock.obj\"\n", 1, &["/nonexistent/rock.obj"]),
     ];
@@ -825,11 +832,24 @@ fn scene_file_mesh_sequence_deforms_a_collider() {
     let stderr = String::from_utf8_lossy(&changed.stderr);
     assert_eq!(changed.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("ground_031.obj") && stderr.contains("30 triangles"), "{stderr}");
+    let mut turned = ground(0.3, false);
+    turned = turned.replacen("f 1 2 7\n", "f 2 7 1\n", 1); // the same triangle, its corners turned
+    std::fs::write(dir.join("ground_031.obj"), turned).unwrap();
+    let (reordered, _) = run("reordered", 60, sequence, &[]);
+    let stderr = String::from_utf8_lossy(&reordered.stderr);
+    assert_eq!(reordered.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("ground_031.obj") && stderr.contains("its triangles are not the first file's"), "{stderr}");
+    std::fs::remove_file(dir.join("ground_031.obj")).unwrap();
+    std::fs::create_dir(dir.join("ground_031.obj")).unwrap();
+    let (directory, _) = run("directory", 60, sequence, &[]);
+    let stderr = String::from_utf8_lossy(&directory.stderr);
+    assert_eq!(directory.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("ground_031.obj: is not a file"), "{stderr}");
     let (spheres, _) = run("spheres", 5, sequence, &["--contact", "spheres"]);
     let stderr = String::from_utf8_lossy(&spheres.stderr);
     assert_eq!(spheres.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("--contact triangles"), "{stderr}");
-    for output in [&changed, &spheres] {
+    for output in [&changed, &reordered, &directory, &spheres] {
         assert!(!String::from_utf8_lossy(&output.stderr).contains("panicked"));
     }
     std::fs::remove_dir_all(&dir).ok();

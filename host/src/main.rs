@@ -290,7 +290,7 @@ fn run(args: &Args) -> drape::Result<()> {
             (SceneArg::Drape, "collider") => args.mesh.as_str(),
             (_, name) => name,
         };
-        let moving = if sc.motion.is_static() { String::new() } else { format!(", moving: {:?}", sc.motion) };
+        let moving = if sc.motion.is_static() { String::new() } else { format!(", {}", sc.motion.describe()) };
         let moving = match &sc.sequence {
             Some(sequence) => format!("{moving}, deforming through {} ...", sequence.path(0).display()),
             None => moving,
@@ -422,10 +422,8 @@ fn run(args: &Args) -> drape::Result<()> {
         self_unlisted += u64::from(r.self_passes_without_lists);
         rollbacks.record(&r, frame);
         progress.set(frame);
-        let write_this = match args.obj_every {
-            Some(n) => frame % n == 0,
-            None => frame == args.frames,
-        };
+        // Every n-th frame and the last, as the pictures (a run shorter than n still gets one).
+        let write_this = frame == args.frames || args.obj_every.is_some_and(|n| frame.is_multiple_of(n));
         if let (Some(dir), true) = (&args.obj_dir, write_this) {
             let path = dir.join(format!("frame_{frame:05}.obj"));
             drape::obj::write_cloth_obj(&path, &built, &sim.positions(cloth)?, &sim.normals(cloth)?)?;

@@ -97,7 +97,8 @@ pub(crate) struct Args {
     /// Print the effective scene (scene file, flags and defaults) as a scene file and exit.
     #[arg(long)]
     pub(crate) print_scene: bool,
-    /// Collider mesh: icosphere, torus, bunny, dragon (from ../shared/models) or an OBJ path.
+    /// Collider mesh: icosphere, torus, plane (a 6 m ground), bunny, dragon (from ../shared/models)
+    /// or an OBJ path.
     #[arg(long, default_value = "icosphere")]
     pub(crate) mesh: String,
     /// What the cloth collides with: the mesh's triangles or the paper's voxel spheres.
@@ -261,7 +262,7 @@ pub(crate) struct Args {
     /// Write frames as OBJ into this directory (the final frame unless --obj-every is given).
     #[arg(long)]
     pub(crate) obj_dir: Option<PathBuf>,
-    /// Write every n-th frame (with --obj-dir).
+    /// Write every n-th frame, and the last (with --obj-dir).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     pub(crate) obj_every: Option<u32>,
     /// Draw frames as PNG pictures into this directory (offscreen Vulkan: the shaded cloth and
@@ -306,6 +307,13 @@ pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), Strin
         }
     }
     check_pieces(args)?;
+    if matches!(args.scene, SceneArg::Garment | SceneArg::Layers) && args.cloth_mesh.is_empty() && args.grid < 8 {
+        return Err(format!(
+            "--grid {} is too few particles around the {:?} scene's skirt: give 8 or more",
+            args.grid, args.scene
+        )
+        .to_lowercase());
+    }
     if args.obj_every.is_some() && args.obj_dir.is_none() {
         return Err("--obj-every needs --obj-dir (the directory to write the frames into)".into());
     }

@@ -7,7 +7,8 @@
 use drape::mesh::Mesh;
 use drape::scenes::{default_mesh, find_model, ground};
 use glam::{EulerRot, Mat4, Quat, Vec3};
-use serde::{Deserialize, Serialize};
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize};
 
 /// A `[[collider]]` table of a scene file (f64, as TOML reads it: printed back exactly).
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
@@ -30,27 +31,53 @@ pub(crate) struct ColliderTable {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(crate) scale: Option<Scale>,
     /// Degrees about X, then Y, then Z.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "three", skip_serializing_if = "Option::is_none")]
     pub(crate) rotate: Option<[f64; 3]>,
     /// Metres.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "three", skip_serializing_if = "Option::is_none")]
     pub(crate) translate: Option<[f64; 3]>,
     /// The axis it spins about, through its centre (default +Y).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "three", skip_serializing_if = "Option::is_none")]
     pub(crate) spin_axis: Option<[f64; 3]>,
     /// Radians per second about `spin-axis`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(crate) spin_rate: Option<f64>,
     /// Metres per second.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default, deserialize_with = "three", skip_serializing_if = "Option::is_none")]
     pub(crate) velocity: Option<[f64; 3]>,
 }
 
-#[derive(Copy, Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[derive(Copy, Clone, Debug, Serialize, PartialEq)]
 #[serde(untagged)]
 pub(crate) enum Scale {
     Uniform(f64),
     PerAxis([f64; 3]),
+}
+
+/// A number or exactly three (serde's untagged enum would name neither in its error).
+impl<'de> Deserialize<'de> for Scale {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Given {
+            One(f64),
+            Several(Vec<f64>),
+        }
+        let wrong = || D::Error::custom("`scale` takes a number or three numbers [x, y, z]");
+        match Given::deserialize(deserializer).map_err(|_| wrong())? {
+            Given::One(s) => Ok(Scale::Uniform(s)),
+            Given::Several(v) => <[f64; 3]>::try_from(v.as_slice()).map(Scale::PerAxis).map_err(|_| wrong()),
+        }
+    }
+}
+
+/// Exactly three numbers, `[x, y, z]` (serde's own arrays take the first three of a longer list
+/// and drop the rest).
+fn three<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Option<[f64; 3]>, D::Error> {
+    let given = Vec::<f64>::deserialize(deserializer)?;
+    <[f64; 3]>::try_from(given.as_slice())
+        .map(Some)
+        .map_err(|_| D::Error::custom(format!("expected three numbers [x, y, z], got {}", given.len())))
 }
 
 /// How a collider moves: a spin about an axis through `pivot` and a drift.
@@ -67,6 +94,21 @@ pub(crate) struct Motion {
 impl Motion {
     pub(crate) fn is_static(&self) -> bool {
         self.spin_rate == 0.0 && self.velocity == Vec3::ZERO
+    }
+
+    /// What the run prints of it: its spin and its drift, those it has.
+    pub(crate) fn describe(&self) -> String {
+        let [x, y, z] = self.axis.to_array();
+        let [px, py, pz] = self.pivot.to_array();
+        let spin = format!("spinning at {} rad/s about ({x}, {y}, {z}) through ({px}, {py}, {pz})", self.spin_rate);
+        let [vx, vy, vz] = self.velocity.to_array();
+        let drift = format!("drifting at ({vx}, {vy}, {vz}) m/s");
+        match (self.spin_rate != 0.0, self.velocity != Vec3::ZERO) {
+            (true, true) => format!("{spin}, {drift}"),
+            (true, false) => spin,
+            (false, true) => drift,
+            (false, false) => "still".into(),
+        }
     }
 
     /// The rigid pose at time `t` (s): rest vertex v goes to rotation * v + translation.
@@ -143,10 +185,16 @@ impl MeshSequence {
                  body_0001.obj, body_0002.obj, ..."
             )));
         };
-        if first < name_at || last + 1 - first != hashes.len() {
+        if first < name_at {
             return Err(invalid(format!(
-                "`{pattern}` must have one run of `#` in its file name (where the frame's number goes, e.g. \
-                 `body_####.obj`)"
+                "`{pattern}` has `#` in its directory: only the file name may hold them, one run where the frame's \
+                 number goes (e.g. `walk/body_####.obj`)"
+            )));
+        }
+        if last + 1 - first != hashes.len() {
+            return Err(invalid(format!(
+                "`{pattern}` has more than one run of `#` in its file name: write one, where the frame's number goes \
+                 (e.g. `body_####.obj`)"
             )));
         }
         let mut sequence = MeshSequence {
@@ -161,9 +209,10 @@ impl MeshSequence {
         };
         let path = sequence.path(0);
         if !path.is_file() {
+            let what = if path.exists() { "is not a file" } else { "does not exist" };
             return Err(invalid(format!(
-                "its first file {} (number {start}, `sequence-start`) does not exist: check the pattern `{pattern}` \
-                 and `sequence-start`",
+                "its first file {} (number {start}, `sequence-start`) {what}: check the pattern `{pattern}` and \
+                 `sequence-start`",
                 path.display()
             )));
         }
@@ -187,7 +236,13 @@ impl MeshSequence {
             return Ok(None);
         }
         let path = self.path(frame);
-        if !path.is_file() {
+        if path.exists() && !path.is_file() {
+            return Err(drape::Error::Mesh {
+                path,
+                problem: "is not a file: a mesh sequence's files are OBJ files, one a frame".into(),
+            });
+        }
+        if !path.exists() {
             log::warn!(
                 "mesh sequence: no {} for frame {frame}: the collider stays as frame {} left it",
                 path.display(),
@@ -197,16 +252,29 @@ impl MeshSequence {
             return Ok(None);
         }
         let mesh = Mesh::load_obj(&path)?.transformed(self.transform);
-        if mesh.vertices.len() != self.vertex_count || mesh.triangles != self.triangles {
+        let differs = if mesh.vertices.len() != self.vertex_count || mesh.triangles.len() != self.triangles.len() {
+            Some(format!(
+                "{} vertices and {} triangles, not the first file's {} and {}",
+                mesh.vertices.len(),
+                mesh.triangles.len(),
+                self.vertex_count,
+                self.triangles.len()
+            ))
+        } else {
+            mesh.triangles.iter().zip(&self.triangles).position(|(a, b)| a != b).map(|t| {
+                format!(
+                    "its triangles are not the first file's (from triangle {} on, as drape reads them): faces on \
+                     other vertices, in another order, or with their corners in another order",
+                    t + 1
+                )
+            })
+        };
+        if let Some(problem) = differs {
             return Err(drape::Error::Mesh {
                 path,
                 problem: format!(
-                    "{} vertices and {} triangles, not the first file's {} and {} (the same triangles in the same \
-                     order): a mesh sequence deforms one mesh, each file moving its vertices",
-                    mesh.vertices.len(),
-                    mesh.triangles.len(),
-                    self.vertex_count,
-                    self.triangles.len()
+                    "{problem}: a mesh sequence deforms one mesh, every file with the first's triangles in the same \
+                     order, its vertices moved"
                 ),
             });
         }
@@ -226,6 +294,13 @@ pub(crate) fn load_mesh(name: &str) -> drape::Result<Mesh> {
         "plane" => Ok(ground()),
         "bunny" => Mesh::load_obj(&find_model("stanford-bunny.obj")?),
         "dragon" => Mesh::load_obj(&find_model("stanford-dragon-res2.obj")?),
+        path if !std::path::Path::new(path).exists() => Err(drape::Error::InvalidParameter {
+            name: "mesh",
+            problem: format!(
+                "`{path}` is neither a built-in mesh ({}) nor a file that exists",
+                BUILT_IN_MESHES.join(", ")
+            ),
+        }),
         path => Mesh::load_obj(std::path::Path::new(path)),
     }
 }
@@ -245,7 +320,7 @@ impl ColliderTable {
             if v.iter().all(|x| x.is_finite() && x.abs() < 1e30) {
                 Ok(())
             } else {
-                Err(format!("`{name}` must be finite numbers"))
+                Err(format!("`{name}` must be finite numbers below 1e30 in size, got {v:?}"))
             }
         };
         let scale = self.scale_vector();

@@ -128,11 +128,19 @@ fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
     let command = Args::command();
     let mut entries = Vec::new();
     for (key, value) in &table {
-        if key == "collider" && value.is_array() {
-            continue; // `[[collider]]` tables: read by `collider_tables`
-        }
         let id = key.replace('-', "_");
         let line = line_of(text, key);
+        if key == "collider" {
+            if value.is_array() {
+                continue; // `[[collider]]` tables: read by `collider_tables`
+            }
+            return Err(usage(
+                line,
+                "a collider is a `[[collider]]` table, in double brackets (one per collider), not `[collider]` or \
+                 `collider = ...`"
+                    .into(),
+            ));
+        }
         let arg = command
             .get_arguments()
             .find(|a| a.get_id().as_str() == id && !NOT_IN_FILES.contains(&a.get_id().as_str()))
@@ -226,13 +234,17 @@ fn line_at(text: &str, offset: usize) -> usize {
     line.min(text.lines().count().max(1))
 }
 
-/// The 1-based line where `key` is set (0 if not found).
+/// The 1-based line where `key` is set, or opens a table (`[key]`), (0 if not found).
 fn line_of(text: &str, key: &str) -> usize {
     let spellings = [key.to_string(), key.replace('_', "-"), key.replace('-', "_")];
     text.lines()
         .position(|l| {
             let l = l.trim_start();
-            spellings.iter().any(|k| l.strip_prefix(k.as_str()).is_some_and(|rest| rest.trim_start().starts_with('=')))
+            let header = l.starts_with('[') && spellings.iter().any(|k| l.trim_matches(['[', ']', ' ']) == k);
+            header
+                || spellings
+                    .iter()
+                    .any(|k| l.strip_prefix(k.as_str()).is_some_and(|rest| rest.trim_start().starts_with('=')))
         })
         .map_or(0, |i| i + 1)
 }
