@@ -451,3 +451,26 @@ fn a_skirt_turns_with_its_round_body_alike_by_pose_and_by_vertices() {
     );
     assert_validation_clean(&ctx);
 }
+
+/// A collider set far from where the last frame left it (here a triangle lifted 50 m through
+/// the hanging cloth in one frame, as a teleport or a mesh sequence's jump does) sweeps the
+/// cloth with it and tears it apart: the blow-up's message names that collider and its speed,
+/// not the cloth's own motion (which was zero).
+#[test]
+fn a_collider_jumping_through_the_cloth_is_named_in_the_blow_up() {
+    let ctx = context();
+    let cloth = drape::scenes::swinging_cloth(8).build().unwrap();
+    let triangle = drape::Mesh {
+        vertices: vec![Vec3::new(0.0, 0.1, 0.0), Vec3::new(1.0, 0.1, 0.0), Vec3::new(0.0, 0.1, 1.0)],
+        triangles: vec![[0, 1, 2]],
+    };
+    let collider = Collider::mesh(&triangle, 0.005);
+    let settings = SimSettings::default().with_timestamps(false);
+    let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap();
+    let mut sim = Solver::new(&ctx, &model).unwrap();
+    sim.set_collider_pose(ColliderId::new(0), Quat::IDENTITY, Vec3::new(0.0, 50.0, 0.0)).unwrap();
+    let error = sim.step().expect_err("a collider lifted 50 m through the cloth in a frame must tear it").to_string();
+    assert!(error.contains("collider 0 (the model's, counted from 0) moved its surface at up to 3.0"), "{error}");
+    assert!(error.contains("Move it less per frame"), "{error}");
+    assert_validation_clean(&ctx);
+}

@@ -96,6 +96,9 @@ struct ColliderControl {
     swept_contact: bool,
     /// Its features' covers (`collider_cover`); `None` without.
     covers: Option<Covers>,
+    /// How fast its surface moved at most in the last frame planned (m/s; 0 standing still):
+    /// what a blow-up's message names when a collider outran the cloth.
+    frame_speed: f32,
 }
 
 /// The shape a collider's features' covers were measured on, their reach there, and the
@@ -307,9 +310,20 @@ impl Controls {
                 target: pose,
                 written: ColliderPose { previous: pose, current: pose, sweep: glam::Vec4::ZERO },
                 deformed: None,
+                frame_speed: 0.0,
             })
             .collect();
         Controls { settings, cloths, colliders, replan: false, frames_begun: 0 }
+    }
+
+    /// The collider whose surface moved fastest in the last frame planned, if any moved.
+    pub(crate) fn fastest_collider(&self) -> Option<crate::stability::diagnosis::ColliderMotion> {
+        self.colliders
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.frame_speed > 0.0)
+            .max_by(|a, b| a.1.frame_speed.total_cmp(&b.1.frame_speed))
+            .map(|(index, c)| crate::stability::diagnosis::ColliderMotion { index, speed: c.frame_speed })
     }
 
     /// Each cloth's frame schedule for the current values.
@@ -719,9 +733,11 @@ impl Controls {
         // Each moving collider's surface speed and swept box, grown by its contact reach.
         let moving: Vec<(f32, bool, (Vec3, Vec3))> = self
             .colliders
-            .iter()
+            .iter_mut()
             .filter_map(|c| {
-                let (speed, (lo, hi)) = c.frame_motion(settings.frame_dt)?;
+                let motion = c.frame_motion(settings.frame_dt);
+                c.frame_speed = motion.map_or(0.0, |(speed, _)| speed);
+                let (speed, (lo, hi)) = motion?;
                 let reach = Vec3::splat(c.params.thickness);
                 Some((speed, c.swept_contact, (lo - reach, hi + reach)))
             })

@@ -52,7 +52,13 @@ impl CpuSolver {
                 continue;
             }
             let health: Health = self.executor.read(cloth.health, 1)?[0];
-            check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i])?;
+            check_health(
+                &health,
+                self.frames_done,
+                i,
+                &self.controls.settings,
+                (&self.controls.cloths[i], self.controls.fastest_collider()),
+            )?;
             self.controls.observe(i, &health, self.frames_done);
         }
         Ok(())

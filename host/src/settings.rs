@@ -351,7 +351,7 @@ pub(crate) fn check_health(
     frame: u64,
     cloth: usize,
     settings: &SimSettings,
-    control: &crate::controls::ClothControl,
+    (control, collider): (&crate::controls::ClothControl, Option<stability::diagnosis::ColliderMotion>),
 ) -> Result<()> {
     let stretch = f32::from_bits(health.max_stretch_bits);
     let detail = if health.non_finite > 0 {
@@ -363,8 +363,9 @@ pub(crate) fn check_health(
     };
     let stability = &control.stability;
     let speed = control.motion.last_speed();
+    let integrator = settings.integrator.id();
     let cause =
-        stability::diagnosis::cause(&control.params, stability, settings.integrator.id(), settings.max_stretch, speed);
+        stability::diagnosis::cause(&control.params, stability, integrator, (settings.max_stretch, speed), collider);
     Err(Error::Unstable {
         cloth,
         frame,

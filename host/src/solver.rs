@@ -203,7 +203,13 @@ impl Solver {
                     s.tree.leaves * passes
                 };
             }
-            check_health(&health, self.frames_done, i, &self.controls.settings, &self.controls.cloths[i])?;
+            check_health(
+                &health,
+                self.frames_done,
+                i,
+                &self.controls.settings,
+                (&self.controls.cloths[i], self.controls.fastest_collider()),
+            )?;
             self.controls.observe(i, &health, self.frames_done);
             for contact in contacts {
                 let status: CollisionStatus = self.engine.read_mapped(contact.status)?;
@@ -287,7 +293,13 @@ impl Solver {
             for i in 0..self.program.cloths.len() {
                 if let Some(health) = take(size_of::<Health>()) {
                     let health: Health = bytemuck::pod_read_unaligned(health);
-                    check_health(&health, frame, i, &self.controls.settings, &self.controls.cloths[i])?;
+                    check_health(
+                        &health,
+                        frame,
+                        i,
+                        &self.controls.settings,
+                        (&self.controls.cloths[i], self.controls.fastest_collider()),
+                    )?;
                     self.controls.observe(i, &health, frame);
                 }
             }

@@ -14,9 +14,24 @@
 use super::{Stability, max_stable_substep};
 use drape_types::SimParams;
 
+/// The fastest-moving collider of the frame that blew up: its index in the model and how fast
+/// any point of its surface moved at most (m/s, by its pose and its vertices).
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct ColliderMotion {
+    pub index: usize,
+    pub speed: f32,
+}
+
 /// The cause of a blow-up of a cloth with `params` running at `stability`, with `max_stretch`
-/// the stretch limit and `speed` the fastest particle of the last healthy frame (m/s).
-pub fn cause(params: &SimParams, stability: &Stability, integrator: u32, max_stretch: f32, speed: f32) -> String {
+/// the stretch limit, `speed` the fastest particle of the last healthy frame (m/s) and
+/// `collider` the fastest collider of the frame (if any moved).
+pub fn cause(
+    params: &SimParams,
+    stability: &Stability,
+    integrator: u32,
+    (max_stretch, speed): (f32, f32),
+    collider: Option<ColliderMotion>,
+) -> String {
     let (omega, gamma) = (stability.omega_max as f64, stability.gamma_max as f64);
     if stability.ratio > 1.0 {
         let over = stability.ratio as f64;
@@ -84,6 +99,17 @@ pub fn cause(params: &SimParams, stability: &Stability, integrator: u32, max_str
              the springs hold at {max_stretch}x stretch ({held:.3e} N): gravity below {:.3e} m/s^2, or stiffer springs, \
              would be stable",
             held / params.particle_mass
+        )
+    } else if let Some(c) = collider.filter(|c| c.speed > speed) {
+        // A collider faster than any particle: what pushed the cloth apart is the collider.
+        format!(
+            "the substep is within the stability bound, so motion drove it: collider {} (the model's, counted from 0) \
+             moved its surface at up to \
+             {:.3e} m/s in the frame, faster than any particle of the cloth ({speed:.3e} m/s in the last healthy \
+             frame), and pushed the cloth apart; a real cloth would tear. Move it less per frame: a pose or vertices \
+             set far from the last frame's (a jump, a teleport, a mesh sequence file far from the one before) is \
+             taken as that motion within the frame",
+            c.index, c.speed
         )
     } else {
         format!(
