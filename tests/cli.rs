@@ -395,6 +395,7 @@ fn scene_files_round_trip_override_and_explain_their_errors() {
         ("[[collider]]\nmesh-sequence = \"/nonexistent/b_#_#.obj\"\n", 1, &["more than one run of `#`"]),
         ("grid = 8\n\n[[collider]]\nmesh = \"torus\"\nscale = 0\n", 2, &["line 3", "`scale` must be above 0"]),
         ("[[collider]]\nmesh = \"torus\"\nscale = [1, 2]\n", 2, &["line 3", "a number or three numbers"]),
+        ("scene = \"swing\"\nusd = 5\n", 2, &["line 2", "`usd` takes a path: a string"]),
         ("[[collider]]\nmesh = \"torus\"\nscale = 1e30\n", 2, &["line 1", "below 1e30"]),
         ("[[collider]]\nmesh = \"torus\"\ntranslate = [1, 2, 3, 4]\n", 2, &["line 3", "three numbers", "got 4"]),
         ("grid = 8\n[collider]\nmesh = \"torus\"\n", 2, &["line 2", "`[[collider]]` table, in double brackets"]),

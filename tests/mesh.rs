@@ -284,7 +284,9 @@ fn obj_errors_name_the_file_and_line() {
     assert_obj_error("malformed", &format!("{head}v 1 2\nf 1 2 3\n"), Some(5), "`v 1 2`");
     assert_obj_error("word", &format!("{head}v 1 two 3\nf 1 2 3\n"), Some(5), "cannot parse coordinate `two`");
     assert_obj_error("nan", &format!("{head}f 1 2 3\nv 1 nan 2\n"), Some(6), "not finite");
-    assert_obj_error("huge", &format!("{head}v 1 1e39 2\nf 1 2 3\n"), Some(5), "not finite");
+    assert_obj_error("huge", &format!("{head}v 1 1e39 2\nf 1 2 3\n"), Some(5), "`1e39` is beyond f32's range");
+    assert_obj_error("inf", &format!("{head}v 1 inf 2\nf 1 2 3\n"), Some(5), "`inf` is not finite");
+    assert_obj_error("line", "v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\n", None, "its corners on one line");
     assert_obj_error("range", &format!("{head}f 1 2 7\n"), Some(5), "index 7 is out of range");
     assert_obj_error("relative", &format!("{head}f -1 -2 -4\n"), Some(5), "index -4 is out of range");
     assert_obj_error("zero", &format!("{head}f 0 1 2\n"), Some(5), "index 0");

@@ -72,8 +72,17 @@ impl Mesh {
         }
         validate(&vertices, &triangles).map_err(error)?;
         let (mesh, _joined) = Mesh { vertices, triangles }.weld_coincident();
-        if mesh.triangles.is_empty() {
-            return Err(error("no triangles with area: every face has two corners at the same point".into()));
+        // Exact in f64 (products of f32 coordinates' differences are exact there): zero only for
+        // corners on one line.
+        let has_area = |t: &[u32; 3]| {
+            let [a, b, c] = t.map(|i| mesh.vertices[i as usize].as_dvec3());
+            (b - a).cross(c - a) != glam::DVec3::ZERO
+        };
+        if !mesh.triangles.iter().any(has_area) {
+            return Err(error(
+                "no triangles with area: every face has two corners at the same point or its corners on one line"
+                    .into(),
+            ));
         }
         Ok(mesh)
     }
@@ -477,7 +486,13 @@ fn scan_floats(
 fn parse_float(word: &str, what: &str) -> std::result::Result<f32, String> {
     // f32, the type tobj parses into, so "1e39" is caught here as the infinity it would become.
     let value: f32 = word.parse().map_err(|_| format!("cannot parse {what} `{word}` as a number"))?;
-    if value.is_finite() { Ok(value) } else { Err(format!("{what} `{word}` is not finite")) }
+    if value.is_finite() {
+        Ok(value)
+    } else if word.parse::<f64>().is_ok_and(f64::is_finite) {
+        Err(format!("{what} `{word}` is beyond f32's range (at most about 3.4e38 in size)"))
+    } else {
+        Err(format!("{what} `{word}` is not finite"))
+    }
 }
 
 /// One face corner: `v`, `v/vt`, `v//vn` or `v/vt/vn`.

@@ -26,6 +26,9 @@ const NOT_IN_FILES: [&str; 4] = ["help", "version", "scene_file", "print_scene"]
 /// the working directory, where the run writes.
 const READ_FROM_FILES: [&str; 2] = ["mesh", "cloth_mesh"];
 
+/// Keys whose value is a path (read or written): a string, never a number taken for a name.
+const PATHS: [&str; 6] = ["mesh", "cloth_mesh", "usd", "json", "obj_dir", "png_dir"];
+
 /// Mesh `value` (key `id`) read relative to directory `dir`: a relative path made absolute
 /// from it (so `--print-scene` writes a path that reads back from anywhere); absolute paths,
 /// and built-in mesh names where a collider is meant (`mesh`), as they are.
@@ -162,6 +165,9 @@ fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
             };
             items.iter().map(|f| format!("{flag}={}", read(f))).collect()
         } else if arg.get_action().takes_values() {
+            if PATHS.contains(&id.as_str()) && !value.is_str() {
+                return Err(usage(line, format!("`{key}` takes a path: a string, in quotes")));
+            }
             let mut value = flag_value(value).ok_or_else(|| usage(line, format!("`{key}` takes {}", kind_of(arg))))?;
             if READ_FROM_FILES.contains(&id.as_str()) {
                 value = beside(scene_dir(path), &id, &value);
