@@ -389,6 +389,8 @@ fn scene_files_round_trip_override_and_explain_their_errors() {
         ("[[collider]]\nscale = 2\n", 2, &["line 1", "give `mesh`", "or `mesh-sequence`"]),
         ("[[collider]]\nmesh = \"torus\"\nmesh-sequence = \"a_##.obj\"\n", 2, &["line 1", "not both"]),
         ("[[collider]]\nmesh = \"torus\"\nsequence-start = 3\n", 2, &["line 1", "`sequence-start` needs"]),
+        ("[[collider]]\nmesh = \"torus\"\nsequence-loop = true\n", 2, &["line 1", "`sequence-loop` needs"]),
+        ("[[collider]]\nmesh-sequence = \"b_#.obj\"\nsequence-rate = 0\n", 2, &["line 1", "(0, 10000]"]),
         ("[[collider]]\nmesh-sequence = \"/nonexistent/body.obj\"\n", 1, &["/nonexistent/body.obj", "no `#`"]),
         ("[[collider]]\nmesh-sequence = \"/nonexistent/body_####.obj\"\n", 1, &["/nonexistent/body_0001.obj"]),
         ("[[collider]]\nmesh-sequence = \"/nonexistent/a_#/b_#.obj\"\n", 1, &["`#` in its directory"]),
@@ -760,8 +762,10 @@ fn cli_one_workgroup_substeps_runs_the_frame_as_one_dispatch_with_the_same_resul
 /// A `[[collider]]`'s `mesh-sequence` (one OBJ file a frame, as an animated body is exported)
 /// deforms the collider through the files: a ground whose files rise from y = 0.1 at 0.4 m/s
 /// lifts the swinging cloth as the same ground moved by `velocity` does (to y = 0.5 by t = 1 s,
-/// within a millimetre of it); past its last file it stays, with a warning naming the file it
-/// did not find; the `--usd` cache holds its points per frame. A later file with other
+/// within a millimetre of it), and so do files at half the run's rate (`sequence-rate = 30`,
+/// frames between two files taking their mix); a loop (`sequence-loop`) starts over after its
+/// last file; past its last file a sequence that does not loop stays, with a warning naming the
+/// file it did not find; the `--usd` cache holds its points per frame. A later file with other
 /// triangles, or the sequence with `--contact spheres`, is an error that says so.
 #[test]
 fn scene_file_mesh_sequence_deforms_a_collider() {
@@ -819,6 +823,33 @@ fn scene_file_mesh_sequence_deforms_a_collider() {
     let cache = std::fs::read_to_string(&usd).unwrap();
     assert!(cache.contains("point3f[] points.timeSamples"), "the cache holds the deforming collider's points");
     assert!(cache.contains("            60: [(-1.5, 0.5, -1.5)"), "frame 60's ground at y = 0.5 in the cache");
+
+    // At its own rate: 30 files a second (a frame of the run's 60 ends on a file or halfway
+    // between two, which it mixes) lift the cloth as the same motion does.
+    for n in 1..=31 {
+        let y = 0.1 + 0.4 * (n - 1) as f32 / 30.0;
+        std::fs::write(dir.join(format!("half_{n:02}.obj")), ground(y, false)).unwrap();
+    }
+    let half_rate = "[[collider]]\nmesh-sequence = \"half_##.obj\"\nsequence-rate = 30\n";
+    let (by_half_rate, half_report) = run("half", 60, half_rate, &[]);
+    assert!(by_half_rate.status.success(), "{}", String::from_utf8_lossy(&by_half_rate.stderr));
+    let half = lowest(half_report);
+    assert!((half - moved).abs() < 1e-3, "at 30 files a second {half}, by velocity {moved}");
+
+    // Looping: ten files played over and over; frame 25 ends on the sixth (offset 25 mod 10).
+    for n in 1..=10 {
+        let y = 0.1 + 0.01 * (n - 1) as f32;
+        std::fs::write(dir.join(format!("cycle_{n:02}.obj")), ground(y, false)).unwrap();
+    }
+    let cycle = "[[collider]]\nmesh-sequence = \"cycle_##.obj\"\nsequence-loop = true\n";
+    let cycle_usd = dir.join("cycle.usda");
+    let (looped, _) = run("cycle", 25, cycle, &["--usd", cycle_usd.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&looped.stderr);
+    assert!(looped.status.success() && !stderr.contains("mesh sequence: no"), "a loop does not run out: {stderr}");
+    let cache = std::fs::read_to_string(&cycle_usd).unwrap();
+    let sixth = 0.1 + 0.01 * 5.0f32;
+    assert!(cache.contains(&format!("            25: [(-1.5, {sixth}, -1.5)")), "frame 25 ends on the sixth file");
+    assert!(cache.contains("            20: [(-1.5, 0.1, -1.5)"), "frame 20 ends on the first file again");
 
     // Past the last file it stays where the last one put it.
     let (past, report) = run("past", 70, sequence, &[]);

@@ -395,7 +395,7 @@ fn run(args: &Args) -> drape::Result<()> {
             if !sc.motion.is_static() {
                 sim.set_collider_pose(*id, rotation, translation)?;
             }
-            if sc.advance(frame)? {
+            if sc.advance(frame, frame_dt)? {
                 sim.set_collider_vertices(*id, &sc.mesh.vertices)?;
                 deformed.push(i);
             }

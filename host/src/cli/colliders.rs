@@ -27,6 +27,13 @@ pub(crate) struct ColliderTable {
     /// 1): frame f of the run ends on file `sequence-start + f`; past the last file it stays.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(crate) sequence_start: Option<u32>,
+    /// The sequence's files per second (default: one per frame of the run); a frame that ends
+    /// between two files takes the mix of both.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) sequence_rate: Option<f64>,
+    /// Play the sequence over and over (a walk cycle): the file after the last is the first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(crate) sequence_loop: Option<bool>,
     /// Uniform scale, or per axis as [x, y, z].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub(crate) scale: Option<Scale>,
@@ -139,13 +146,14 @@ impl SceneCollider {
         self.mesh.transformed(Mat4::from_rotation_translation(rotation, translation))
     }
 
-    /// Loads its sequence's shape at the end of frame `frame` into `mesh`: true when it
-    /// changed (false without a sequence, or past the sequence's last file, where it stays).
-    pub(crate) fn advance(&mut self, frame: u32) -> drape::Result<bool> {
+    /// Loads its sequence's shape at the end of frame `frame` (of `frame_dt` s) into `mesh`:
+    /// true when it changed (false without a sequence, or past the sequence's last file, where
+    /// it stays).
+    pub(crate) fn advance(&mut self, frame: u32, frame_dt: f32) -> drape::Result<bool> {
         let Some(sequence) = &mut self.sequence else {
             return Ok(false);
         };
-        match sequence.load(frame)? {
+        match sequence.load(frame, frame_dt)? {
             Some(mesh) => {
                 self.mesh = mesh;
                 Ok(true)
@@ -155,7 +163,7 @@ impl SceneCollider {
     }
 }
 
-/// A collider's OBJ files, one per frame (`ColliderTable::mesh_sequence`).
+/// A collider's OBJ files, one per frame or at their own rate (`ColliderTable::mesh_sequence`).
 pub(crate) struct MeshSequence {
     /// The path with its run of `#` split out: before, the run's width, after.
     before: String,
@@ -163,19 +171,36 @@ pub(crate) struct MeshSequence {
     after: String,
     /// The file number at the run's start.
     start: u32,
+    /// Files per second; `None`: one file per frame of the run.
+    rate: Option<f64>,
+    /// How many files a loop goes through (the consecutive ones from `start`), when it loops.
+    looped: Option<u32>,
     /// The table's placement, applied to every file.
     transform: Mat4,
     /// The first file's triangles (every file must have them).
     triangles: Vec<[u32; 3]>,
     vertex_count: usize,
-    /// Whether a frame found no file (the collider stays as the last one left it).
+    /// The files read last (offset from `start`, placed mesh): one is read once however many
+    /// frames fall between it and the next.
+    cache: Vec<(u32, Mesh)>,
+    /// The first frame that found no file (the collider stays as the last one left it).
     pub(crate) ended_at: Option<u32>,
 }
+
+/// How a sequence plays: its files per second (`None`: one per frame) and whether it loops.
+#[derive(Copy, Clone, Debug, Default)]
+pub(crate) struct Playback {
+    pub(crate) rate: Option<f64>,
+    pub(crate) looped: bool,
+}
+
+/// The most files a looping sequence counts (a bound on the scan for its end).
+const MOST_LOOPED_FILES: u32 = 1_000_000;
 
 impl MeshSequence {
     /// The sequence `pattern` (one run of `#` in its file name) starting at file `start`,
     /// placed by `transform`, and its first file's mesh.
-    fn open(pattern: &str, start: u32, transform: Mat4) -> drape::Result<(Self, Mesh)> {
+    fn open(pattern: &str, start: u32, playback: Playback, transform: Mat4) -> drape::Result<(Self, Mesh)> {
         let invalid = |problem: String| drape::Error::InvalidParameter { name: "mesh-sequence", problem };
         let name_at = pattern.rfind(['/', '\\']).map_or(0, |i| i + 1);
         let hashes: Vec<usize> = pattern.match_indices('#').map(|(i, _)| i).collect();
@@ -202,9 +227,12 @@ impl MeshSequence {
             width: hashes.len(),
             after: pattern[last + 1..].to_string(),
             start,
+            rate: playback.rate,
+            looped: None,
             transform,
             triangles: Vec::new(),
             vertex_count: 0,
+            cache: Vec::new(),
             ended_at: None,
         };
         let path = sequence.path(0);
@@ -216,26 +244,74 @@ impl MeshSequence {
                 path.display()
             )));
         }
+        if playback.looped {
+            let files = (1..MOST_LOOPED_FILES).find(|&k| !sequence.path(k).exists()).unwrap_or(MOST_LOOPED_FILES);
+            sequence.looped = Some(files);
+        }
         let mesh = Mesh::load_obj(&path)?.transformed(transform);
         sequence.triangles = mesh.triangles.clone();
         sequence.vertex_count = mesh.vertices.len();
+        sequence.cache.push((0, mesh.clone()));
         Ok((sequence, mesh))
     }
 
-    /// The file holding the collider at the end of frame `frame` (0: the run's start).
-    pub(crate) fn path(&self, frame: u32) -> std::path::PathBuf {
-        let number = u64::from(self.start) + u64::from(frame);
+    /// The file `offset` files after the sequence's first (`sequence-start`).
+    pub(crate) fn path(&self, offset: u32) -> std::path::PathBuf {
+        let number = u64::from(self.start) + u64::from(offset);
         format!("{}{number:0width$}{}", self.before, self.after, width = self.width).into()
     }
 
-    /// The collider's mesh at the end of frame `frame`, placed; `None` once the files run out
-    /// (the first missing number ends the sequence). A file with other triangles than the
-    /// first (or another vertex count) is an error naming it.
-    fn load(&mut self, frame: u32) -> drape::Result<Option<Mesh>> {
+    /// The collider's mesh at the end of frame `frame` (of `frame_dt` seconds), placed: the file
+    /// that time falls on, or between two files the mix of both by where it falls; `None`
+    /// once the files run out (the first number missing ends a sequence that does not loop).
+    fn load(&mut self, frame: u32, frame_dt: f32) -> drape::Result<Option<Mesh>> {
         if self.ended_at.is_some() {
             return Ok(None);
         }
-        let path = self.path(frame);
+        // Where the frame's end falls among the files: one a frame, or at the files' own rate.
+        let (at, between) = match self.rate {
+            None => (u64::from(frame), 0.0),
+            Some(rate) => {
+                let position = f64::from(frame) * f64::from(frame_dt) * rate;
+                (position.floor() as u64, (position - position.floor()) as f32)
+            }
+        };
+        let looped = self.looped;
+        let offset = |k: u64| match looped {
+            Some(files) => (k % u64::from(files)) as u32,
+            None => u32::try_from(k).unwrap_or(u32::MAX),
+        };
+        let Some(first) = self.file(offset(at))? else {
+            log::warn!(
+                "mesh sequence: no {} for frame {frame}: the collider stays as frame {} left it",
+                self.path(offset(at)).display(),
+                frame.saturating_sub(1)
+            );
+            self.ended_at = Some(frame);
+            return Ok(None);
+        };
+        if between == 0.0 {
+            return Ok(Some(first));
+        }
+        // Past the last file the next is missing: the last one holds until the frame that
+        // reaches the missing one ends the sequence.
+        let Some(next) = self.file(offset(at + 1))? else {
+            return Ok(Some(first));
+        };
+        let mut mixed = first;
+        for (v, w) in mixed.vertices.iter_mut().zip(&next.vertices) {
+            *v += (*w - *v) * between;
+        }
+        Ok(Some(mixed))
+    }
+
+    /// File `offset`'s mesh, placed (from the cache when read last); `None` when it does not
+    /// exist. A file with other triangles than the first is an error naming it.
+    fn file(&mut self, offset: u32) -> drape::Result<Option<Mesh>> {
+        if let Some((_, mesh)) = self.cache.iter().find(|(k, _)| *k == offset) {
+            return Ok(Some(mesh.clone()));
+        }
+        let path = self.path(offset);
         if path.exists() && !path.is_file() {
             return Err(drape::Error::Mesh {
                 path,
@@ -243,12 +319,6 @@ impl MeshSequence {
             });
         }
         if !path.exists() {
-            log::warn!(
-                "mesh sequence: no {} for frame {frame}: the collider stays as frame {} left it",
-                path.display(),
-                frame.saturating_sub(1)
-            );
-            self.ended_at = Some(frame);
             return Ok(None);
         }
         let mesh = Mesh::load_obj(&path)?.transformed(self.transform);
@@ -278,6 +348,10 @@ impl MeshSequence {
                 ),
             });
         }
+        if self.cache.len() == 2 {
+            self.cache.remove(0);
+        }
+        self.cache.push((offset, mesh.clone()));
         Ok(Some(mesh))
     }
 }
@@ -313,8 +387,19 @@ impl ColliderTable {
             (false, Some(_)) => return Err("give `mesh` or `mesh-sequence`, not both".into()),
             _ => {}
         }
-        if self.sequence_start.is_some() && self.mesh_sequence.is_none() {
-            return Err("`sequence-start` needs `mesh-sequence`".into());
+        for (key, given) in [
+            ("sequence-start", self.sequence_start.is_some()),
+            ("sequence-rate", self.sequence_rate.is_some()),
+            ("sequence-loop", self.sequence_loop.is_some()),
+        ] {
+            if given && self.mesh_sequence.is_none() {
+                return Err(format!("`{key}` needs `mesh-sequence`"));
+            }
+        }
+        if let Some(rate) = self.sequence_rate
+            && !(rate.is_finite() && rate > 0.0 && rate <= 10_000.0)
+        {
+            return Err(format!("`sequence-rate` must be in (0, 10000] files per second, got {rate}"));
         }
         let finite = |name: &str, v: &[f64]| {
             if v.iter().all(|x| x.is_finite() && x.abs() < 1e30) {
@@ -362,7 +447,9 @@ impl ColliderTable {
     pub(crate) fn build(&self, index: usize) -> drape::Result<SceneCollider> {
         let (mesh, sequence) = match &self.mesh_sequence {
             Some(pattern) => {
-                let (sequence, mesh) = MeshSequence::open(pattern, self.sequence_start.unwrap_or(1), self.transform())?;
+                let playback = Playback { rate: self.sequence_rate, looped: self.sequence_loop.unwrap_or(false) };
+                let start = self.sequence_start.unwrap_or(1);
+                let (sequence, mesh) = MeshSequence::open(pattern, start, playback, self.transform())?;
                 (mesh, Some(sequence))
             }
             None => (load_mesh(&self.mesh)?.transformed(self.transform()), None),
