@@ -38,6 +38,11 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         (&["--cloth-mesh", "/nonexistent/cloth.obj", "--frames", "1"], runtime, "/nonexistent/cloth.obj"),
         (&["--obj-dir", "/proc/drape-cannot-write-here", "--frames", "1"], runtime, "--obj-dir"),
         (&["--json", "/nonexistent/dir/report.json", "--frames", "1"], runtime, "--json"),
+        (
+            &["--json", "/dev/full", "--frames", "1", "--grid", "8"],
+            runtime,
+            "`--json`: the report could not be written",
+        ),
         (&["--usd", "/nonexistent/dir/cloth.usda", "--frames", "1"], runtime, "--usd"),
         (&["--sleep", "-1"], usage, "[0, 10]"),
         (&["--contact-substeps", "maybe"], usage, "--contact-substeps"),

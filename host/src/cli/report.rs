@@ -369,5 +369,8 @@ pub(crate) fn write_json(path: &std::path::Path, report: serde_json::Map<String,
         name: "--json",
         problem: format!("the report could not be written as JSON: {e}"),
     })?;
-    std::fs::write(path, text + "\n").map_err(|source| drape::Error::Io { path: path.to_path_buf(), source })
+    std::fs::write(path, text + "\n").map_err(|source| drape::Error::InvalidParameter {
+        name: "--json",
+        problem: format!("the report could not be written to {}: {source}", path.display()),
+    })
 }
