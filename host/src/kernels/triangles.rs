@@ -11,7 +11,7 @@ use super::lbvh::THREADS;
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::crowded::CROWDED_THREADS;
-use drape_kernels::triangles::{Triangles, swept_aabb, triangle_at};
+use drape_kernels::triangles::{Triangles, corner_motions_at, swept_aabb, triangle_at};
 use drape_types::{Aabb, ColliderParams, Triangle};
 use glam::Vec4;
 
@@ -89,7 +89,9 @@ fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (vertices, previous, indices) = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
     let (order, sorted) = (order.slice::<u32>(), sorted.slice_mut::<Triangle>());
     for i in 0..threads.min(c.leaf_count) {
-        sorted[i as usize] = triangle_at(order[i as usize], vertices, previous, indices);
+        let t = order[i as usize];
+        sorted[i as usize] = triangle_at(t, vertices, previous, indices);
+        sorted[(c.leaf_count + i) as usize] = corner_motions_at(t, vertices, previous, indices);
     }
     Ok(())
 }

@@ -24,7 +24,9 @@ pub struct TriangleBvh {
     pub previous: Handle<Vec4>,
     /// 3 vertex indices per triangle.
     pub indices: Handle<u32>,
-    /// Triangles in the tree's leaf order: what the traversal reads.
+    /// Triangles in the tree's leaf order: what the traversal reads; then, leaf by leaf, how
+    /// each one's corners moved over the frame (`drape_kernels::triangles::corner_motions_at`,
+    /// the contact's surface motion on a deforming collider).
     pub sorted: Handle<Triangle>,
     pub tree: LbvhBuffers,
 }
@@ -35,7 +37,7 @@ impl TriangleBvh {
             vertices: resources.device(format!("{name}: vertices"), vertices),
             previous: resources.device(format!("{name}: previous vertices"), vertices),
             indices: resources.device(format!("{name}: triangle indices"), 3 * triangles),
-            sorted: resources.device(format!("{name}: sorted triangles"), triangles),
+            sorted: resources.device(format!("{name}: sorted triangles"), 2 * triangles),
             tree: LbvhBuffers::declare(resources, name, triangles),
         }
     }

@@ -289,7 +289,7 @@ pub fn detect_candidates_at<K: LeafKind>(
     // saves a second scan of the list for most particles resting on the surface.
     let none = (NO_CANDIDATE, initial_clearance::<K>(thickness));
     let (best, clearance) = list_hits::<K>(leaves, list, (0, 1), (p0, p1), thickness, left, none);
-    let target = target_of::<K>(best, clearance, leaves, (p0, p1), thickness, left);
+    let target = target_of::<K>(best, clearance, leaves, (p0, p1), collider, left);
     let blocked = target.check
         && if point_in_aabb(target.position, &region, 0.0) {
             list_blocks::<K>(leaves, list, (0, 1), (p0, target.position), thickness, left)

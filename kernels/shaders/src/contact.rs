@@ -73,6 +73,13 @@ pub trait LeafKind {
     fn still_to_move(_leaf: Self::Leaf, _left: f32) -> Vec3 {
         Vec3::ZERO
     }
+    /// How far the surface of leaf `leaf` (of `leaves`, the first `count` of which are the
+    /// tree's leaves) moves over the frame at point `p` (where the frame ends): a deforming
+    /// collider's own motion there, in its frame (`Contact::leaf_motion`). The leaf's mean
+    /// motion unless the kind keeps more (nothing for leaves that do not move).
+    fn motion_at(leaves: &[Self::Leaf], _count: u32, leaf: u32, _p: Vec3) -> Vec3 {
+        Self::still_to_move(leaves[leaf as usize], 1.0)
+    }
     /// A finer test of one leaf whose box passed `may_touch_region` (the same guarantee: false
     /// only when no motion inside `region` can hit `leaf`).
     fn may_touch_leaf_region(_leaf: Self::Leaf, _region: &Aabb, _thickness: f32) -> bool {
@@ -292,14 +299,16 @@ fn surface_of<K: LeafKind>(
     p1: Vec3,
     thickness: f32,
     left: Left,
-) -> (Vec3, Vec3, Vec3) {
+) -> (Vec3, Vec3, Vec3, Vec3) {
     let leaf = leaves[best.leaf as usize];
     let (q0, q1) = (K::relative(leaf, p0, left.0), K::relative(leaf, p1, left.1));
     let (position, normal) = K::surface(leaf, q0, q1, best.t, thickness);
     // Back by the leaf's remaining motion itself, not `q1 - p1`: Mesa's NIR, taking float math
     // as reassociable, folds that to the motion, which the CPU's rounding does not (a deforming
-    // collider's contacts parted the GPU from its CPU twin by an f32 step).
-    (position - K::still_to_move(leaf, left.1), normal, p0 + (p1 - p0) * best.t)
+    // collider's contacts parted the GPU from its CPU twin by an f32 step). The position
+    // against the leaf where the frame ends is returned too, as it is (moving the result back
+    // again would be folded the same way).
+    (position - K::still_to_move(leaf, left.1), normal, p0 + (p1 - p0) * best.t, position)
 }
 
 /// The contact record of `best` at `position` (`Contact::NONE` for no contact); `leaf_motion`
@@ -346,7 +355,7 @@ pub fn detect_at<K: LeafKind>(
     let (p0, p1) = local_motion(index, motion, x, x_prev);
     let left = motion.left();
     let (best, clearance) = traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1, left);
-    let target = target_of::<K>(best, clearance, leaves, (p0, p1), collider.thickness, left);
+    let target = target_of::<K>(best, clearance, leaves, (p0, p1), collider, left);
     let blocked = target.check && path_blocked::<K>(collider, nodes, aabbs, leaves, p0, target.position, left);
     contacts[i] = target.contact(blocked);
 }
@@ -384,14 +393,15 @@ pub fn target_of<K: LeafKind>(
     clearance: f32,
     leaves: &[K::Leaf],
     (p0, p1): (Vec3, Vec3),
-    thickness: f32,
+    collider: &ColliderParams,
     left: Left,
 ) -> Target {
+    let thickness = collider.thickness;
     if best.t > 1.0 {
         return Target { best, position: p1, normal: Vec3::ZERO, first: p1, check: false, leaf_motion: Vec3::ZERO };
     }
-    let (position, normal, first) = surface_of::<K>(best, leaves, p0, p1, thickness, left);
-    let leaf_motion = K::still_to_move(leaves[best.leaf as usize], 1.0);
+    let (position, normal, first, at_frame_end) = surface_of::<K>(best, leaves, p0, p1, thickness, left);
+    let leaf_motion = K::motion_at(leaves, collider.leaf_count, best.leaf, at_frame_end);
     // A path shorter than half the clearance cannot reach any surface (the half covers the
     // crossing test's own margin and rounding): the answer is known without the walk, the
     // same one the walk (or the brute-force loop) would give.
@@ -460,7 +470,7 @@ pub fn detect_brute_force_at<K: LeafKind>(
     let left = motion.left();
     let best = brute_force_relative::<K>(collider, leaves, p0, p1, left);
     // No clearance bound: every path is checked.
-    let target = target_of::<K>(best, 0.0, leaves, (p0, p1), collider.thickness, left);
+    let target = target_of::<K>(best, 0.0, leaves, (p0, p1), collider, left);
     let blocked = target.check && path_blocked_brute_force::<K>(collider, leaves, p0, target.position, left);
     contacts[i] = target.contact(blocked);
 }
@@ -503,11 +513,10 @@ pub fn respond_at(
 }
 
 /// The velocity (world) of the collider's surface where a particle at `p` (world, the
-/// substep's end) touches it: the pose's motion of that point, plus the touched leaf's own
-/// motion over the substep (its share of `Contact::leaf_motion`, which a deforming collider's
-/// vertices give; the leaf's mean motion, so a leaf that also turns or stretches in the frame
-/// is taken at its centroid's velocity). Without the leaf's part, a surface sliding under the
-/// cloth by its vertices (a skinned body) would not drag the cloth along by friction.
+/// substep's end) touches it: the pose's motion of that point, plus the surface's own motion
+/// there over the substep (its share of `Contact::leaf_motion`, which a deforming collider's
+/// vertices give: `LeafKind::motion_at`). Without it, a surface sliding under the cloth by its
+/// vertices (a skinned body) would not drag the cloth along by friction.
 #[inline]
 pub fn surface_velocity(contact: &Contact, motion: &SubstepMotion, p: Vec3) -> Vec3 {
     let by_pose = motion.velocity_at(to_local(&motion.end, p));

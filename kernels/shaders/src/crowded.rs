@@ -245,7 +245,7 @@ pub fn detect_crowded_particle<K: LeafKind>(
         } else {
             traverse_with_clearance::<K>(collider, nodes, aabbs, leaves, p0, p1, left)
         };
-        let target = target_of::<K>(best, clearance, leaves, (p0, p1), thickness, left);
+        let target = target_of::<K>(best, clearance, leaves, (p0, p1), collider, left);
         contacts[i] = target.contact(false);
         shared.target[0] = target.position.extend(if target.check { 1.0 } else { 0.0 });
         shared.target[1] = target.first.extend(0.0);

@@ -46,6 +46,51 @@ pub fn swept_triangle_leaf(previous: [Vec3; 3], current: [Vec3; 3]) -> Triangle 
     t
 }
 
+/// How triangle `i`'s corners moved over the frame (from `previous` to `vertices`), as a
+/// `Triangle` record (`a`, `b`, `c`; the rest zero): what the gather writes after the leaves,
+/// for the contact's surface motion (`Triangles::motion_at`).
+#[inline]
+pub fn corner_motions_at(i: u32, vertices: &[Vec4], previous: &[Vec4], indices: &[u32]) -> Triangle {
+    // Indices loaded one by one (a closure over the slices would hold them as data, which
+    // rust-gpu cannot compile).
+    let base = 3 * i as usize;
+    let (i0, i1, i2) = (indices[base] as usize, indices[base + 1] as usize, indices[base + 2] as usize);
+    Triangle {
+        a: (vertices[i0].xyz() - previous[i0].xyz()).extend(0.0),
+        b: (vertices[i1].xyz() - previous[i1].xyz()).extend(0.0),
+        c: (vertices[i2].xyz() - previous[i2].xyz()).extend(0.0),
+        sweep: Vec4::ZERO,
+    }
+}
+
+/// The barycentric weights of `q` (a point of triangle `t`, or nearly) on its corners, each
+/// in [0, 1] and summing to 1; the centroid's for a triangle with no area.
+// `!(x > 0.0)`: a NaN (a triangle of infinite extent) takes the centroid's weights too.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+#[inline]
+pub fn barycentric_weights(q: Vec3, t: &Triangle) -> Vec3 {
+    let (a, b, c) = (t.a.xyz(), t.b.xyz(), t.c.xyz());
+    let (e0, e1, e2) = (b - a, c - a, q - a);
+    let (d00, d01, d11) = (e0.dot(e0), e0.dot(e1), e1.dot(e1));
+    let (d20, d21) = (e2.dot(e0), e2.dot(e1));
+    let denominator = d00 * d11 - d01 * d01;
+    let centroid = Vec3::splat(1.0 / 3.0);
+    if !(denominator > 0.0) {
+        return centroid;
+    }
+    // A reciprocal, then products (a division is lowered to them on the GPU, and would round
+    // otherwise than the CPU's).
+    let inverse = 1.0 / denominator;
+    let v = ((d11 * d20 - d01 * d21) * inverse).clamp(0.0, 1.0);
+    let w = ((d00 * d21 - d01 * d20) * inverse).clamp(0.0, 1.0);
+    let u = (1.0 - v - w).max(0.0);
+    let sum = u + v + w;
+    if !(sum > 0.0) {
+        return centroid;
+    }
+    Vec3::new(u, v, w) * (1.0 / sum)
+}
+
 /// Triangle `i` of a mesh from its vertices (xyz) at the frame's end and start, and its flat
 /// index list (3 per triangle).
 #[inline]
@@ -304,6 +349,20 @@ impl Triangles {
 impl LeafKind for Triangles {
     type Leaf = Triangle;
 
+    /// The point's own motion: its triangle's corners' motions (the leaves' second half,
+    /// `corner_motions_at`) mixed by the point's barycentric weights on the triangle where the
+    /// frame ends. With only the leaves (a tree built for a test), the centroid's.
+    #[inline]
+    fn motion_at(leaves: &[Triangle], count: u32, leaf: u32, p: Vec3) -> Vec3 {
+        let t = leaves[leaf as usize];
+        if (leaves.len() as u32) < 2 * count {
+            return Self::still_to_move(t, 1.0);
+        }
+        let moves = leaves[(count + leaf) as usize];
+        let w = barycentric_weights(closest_on_triangle(p, &t), &t);
+        moves.a.xyz() * w.x + moves.b.xyz() * w.y + moves.c.xyz() * w.z
+    }
+
     /// The whole motion matters, so a subtree matters when its box grown by the (conservative)
     /// thickness meets the motion's box.
     #[inline]
@@ -470,7 +529,8 @@ pub fn triangle_bounds(
     }
 }
 
-/// Puts the triangles' corners in the tree's leaf order: `sorted[i] = triangle order[i]`.
+/// Puts the triangles' corners in the tree's leaf order: `sorted[i] = triangle order[i]`, and
+/// after the leaves how its corners moved (`sorted[leaf_count + i]`, `corner_motions_at`).
 #[spirv(compute(threads(256)))]
 pub fn gather_triangles(
     #[spirv(global_invocation_id)] id: UVec3,
@@ -483,7 +543,9 @@ pub fn gather_triangles(
 ) {
     let i = id.x;
     if i < collider.leaf_count {
-        sorted[i as usize] = triangle_at(order[i as usize], vertices, previous, indices);
+        let t = order[i as usize];
+        sorted[i as usize] = triangle_at(t, vertices, previous, indices);
+        sorted[(collider.leaf_count + i) as usize] = corner_motions_at(t, vertices, previous, indices);
     }
 }
 

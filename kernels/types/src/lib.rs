@@ -511,9 +511,10 @@ pub struct Contact {
     pub normal: Vec4,
     /// The leaf touched (tree order), `NO_LEAF` for none.
     pub leaf: u32,
-    /// How far that leaf itself moves over the frame, in the collider's frame (a deforming
-    /// collider's, from its vertices; zero for a leaf that does not move): the response adds
-    /// its velocity to the pose's, so friction drags the cloth along a surface that slides.
+    /// How far the leaf's surface itself moves over the frame at the contact point, in the
+    /// collider's frame (a deforming collider's, from its vertices; zero for a leaf that does
+    /// not move): the response adds its velocity to the pose's, so friction drags the cloth
+    /// along a surface that slides.
     pub leaf_motion: [f32; 3],
 }
 
