@@ -316,8 +316,15 @@ impl Controls {
         Controls { settings, cloths, colliders, replan: false, frames_begun: 0 }
     }
 
+    /// Reads cloth `cloth`'s blow-up detector after frame `frame` (`settings::check_health`),
+    /// with the collider whose surface moved fastest in the frame, which a blow-up may name.
+    pub(crate) fn check_health(&self, health: &drape_types::Health, frame: u64, cloth: usize) -> crate::Result<()> {
+        let collider = self.fastest_collider();
+        crate::settings::check_health(health, frame, cloth, &self.settings, (&self.cloths[cloth], collider))
+    }
+
     /// The collider whose surface moved fastest in the last frame planned, if any moved.
-    pub(crate) fn fastest_collider(&self) -> Option<crate::stability::diagnosis::ColliderMotion> {
+    fn fastest_collider(&self) -> Option<crate::stability::diagnosis::ColliderMotion> {
         self.colliders
             .iter()
             .enumerate()

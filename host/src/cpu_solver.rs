@@ -8,7 +8,6 @@ use crate::graph::Handle;
 use crate::model::{ClothId, Model};
 use crate::program::SolverProgram;
 use crate::programs::cloth::ClothBuffers;
-use crate::settings::check_health;
 use crate::solver::teleported;
 use crate::state::State;
 use drape_types::{CollisionStatus, Health};
@@ -52,13 +51,7 @@ impl CpuSolver {
                 continue;
             }
             let health: Health = self.executor.read(cloth.health, 1)?[0];
-            check_health(
-                &health,
-                self.frames_done,
-                i,
-                &self.controls.settings,
-                (&self.controls.cloths[i], self.controls.fastest_collider()),
-            )?;
+            self.controls.check_health(&health, self.frames_done, i)?;
             self.controls.observe(i, &health, self.frames_done);
         }
         Ok(())

@@ -441,8 +441,13 @@ fn run(args: &Args) -> drape::Result<()> {
         }
         if let Some(p) = &mut pictures {
             let rigid: Vec<_> = poses.iter().map(|&(r, t)| drape::rigid_pose(r, t)).collect();
-            let shapes: Vec<_> = deformed.iter().map(|&i| (i, &scene_colliders[i].mesh)).collect();
-            p.frame(frame, args.frames, (&sim, cloth), &rigid, &shapes)?;
+            let deforming: Vec<_> = scene_colliders
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| c.sequence.is_some())
+                .map(|(i, c)| (i, &c.mesh))
+                .collect();
+            p.frame(frame, args.frames, (&sim, cloth), &rigid, &deforming)?;
         }
         if args.check_every_frame {
             let solid = union_at(&scene_colliders, t);

@@ -11,7 +11,6 @@ use crate::graph::Barrier;
 use crate::lbvh;
 use crate::model::{ClothId, ColliderId, Model};
 use crate::program::SolverProgram;
-use crate::settings::check_health;
 use crate::state::State;
 use drape_types::{CollisionStatus, Health};
 use glam::Vec4;
@@ -203,13 +202,7 @@ impl Solver {
                     s.tree.leaves * passes
                 };
             }
-            check_health(
-                &health,
-                self.frames_done,
-                i,
-                &self.controls.settings,
-                (&self.controls.cloths[i], self.controls.fastest_collider()),
-            )?;
+            self.controls.check_health(&health, self.frames_done, i)?;
             self.controls.observe(i, &health, self.frames_done);
             for contact in contacts {
                 let status: CollisionStatus = self.engine.read_mapped(contact.status)?;
@@ -293,13 +286,7 @@ impl Solver {
             for i in 0..self.program.cloths.len() {
                 if let Some(health) = take(size_of::<Health>()) {
                     let health: Health = bytemuck::pod_read_unaligned(health);
-                    check_health(
-                        &health,
-                        frame,
-                        i,
-                        &self.controls.settings,
-                        (&self.controls.cloths[i], self.controls.fastest_collider()),
-                    )?;
+                    self.controls.check_health(&health, frame, i)?;
                     self.controls.observe(i, &health, frame);
                 }
             }

@@ -17,9 +17,8 @@ pub(crate) struct Pictures {
     camera: Camera,
     ctx: Arc<Context>,
     colliders: Vec<SurfaceMesh>,
-    /// Each collider's triangles, and its new vertices when it deformed since its last picture.
+    /// Each collider's triangles (a deforming one's surface is uploaded again with them).
     triangles: Vec<Vec<[u32; 3]>>,
-    shapes: Vec<Option<Vec<glam::Vec3>>>,
     pub(crate) written: Vec<PathBuf>,
 }
 
@@ -47,35 +46,29 @@ impl Pictures {
                 .collect::<drape::Result<_>>()?,
             ctx: Arc::clone(ctx),
             triangles: colliders.iter().map(|m| m.triangles.clone()).collect(),
-            shapes: vec![None; colliders.len()],
             written: Vec::new(),
         })
     }
 
     /// Draws and writes `frame_NNNNN.png` if `frame` is one to write (of `frames`), each
-    /// collider at its pose in `collider_poses`; `deformed`: the colliders whose shape this
-    /// frame changed (index, mesh: the same triangles), kept for the pictures to come.
+    /// collider at its pose in `collider_poses`; `deforming`: the colliders whose shape changes
+    /// (index, its mesh now: the same triangles), drawn as it is.
     pub(crate) fn frame(
         &mut self,
         frame: u32,
         frames: u32,
         (solver, cloth): (&Solver, ClothId),
         collider_poses: &[RigidPose],
-        deformed: &[(usize, &Mesh)],
+        deforming: &[(usize, &Mesh)],
     ) -> drape::Result<()> {
-        for &(i, mesh) in deformed {
-            self.shapes[i] = Some(mesh.vertices.clone());
-        }
         // Every n-th frame and the last (a run shorter than n still gets its picture).
         let due = frame == frames || self.every.is_some_and(|n| frame.is_multiple_of(n));
         if !due {
             return Ok(());
         }
-        // A deformed collider's surface is uploaded again only for a picture that shows it.
-        for (i, shape) in self.shapes.iter_mut().enumerate() {
-            if let Some(vertices) = shape.take() {
-                self.colliders[i] = SurfaceMesh::new(&self.ctx, &vertices, &self.triangles[i])?;
-            }
+        // A deforming collider's surface is uploaded again only for a picture that shows it.
+        for &(i, mesh) in deforming {
+            self.colliders[i] = SurfaceMesh::new(&self.ctx, &mesh.vertices, &self.triangles[i])?;
         }
         let mut draws = vec![Draw::Cloth { solver, cloth, color: CLOTH_COLOR }];
         for (i, (mesh, &pose)) in self.colliders.iter().zip(collider_poses).enumerate() {

@@ -48,6 +48,9 @@ use crate::lbvh::{PairWalk, WALK_BATCH, box_meets};
 use crate::pose::{SubstepMotion, to_world};
 use crate::self_pairs::{anchor_particles, triangle_motion_at};
 use crate::tiles::wake_particle;
+/// The triangles' closest point with its weights lives with the triangle leaves; kept here by
+/// name for the pair tests and the host that import it from this module.
+pub use crate::triangles::closest_with_weights;
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, DispatchArgs, Health, SelfAnchorPush, SimParams,
@@ -212,48 +215,6 @@ pub fn gather_cloth_triangles(
         return;
     }
     gather_cloth_triangle(id.x, (indices, order, anchors), (sorted, leaf_of, leaf_motions));
-}
-
-/// The point of triangle (`a`, `b`, `c`) closest to `p` and its barycentric weights (Ericson,
-/// Real-Time Collision Detection 5.1.5). Only for triangles with area (the caller skips the
-/// degenerate ones).
-pub fn closest_with_weights(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Vec3) {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return (a, Vec3::X);
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return (b, Vec3::Y);
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 * (1.0 / (d1 - d3));
-        return (a + ab * v, Vec3::new(1.0 - v, v, 0.0));
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return (c, Vec3::Z);
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 * (1.0 / (d2 - d6));
-        return (a + ac * w, Vec3::new(1.0 - w, 0.0, w));
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) * (1.0 / ((d4 - d3) + (d5 - d6)));
-        return (b + (c - b) * w, Vec3::new(0.0, 1.0 - w, w));
-    }
-    let denom = 1.0 / (va + vb + vc);
-    let (v, w) = (vb * denom, vc * denom);
-    // The first weight as va / (va + vb + vc), not Ericson's 1 - v - w: Mesa's NIR treats
-    // float math as reassociable and rewrites that as 1 - (vb + vc) x denom, which rounds
-    // differently from the CPU (the self-collision twin parted by one fixed-point unit).
-    (a + ab * v + ac * w, Vec3::new(va * denom, v, w))
 }
 
 /// Whether a triangle has collapsed (a segment or a point, within f32's reach): its sides' cross

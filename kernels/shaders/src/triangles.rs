@@ -63,32 +63,46 @@ pub fn corner_motions_at(i: u32, vertices: &[Vec4], previous: &[Vec4], indices: 
     }
 }
 
-/// The barycentric weights of `q` (a point of triangle `t`, or nearly) on its corners, each
-/// in [0, 1] and summing to 1; the centroid's for a triangle with no area.
-// `!(x > 0.0)`: a NaN (a triangle of infinite extent) takes the centroid's weights too.
-#[allow(clippy::neg_cmp_op_on_partial_ord)]
-#[inline]
-pub fn barycentric_weights(q: Vec3, t: &Triangle) -> Vec3 {
-    let (a, b, c) = (t.a.xyz(), t.b.xyz(), t.c.xyz());
-    let (e0, e1, e2) = (b - a, c - a, q - a);
-    let (d00, d01, d11) = (e0.dot(e0), e0.dot(e1), e1.dot(e1));
-    let (d20, d21) = (e2.dot(e0), e2.dot(e1));
-    let denominator = d00 * d11 - d01 * d01;
-    let centroid = Vec3::splat(1.0 / 3.0);
-    if !(denominator > 0.0) {
-        return centroid;
+/// The point of triangle (`a`, `b`, `c`) closest to `p` and its barycentric weights (Ericson,
+/// Real-Time Collision Detection 5.1.5). Only for triangles with area (the caller skips the
+/// degenerate ones).
+pub fn closest_with_weights(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, Vec3) {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, Vec3::X);
     }
-    // A reciprocal, then products (a division is lowered to them on the GPU, and would round
-    // otherwise than the CPU's).
-    let inverse = 1.0 / denominator;
-    let v = ((d11 * d20 - d01 * d21) * inverse).clamp(0.0, 1.0);
-    let w = ((d00 * d21 - d01 * d20) * inverse).clamp(0.0, 1.0);
-    let u = (1.0 - v - w).max(0.0);
-    let sum = u + v + w;
-    if !(sum > 0.0) {
-        return centroid;
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, Vec3::Y);
     }
-    Vec3::new(u, v, w) * (1.0 / sum)
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 * (1.0 / (d1 - d3));
+        return (a + ab * v, Vec3::new(1.0 - v, v, 0.0));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, Vec3::Z);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 * (1.0 / (d2 - d6));
+        return (a + ac * w, Vec3::new(1.0 - w, 0.0, w));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) * (1.0 / ((d4 - d3) + (d5 - d6)));
+        return (b + (c - b) * w, Vec3::new(0.0, 1.0 - w, w));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    // The first weight as va / (va + vb + vc), not Ericson's 1 - v - w: Mesa's NIR treats
+    // float math as reassociable and rewrites that as 1 - (vb + vc) x denom, which rounds
+    // differently from the CPU (the self-collision twin parted by one fixed-point unit).
+    (a + ab * v + ac * w, Vec3::new(va * denom, v, w))
 }
 
 /// Triangle `i` of a mesh from its vertices (xyz) at the frame's end and start, and its flat
@@ -350,16 +364,17 @@ impl LeafKind for Triangles {
     type Leaf = Triangle;
 
     /// The point's own motion: its triangle's corners' motions (the leaves' second half,
-    /// `corner_motions_at`) mixed by the point's barycentric weights on the triangle where the
-    /// frame ends. With only the leaves (a tree built for a test), the centroid's.
+    /// `corner_motions_at`) mixed by the barycentric weights of its closest point on the
+    /// triangle where the frame ends. The centroid's for a triangle with no area (no normal),
+    /// or with only the leaves (a tree built for a test).
     #[inline]
     fn motion_at(leaves: &[Triangle], count: u32, leaf: u32, p: Vec3) -> Vec3 {
         let t = leaves[leaf as usize];
-        if (leaves.len() as u32) < 2 * count {
+        if (leaves.len() as u32) < 2 * count || face_normal(&t) == Vec3::ZERO {
             return Self::still_to_move(t, 1.0);
         }
         let moves = leaves[(count + leaf) as usize];
-        let w = barycentric_weights(closest_on_triangle(p, &t), &t);
+        let (_, w) = closest_with_weights(p, t.a.xyz(), t.b.xyz(), t.c.xyz());
         moves.a.xyz() * w.x + moves.b.xyz() * w.y + moves.c.xyz() * w.z
     }
 
