@@ -288,6 +288,11 @@ fn bad_mesh_cloths_are_refused_and_loose_vertices_pinned() {
     let no_area = ClothBuilder::from_mesh(flat).build().unwrap_err();
     assert!(matches!(no_area, Error::InvalidParameter { name: "cloth mesh", .. }), "{no_area}");
     assert!(no_area.to_string().contains("no area"), "{no_area}");
+    // Finite corners whose area overflows f32 are not "on one line": the message says so.
+    let huge = ClothMesh::from_parts(vec![Vec3::ZERO, 1e20 * Vec3::X, 1e20 * Vec3::Z], vec![[0, 1, 2]]).unwrap();
+    let overflow = ClothBuilder::from_mesh(huge).build().unwrap_err();
+    assert!(matches!(overflow, Error::InvalidParameter { name: "cloth mesh", .. }), "{overflow}");
+    assert!(overflow.to_string().contains("beyond f32's range (a coordinate reaches 1e20 m)"), "{overflow}");
     let bad_box = ClothBuilder::from_mesh(mesh.clone()).pin_within(Vec3::ONE, Vec3::ZERO).build().unwrap_err();
     assert!(bad_box.to_string().contains("min <= max"), "{bad_box}");
     // A box beside the cloth pins nothing: refused, with where the cloth is.

@@ -293,6 +293,10 @@ fn obj_errors_name_the_file_and_line() {
     assert_obj_error("two", &format!("{head}f 1 2\n"), Some(5), "at least 3 vertices");
     assert_obj_error("corner", &format!("{head}f 1 2/x 3\n"), Some(5), "`x`");
     assert_obj_error("normal", &format!("{head}vn 0 1 0\nf 1//1 2//1 3//2\n"), Some(6), "normal index 2");
+    // A corner that refers to texture coordinates or normals the file never defines: tobj
+    // would drop the index, and a cloth its UVs, without a word.
+    assert_obj_error("no vt", &format!("{head}f 1/1 2/2 3/3\n"), Some(5), "texture coordinate 1, but no `vt` line");
+    assert_obj_error("no vn", &format!("{head}f 1//1 2//1 3//1\n"), Some(5), "normal 1, but no `vn` line");
     assert_obj_error("noface", head, None, "no triangles");
     assert_obj_error("empty", "", None, "no triangles");
 

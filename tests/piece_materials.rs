@@ -264,21 +264,21 @@ fn cli_pieces_take_their_own_materials() {
     let (code, plain, stderr) = drape(&[&meshes[..], &run[..]].concat());
     assert_eq!(code, Some(0), "{stderr}");
     let json = dir.join("report.json");
-    let flags = ["--piece-stiffness", "2=160,10,8", "--piece-density", "2=0.4", "--json", json.to_str().unwrap()];
+    let flags = ["--piece-stiffness", "2=160,0,8", "--piece-density", "2=0.4", "--json", json.to_str().unwrap()];
     let (code, own, stderr) = drape(&[&meshes[..], &run[..], &flags[..]].concat());
     assert_eq!(code, Some(0), "{stderr}");
     let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let expected =
-        serde_json::json!([{ "piece": 2, "stiffness_n_per_m": [160.0, 10.0, 8.0], "density_kg_per_m2": 0.4 }]);
+        serde_json::json!([{ "piece": 2, "stiffness_n_per_m": [160.0, 0.0, 8.0], "density_kg_per_m2": 0.4 }]);
     assert_eq!(report["cloth"]["piece_materials"], expected, "{report}");
-    assert!(own.contains("piece 2 (stiffness 160,10,8 N/m, 0.4 kg/m^2), self-collision on"), "{own}");
+    assert!(own.contains("piece 2 (stiffness 160,0,8 N/m, 0.4 kg/m^2), self-collision on"), "{own}");
     let ratio = omega_max(&own) / omega_max(&plain);
     assert!((ratio - 2f32.sqrt()).abs() < 0.02, "omega_max {ratio}x the plain cloth's");
 
     let scene = dir.join("pieces.toml");
     std::fs::write(
         &scene,
-        "cloth-mesh = [\"lower.obj\", \"upper.obj\"]\npiece-stiffness = [\"2=160,10,8\"]\npiece-density = \"2=0.4\"\n",
+        "cloth-mesh = [\"lower.obj\", \"upper.obj\"]\npiece-stiffness = [\"2=160,0,8\"]\npiece-density = \"2=0.4\"\n",
     )
     .unwrap();
     let scene = scene.to_str().unwrap();
@@ -286,7 +286,7 @@ fn cli_pieces_take_their_own_materials() {
     assert_eq!(code, Some(0), "{stderr}");
     assert_eq!(omega_max(&from_file), omega_max(&own), "{from_file}");
     let (_, printed, _) = drape(&["--scene-file", scene, "--piece-density", "1=0.3", "--print-scene"]);
-    assert!(printed.lines().any(|l| l == "piece-stiffness = \"2=160,10,8\""), "{printed}");
+    assert!(printed.lines().any(|l| l == "piece-stiffness = \"2=160,0,8\""), "{printed}");
     assert!(printed.lines().any(|l| l == "piece-density = \"1=0.3\""), "the flag overrides the file: {printed}");
     let (_, printed, _) = drape(
         &[&meshes[..], &["--piece-density", "1=0.3", "--piece-density", "2=0.1"][..], &["--print-scene"][..]].concat(),
@@ -297,7 +297,10 @@ fn cli_pieces_take_their_own_materials() {
         (vec!["--piece-density", "3=0.3"], "there is no piece 3, the cloth has 2"),
         (vec!["--piece-stiffness", "1=1,1,1", "--piece-stiffness", "1=2,2,2"], "gives piece 1 twice"),
         (vec!["--piece-density", "0=0.3"], "a whole number from 1"),
-        (vec!["--stiffness", "40,10,0", "--piece-stiffness", "2=40,10,1"], "where --stiffness has 0"),
+        (vec!["--stiffness", "40,0,0", "--piece-stiffness", "2=40,0,1"], "where --stiffness has 0"),
+        // A mesh cloth has no shear springs: a shear stiffness would do nothing.
+        (vec!["--piece-stiffness", "2=160,10,8"], "2=160,10,8: a cloth from --cloth-mesh has no shear springs"),
+        (vec!["--stiffness", "40,10,2"], "give 0 (e.g. --stiffness 40,0,2)"),
     ];
     for (flags, expected) in usage {
         let (code, _, stderr) = drape(&[&meshes[..], &flags[..], &["--frames", "1"][..]].concat());

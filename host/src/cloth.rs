@@ -224,7 +224,20 @@ impl ClothBuilder {
         let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
         // A mesh cloth's default mass is its area's: without area it would read as a bad mass.
         if let Some(mesh) = &self.mesh
-            && !(mesh.area().is_finite() && mesh.area() > 0.0)
+            && !mesh.area().is_finite()
+        {
+            // Corners far from each other overflow f32's products before the mass does.
+            let far = mesh.vertices.iter().map(|v| v.abs().max_element()).fold(0.0f32, f32::max);
+            return bad(
+                "cloth mesh",
+                format!(
+                    "its area is beyond f32's range (a coordinate reaches {far:e} m): give the mesh in metres, \
+                     scaled down to the size of a cloth"
+                ),
+            );
+        }
+        if let Some(mesh) = &self.mesh
+            && mesh.area() <= 0.0
         {
             return bad(
                 "cloth mesh",

@@ -508,9 +508,14 @@ fn scan_corner(word: &str, counts: &ObjCounts) -> std::result::Result<(), String
                 let index: i64 = index
                     .parse()
                     .map_err(|_| format!("cannot parse {what} index `{index}` in face corner `{word}`"))?;
-                // tobj checks texture and normal indices only when the file has any.
+                // tobj skips a texture or normal index when the file has none of them; so would
+                // the cloth's UVs, silently: a file that refers to what it never defines is broken.
                 if k > 0 && defined == 0 {
-                    continue;
+                    let lines = if k == 1 { "vt" } else { "vn" };
+                    return Err(format!(
+                        "face corner `{word}` refers to {what} {index}, but no `{lines}` line comes before it: \
+                         add the {what}s, or write the corner without that index"
+                    ));
                 }
                 check_index(index, defined, what)?;
             }

@@ -139,7 +139,8 @@ pub(crate) struct Args {
     pub(crate) cloth_mesh: Vec<PathBuf>,
     /// A `--cloth-mesh` piece's own stiffness (N/m) as PIECE=K_STRUCT,K_SHEAR,K_BEND, PIECE
     /// counting the --cloth-mesh files from 1, e.g. `--piece-stiffness 2=160,0,8` for a coat
-    /// four times as stiff as the shirt under it; given once per piece. The piece's springs take
+    /// four times as stiff as the shirt under it (K_SHEAR 0: a mesh cloth has no shear springs);
+    /// given once per piece. The piece's springs take
     /// it as a multiple of --stiffness (so their damping scales with it, and a family the cloth
     /// has at 0 cannot be given); the other pieces keep --stiffness.
     #[arg(long, action = clap::ArgAction::Append, value_parser = parse_piece_stiffness, value_name = "PIECE=K_STRUCT,K_SHEAR,K_BEND")]
@@ -242,7 +243,8 @@ pub(crate) struct Args {
     /// Structural, shear and bend stiffness (N/m) as K_STRUCT,K_SHEAR,K_BEND, each in
     /// [0, 1e6]. A `--cloth-mesh` has structural and bend springs only, each structural one
     /// scaled by the area of its edge's triangles over its squared length (1 on a square grid's
-    /// inner sides), so the mesh is one material whatever its triangles' shapes.
+    /// inner sides), so the mesh is one material whatever its triangles' shapes; give it
+    /// K_SHEAR 0 (e.g. 40,0,2).
     #[arg(long, value_parser = parse_stiffness, default_value = "40,10,2")]
     pub(crate) stiffness: Vec3,
     /// Damping along spring axes (N s/m), in [0, 100].
@@ -307,6 +309,15 @@ pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), Strin
         }
     }
     check_pieces(args)?;
+    if given(matches, "stiffness") && !args.cloth_mesh.is_empty() && args.stiffness.y != 0.0 {
+        let k = args.stiffness;
+        return Err(format!(
+            "--stiffness {},{},{}: a cloth from --cloth-mesh has no shear springs (its springs lie along the mesh's \
+             edges, and bend springs across them), so the shear stiffness {} would do nothing: give 0 (e.g. \
+             --stiffness {},0,{})",
+            k.x, k.y, k.z, k.y, k.x, k.z
+        ));
+    }
     if matches!(args.scene, SceneArg::Garment | SceneArg::Layers) && args.cloth_mesh.is_empty() && args.grid < 8 {
         return Err(format!(
             "--grid {} is too few particles around the {:?} scene's skirt: give 8 or more",
@@ -342,6 +353,16 @@ fn check_pieces(args: &Args) -> Result<(), String> {
         }
     }
     let names = ["structural", "shear", "bend"];
+    // A mesh cloth's springs lie along its edges (structural) and across each edge's two
+    // triangles (bend): a shear stiffness there would be taken and do nothing.
+    if let Some(&(piece, k)) = args.piece_stiffness.iter().find(|p| p.1.y != 0.0) {
+        return Err(format!(
+            "--piece-stiffness {piece}={},{},{}: a cloth from --cloth-mesh has no shear springs (its springs lie \
+             along the mesh's edges, and bend springs across them), so the shear stiffness {} would do nothing: \
+             give 0 (e.g. {piece}={},0,{})",
+            k.x, k.y, k.z, k.y, k.x, k.z
+        ));
+    }
     for &(piece, k) in &args.piece_stiffness {
         if let Some(f) = (0..3).find(|&f| k[f] > 0.0 && args.stiffness[f] == 0.0) {
             return Err(format!(
