@@ -10,7 +10,7 @@ use drape::metrics::intersections::count_intersections;
 use drape::programs::self_contact::owned_primitives;
 use drape::{ClothId, ClothMesh, Collider, CpuSolver, Model, SimSettings, Solver};
 use drape_kernels::self_contact::{
-    EDGE_GROWTH2, PairResponse, gather_cloth_triangle_at, self_triangle_contact_at,
+    CORRECTION_WORDS, EDGE_GROWTH2, PairResponse, gather_cloth_triangle_at, self_triangle_contact_at,
     self_triangle_contact_brute_force_at, sharp_for,
 };
 use glam::{Vec3, Vec4};
@@ -75,7 +75,8 @@ fn the_tree_finds_the_pairs_the_brute_force_loop_finds() {
         let v = sim.velocities(CLOTH).unwrap();
         // The tree over the triangles swept from the last frame's positions to these.
         let (params, tree, sorted) = swept_tree(&cloth, &before, &x);
-        let (mut walked, mut brute) = (vec![0u32; 4 * n], vec![0u32; 4 * n]);
+        let corrections = CORRECTION_WORDS as usize * n;
+        let (mut walked, mut brute) = (vec![0u32; corrections], vec![0u32; corrections]);
         let (mut walked_friction, mut brute_friction) = (vec![0u32; 4 * n], vec![0u32; 4 * n]);
         for leaf in 0..cloth.triangles.len() as u32 {
             let t = (tree.nodes.as_slice(), tree.aabbs.as_slice(), tree.leaf_bounds.as_slice(), sorted.as_slice());
@@ -258,8 +259,10 @@ fn lists_and_walks_against_the_tree_walk(exact_prediction: bool) -> (u64, u64, u
             let mut steps = vec![];
             s.substep_steps(&own, ((0, substeps - 1, substeps), true), stand_in, &mut steps);
             cpu.run(&steps).unwrap();
-            let (found, found_friction) =
-                (cpu.read(s.delta, words).unwrap(), cpu.read(s.velocity_changes, words).unwrap());
+            let (found, found_friction) = (
+                cpu.read(s.delta, CORRECTION_WORDS as usize * n as usize).unwrap(),
+                cpu.read(s.velocity_changes, words).unwrap(),
+            );
             let health: Health = cpu.read(own.health, 1).unwrap()[0];
             let walks = health.self_walks + health.self_full_lists;
             let queue: drape_types::DispatchArgs = cpu.read(s.queue_args, 1).unwrap()[0];
@@ -313,7 +316,8 @@ fn tree_walk_corrections(
     let leaf_bounds: Vec<Aabb> = cpu.read(s.tree.sorted_bounds, t).unwrap();
     let sorted: Vec<glam::UVec4> = cpu.read(s.sorted, t).unwrap();
     let rest: Vec<Vec4> = cpu.read(s.rest_shape, x.len()).unwrap();
-    let (mut walk, mut walk_friction) = (vec![0u32; words], vec![0u32; words]);
+    let corrections = CORRECTION_WORDS as usize * x.len();
+    let (mut walk, mut walk_friction) = (vec![0u32; corrections], vec![0u32; words]);
     for leaf in 0..c.leaf_count {
         let tree = (tree_nodes.as_slice(), aabbs.as_slice(), leaf_bounds.as_slice(), sorted.as_slice());
         let out = PairResponse {
@@ -394,8 +398,10 @@ fn lists_built_within_a_frame_find_the_pairs_the_tree_walk_finds() {
             let span = (from, from + substeps - 1, 2 * substeps);
             s.windowed_substep_steps(&own, (span, (from, substeps), true), vec![], &mut steps);
             cpu.run(&steps).unwrap();
-            let (found, found_friction) =
-                (cpu.read(s.delta, words).unwrap(), cpu.read(s.velocity_changes, words).unwrap());
+            let (found, found_friction) = (
+                cpu.read(s.delta, CORRECTION_WORDS as usize * n as usize).unwrap(),
+                cpu.read(s.velocity_changes, words).unwrap(),
+            );
             let health: Health = cpu.read(own.health, 1).unwrap()[0];
             let walks = health.self_walks + health.self_full_lists;
             (walked, listed) = (walked + u64::from(walks), listed + u64::from(t - walks));
@@ -581,21 +587,22 @@ fn cli_layers_scene_keeps_its_layers_apart_in_every_frame() {
     assert!(!off.contains("frames with any 0 of 90"), "without self-collision the layers must cross\n{off}");
 }
 
-/// `drape --scene layers --friction 1.5`: the two layers pressed on the turning body cross
-/// within frames, and the fail-safe puts their pairs back carried with the body. Put back where
-/// they started in the world instead, the inner layer's particles lay up to 1.8 mm inside the
-/// turned body and stayed inside (99 of 150 frames with a cloth edge through the body, from
-/// frame 52, when this was written). No intersection in any of 100 frames, nothing inside the
-/// body, and particles carried back.
+/// `drape --scene layers --friction 2.1`: the two layers pressed on the turning body cross at
+/// frame 17, and the fail-safe puts them back carried with the body. Put back where they
+/// started in the world instead, the inner layer's particles lay up to 1.8 mm inside the
+/// turned body and stayed inside (at 1.5, 99 of 150 frames with a cloth edge through the body,
+/// from frame 52, when this was written; at 1.5 nothing crosses since a particle undoing a
+/// crossing moves by those corrections alone). No intersection in any of 100 frames, nothing
+/// inside the body, and particles carried back.
 #[test]
 fn cli_layers_scene_at_high_friction_keeps_clear_of_its_turning_body() {
     let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
-        .args(["--scene", "layers", "--friction", "1.5", "--frames", "100", "--no-timestamps", "--check-every-frame"])
+        .args(["--scene", "layers", "--friction", "2.1", "--frames", "100", "--no-timestamps", "--check-every-frame"])
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&output.stdout);
     assert!(output.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
-    assert!(stdout.contains("self-collision on (5.0 mm, friction 1.5)"), "{stdout}");
+    assert!(stdout.contains("self-collision on (5.0 mm, friction 2.1)"), "{stdout}");
     assert!(stdout.contains("intersections (exact, every frame): frames with any 0 of 100"), "{stdout}");
     assert!(stdout.contains("particles inside the mesh   0.000 %"), "{stdout}");
     let carried: u64 = stdout
@@ -1578,15 +1585,14 @@ fn the_failsafe_check_through_the_tree_finds_what_brute_force_finds() {
 }
 
 /// The layers scene (`scenes::layered_garment`, `around` particles round each skirt) over its
-/// body at a friction of 1.5 for `frames` frames, the body turning by its pose (`deforming`
+/// body at `friction` for `frames` frames, the body turning by its pose (`deforming`
 /// false) or by its vertices (`set_collider_vertices`, as a skinned mesh moves). The GPU equals
 /// its CPU twin bit for bit in every frame up to the first whose fail-safe carried particles
 /// with the body (that one included); returns the particles put back, those carried, the frames
 /// with an intersection (checked exactly), and whether the twin reached a frame that carried.
-fn layers_on_a_turning_body(deforming: bool, around: u32, frames: u32) -> (u32, u32, u32, bool) {
+fn layers_on_a_turning_body(deforming: bool, (around, friction): (u32, f32), frames: u32) -> (u32, u32, u32, bool) {
     use drape::ColliderId;
     let ctx = context();
-    let friction = 1.5;
     let scene = drape::scenes::layered_garment(around);
     let cloth = scene.cloth.clone().self_friction(friction).build().unwrap();
     let collider = scene.triangle_collider().with_friction(friction);
@@ -1623,16 +1629,19 @@ fn layers_on_a_turning_body(deforming: bool, around: u32, frames: u32) -> (u32, 
     (put_back, carried, crossed, compared)
 }
 
-/// The fail-safe's carry of a pair of the cloth's own near a collider that moved by its pose
-/// (`drape_kernels::self_failsafe::triangle_carrier_at`): the layers scene at 32 around, its
-/// layers pressed on the turning body crossing within frames from frame 19, is carried back
-/// with the body alike on the GPU and the CPU (`layers_on_a_turning_body`). Its CLI scene over
+/// The fail-safe's carry near a collider that moved by its pose
+/// (`drape_kernels::self_failsafe::triangle_carrier_at`, `CarrierOut::choice`): the layers
+/// scene at 64 around and a body friction of 2.1, whose layers pressed on the turning body
+/// cross at frame 17 in a way its rounds cannot undo by parts, so the whole cloth goes back
+/// carried with the body, alike on the GPU and the CPU (`layers_on_a_turning_body`). (At 1.5
+/// and 32 around its pairs crossed within frames from frame 19 until a particle undoing a
+/// crossing moved by those corrections alone; since, nothing crosses there.) Its CLI scene over
 /// 100 frames: `cli_layers_scene_at_high_friction_keeps_clear_of_its_turning_body`.
 #[test]
 fn the_failsafe_carries_layers_with_a_turning_body_alike_on_the_gpu_and_the_cpu() {
-    let (_, carried, crossed, compared) = layers_on_a_turning_body(false, 32, 22);
+    let (_, carried, crossed, compared) = layers_on_a_turning_body(false, (64, 2.1), 18);
     assert!(carried > 0 && compared, "the layers must be carried back with the body, alike on the CPU");
-    assert_eq!(crossed, 0, "{crossed} of 22 frames have an intersection");
+    assert_eq!(crossed, 0, "{crossed} of 18 frames have an intersection");
 }
 
 /// The same with the body turned by its vertices, as a skinned mesh moves: the carry follows
@@ -1642,7 +1651,7 @@ fn the_failsafe_carries_layers_with_a_turning_body_alike_on_the_gpu_and_the_cpu(
 /// boxes refit the tree), 97 of 150 frames crossed the body, 109 with the carry.
 #[test]
 fn the_failsafe_carries_layers_with_a_deforming_body_alike_on_the_gpu_and_the_cpu() {
-    let (_, carried, crossed, compared) = layers_on_a_turning_body(true, 64, 150);
+    let (_, carried, crossed, compared) = layers_on_a_turning_body(true, (64, 1.5), 150);
     assert!(carried > 0 && compared, "the layers must be carried back with the body, alike on the CPU");
     assert_eq!(crossed, 0, "{crossed} of 150 frames have an intersection");
 }
@@ -1652,8 +1661,9 @@ fn the_failsafe_carries_layers_with_a_deforming_body_alike_on_the_gpu_and_the_cp
 /// (anchors, tree and pair lists as a frame builds them) and its end shaken by up to 12 mm per
 /// particle, so some triangles leave their predicted regions and walk, others test their lists,
 /// and layers 5 mm apart cross. Positions, velocities and the health's counts are equal, particles
-/// go back to where the frame started (in the first round and in later ones), and afterwards no
-/// pair is found crossing.
+/// go back to where the frame started (in the first round and in later ones; the whole cloth in
+/// a frame whose rounds cannot undo the shake by parts, fewer than half of them), and afterwards
+/// no pair is found crossing.
 #[test]
 fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
     use drape::cpu::CpuExecutor;
@@ -1679,7 +1689,7 @@ fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
     let mut cpu = CpuExecutor::new(&resources);
     let mut rng = common::Rng::new(0x5851_f42d_4c95_7f2du64);
     let mut shake = || rng.range(-0.012, 0.012);
-    let (mut put_back, mut compared, mut later_rounds) = (0, 0, 0);
+    let (mut put_back, mut compared, mut later_rounds, mut whole) = (0, 0, 0, 0);
     for frame in 1..=60 {
         let (before, v_before) = (sim.positions(CLOTH).unwrap(), sim.velocities(CLOTH).unwrap());
         sim.step().unwrap();
@@ -1715,7 +1725,11 @@ fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
         assert_eq!(gv, cpu.read(own.v, n as usize).unwrap(), "{at}: velocities");
         let health: Health = engine.download(own.health, 1).unwrap()[0];
         assert_eq!(health, cpu.read(own.health, 1).unwrap()[0], "{at}: health");
-        assert_eq!(health.self_rollback_all, 0, "{at}: the whole cloth went back");
+        if health.self_rollback_all != 0 {
+            // The rounds could not undo the shake by parts: the whole cloth is at its start.
+            assert!((0..n as usize).all(|i| gx[i] == before[i] || x[i] == before[i]), "{at}: the whole cloth back");
+            whole += 1;
+        }
         let back = (0..n as usize).filter(|&i| gx[i] == before[i] && x[i] != before[i]).count();
         assert_eq!(back as u32, health.self_rollbacks, "{at}: the particles put back are at the frame's start");
         put_back += back;
@@ -1730,7 +1744,8 @@ fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
         assert_eq!((again.self_rollbacks, again.self_rollback_all), (0, 0), "{at}: checked again");
     }
     assert!(compared == 10 && put_back > 20, "the shaken frames must put particles back ({put_back})");
-    println!("{put_back} particles put back, {later_rounds} of them after the first round");
+    assert!(whole < compared / 2, "most shaken frames must be undone by parts ({whole} of {compared} whole)");
+    println!("{put_back} particles put back, {later_rounds} of them after the first round, {whole} frames whole");
     assert!(later_rounds > 0, "the rounds after the first must put particles back too");
     assert_validation_clean(&ctx);
 }

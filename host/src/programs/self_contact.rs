@@ -22,7 +22,7 @@ use crate::kernels::self_pairs::{
     REGATHER_CLOTH_TRIANGLES, SELF_TRIANGLE_CONTACT, TEST_QUEUED_PAIRS, WALK_SELF_PAIRS,
 };
 use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
-use drape_kernels::self_contact::{NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
+use drape_kernels::self_contact::{CORRECTION_WORDS, NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
 use drape_kernels::self_pairs::{
     ANCHOR_WORDS, FIND_WALKERS, LIST_ENTRY_WORDS, QUEUED_PAIR_WORDS, QUEUED_PAIRS_MOST, QUEUED_PAIRS_PER_TRIANGLE,
     SELF_LIST_CAPACITY, SLOP_THICKNESS,
@@ -39,7 +39,8 @@ pub struct SelfContactBuffers {
     pub tree: LbvhBuffers,
     /// Each sorted leaf's corners (xyz) and triangle (w).
     pub sorted: Handle<UVec4>,
-    /// Per particle: the summed corrections (3 fixed-point words) and their count.
+    /// Per particle: the summed corrections (3 fixed-point words) and their count, then those
+    /// of the corrections that undo a crossing (`CORRECTION_WORDS`).
     pub delta: Handle<u32>,
     /// Per particle: the summed velocity changes of its pairs' friction (3 fixed-point words)
     /// and their count.
@@ -279,7 +280,7 @@ impl SelfContactBuffers {
         SelfContactBuffers {
             tree: LbvhBuffers::declare(resources, &name, triangles),
             sorted: resources.device(format!("{name}: sorted triangles"), triangles),
-            delta: resources.device(format!("{name}: corrections"), 4 * particles),
+            delta: resources.device(format!("{name}: corrections"), CORRECTION_WORDS * particles),
             velocity_changes: resources.device(format!("{name}: friction"), 4 * particles),
             pushes: resources.device(format!("{name}: collider pushes"), PUSH_WORDS * particles),
             start: resources.device(format!("{name}: pass start"), particles),

@@ -388,15 +388,15 @@ mod tests {
     /// stays asleep.
     #[test]
     fn a_push_or_friction_wakes_a_sleeping_particle() {
-        use drape_kernels::self_contact::apply_self_contact_at;
+        use drape_kernels::self_contact::{CORRECTION_WORDS, add_correction, apply_self_contact_at};
         use drape_kernels::tiles::SETTLED;
         let settled = Vec4::new(0.0, 0.0, 0.0, SETTLED);
         let mut x = vec![Vec4::new(0.0, 0.0, 0.0, 1.0); 3];
         let mut v = vec![settled; 3];
-        // Fixed-point sums (x, y, z, count): particle 0 pushed 1/2^24 m along +y, particle 1's
-        // velocity changed, particle 2 left alone.
-        let mut delta = vec![0u32; 12];
-        (delta[1], delta[3]) = (1, 1);
+        // Particle 0 pushed 1/2^24 m along +y, particle 1's velocity changed (fixed-point sums
+        // x, y, z, count), particle 2 left alone.
+        let mut delta = vec![0u32; 3 * CORRECTION_WORDS as usize];
+        add_correction(&mut delta, 0, Vec3::new(0.0, 1.0 / 16_777_216.0, 0.0), 0);
         let mut velocity_changes = vec![0u32; 12];
         (velocity_changes[4], velocity_changes[7]) = (1, 1);
         for i in 0..3 {
