@@ -23,7 +23,8 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         (&["--weld"], usage, "--weld only applies to a cloth from --cloth-mesh"),
         (&["--obj-every", "3"], usage, "--obj-every needs --obj-dir"),
         (&["--scene", "garment", "--grid", "4"], usage, "--grid 4 is too few particles around the garment"),
-        (&["--thickness", "1000"], usage, "(0, 0.5]"),
+        (&["--thickness", "1000"], usage, "[0.0001, 0.5]"),
+        (&["--thickness", "1e-8"], usage, "[0.0001, 0.5]"),
         (&["--friction", "-1"], usage, "[0, 10]"),
         (&["--stiffness", "1e30,1,1"], usage, "[0, 1000000]"),
         (&["--stiffness", "40"], usage, "K_STRUCT,K_SHEAR,K_BEND"),
@@ -52,6 +53,29 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         (&["--png-dir", "/tmp/drape-unused", "--png-size", "640"], usage, "WIDTHxHEIGHT"),
         (&["--png-dir", "/tmp/drape-unused", "--no-normals"], usage, "--no-normals"),
         (&["--png-dir", "/proc/drape-cannot-write-here", "--frames", "1"], runtime, "--png-dir"),
+        // Flags that would do nothing with the others given.
+        (&["--self-failsafe", "off"], usage, "--self-failsafe only applies with --self-collision on"),
+        (&["--self-list-windows", "off"], usage, "--self-list-windows only applies with --self-collision on"),
+        (&["--scene", "swing", "--crowded-contact", "on"], usage, "--crowded-contact does nothing in the swing scene"),
+        (
+            &["--one-workgroup-substeps", "on"],
+            usage,
+            "--one-workgroup-substeps only applies to a cloth with no collider",
+        ),
+        (&["--substeps", "3", "--contact-substeps", "off"], usage, "--contact-substeps does nothing with --substeps"),
+        (&["--scene", "pile", "--grid", "4"], usage, "--grid 4 is too few particles along the pile scene's strip"),
+        (&["--scene", "swing", "--wind=1e37,0,0"], usage, "at most 1e6 N"),
+        (&["--grid", "8", "--pin-box=-10,-10,-10,10,10,10", "--frames", "1"], runtime, "they pin all 64 particles"),
+        (
+            &["--obj-dir", concat!(env!("CARGO_MANIFEST_DIR"), "/Cargo.toml"), "--frames", "1"],
+            runtime,
+            "it is a file, not a directory",
+        ),
+        (
+            &["--usd", "/dev/full", "--frames", "1", "--grid", "8"],
+            runtime,
+            "`--usd`: the USD cache could not be written",
+        ),
     ];
     for &(args, code, needle) in cases {
         let output = drape(args);
@@ -886,5 +910,98 @@ fn scene_file_mesh_sequence_deforms_a_collider() {
     for output in [&changed, &reordered, &directory, &spheres] {
         assert!(!String::from_utf8_lossy(&output.stderr).contains("panicked"));
     }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Bad files and values found by fuzzing the CLI: an output that names an input (or the other
+/// output) is refused before anything is written, so the input survives; a collider's spin
+/// axis of 1e20 runs (normalised in f64); scales, meshes and densities that f32 turns into
+/// nothing are refused with the fix; `--weld` keeps `--pin-vertices` on the file's vertices;
+/// a scene file's key given twice in its two spellings, or quoted, is answered at its line.
+#[test]
+fn outputs_inputs_and_degenerate_values_are_answered() {
+    let dir = std::env::temp_dir().join(format!("drape-cli-fuzzed-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let square = "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nf 1 2 3\nf 1 3 4\n";
+    let cloth = file("cloth.obj", square);
+    let quick = ["--frames", "1", "--no-timestamps", "--quiet"];
+    let run = |args: &[&str]| {
+        let output = drape(&[args, &quick[..]].concat());
+        (output.status.code(), String::from_utf8_lossy(&output.stderr).into_owned())
+    };
+    let shear0 = ["--stiffness", "40,0,2"];
+    let (code, stderr) = run(&[&["--cloth-mesh", &cloth, "--json", &cloth][..], &shear0[..]].concat());
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("is the file --cloth-mesh reads"), "{stderr}");
+    assert_eq!(std::fs::read_to_string(&cloth).unwrap(), square, "the input must be left as it was");
+    let out = dir.join("same.out");
+    let (code, stderr) = run(&["--grid", "8", "--json", out.to_str().unwrap(), "--usd", out.to_str().unwrap()]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("--json and --usd both write"), "{stderr}");
+    let scene = file("scene.toml", "grid = 8\n");
+    let (code, stderr) = run(&["--scene-file", &scene, "--json", &scene]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), "grid = 8\n");
+
+    let spin = file(
+        "spin.toml",
+        "scene = \"swing\"\ngrid = 8\n[[collider]]\nmesh = \"torus\"\ntranslate = [0, 0.5, 0]\nspin-axis = [1e20, 0, 0]\n\
+         spin-rate = 1\n",
+    );
+    let (code, stderr) = run(&["--scene-file", &spin]);
+    assert_eq!(code, Some(0), "a spin axis of 1e20 is an axis: {stderr}");
+    let tiny_scale = file("scale.toml", "scene = \"swing\"\n[[collider]]\nmesh = \"torus\"\nscale = 1e-300\n");
+    let (code, stderr) = run(&["--scene-file", &tiny_scale]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("`scale` must be within [1e-6, 1e6]"), "{stderr}");
+    let twice = file("twice.toml", "listed_springs = true\nlisted-springs = false\n");
+    let (code, stderr) = run(&["--scene-file", &twice]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("both set --listed-springs: keep one"), "{stderr}");
+    let quoted = file("quoted.toml", "grid = 8\n\"substeps\" = 0\n");
+    let (code, stderr) = run(&["--scene-file", &quoted]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("line 2, key `substeps`"), "{stderr}");
+    let not_tables = file("colliders.toml", "collider = [1, 2]\n");
+    let (code, stderr) = run(&["--scene-file", &not_tables]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("a collider is a `[[collider]]` table") && !stderr.contains("struct"), "{stderr}");
+
+    let tiny_cloth = file("tiny.obj", "v 0 0 0\nv 1e-10 0 0\nv 0 0 1e-10\nf 1 2 3\n");
+    let (code, stderr) = run(&[&["--cloth-mesh", &tiny_cloth][..], &shear0[..]].concat());
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("spans only 1e-10 m") && stderr.contains("give the mesh in metres"), "{stderr}");
+    let flat_collider =
+        file("speck.obj", "v 0 0 0\nv 1e-40 0 0\nv 0 1e-40 0\nv 0 0 1e-40\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n");
+    let (code, stderr) = run(&["--mesh", &flat_collider, "--grid", "8"]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("`--mesh`") && stderr.contains("its vertices span"), "{stderr}");
+    let (code, stderr) = run(&[&["--cloth-mesh", &cloth, "--piece-density", "1=1e-45"][..], &shear0[..]].concat());
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(stderr.contains("[0.001, 1000]"), "{stderr}");
+
+    // Two triangles split along their shared edge: file vertices 3 and 4 repeat 1 and 2.
+    let split = file("split.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1\nv 1 0 0\nv 0 0 1\nv 1 0 1\nf 1 2 3\nf 4 6 5\n");
+    let frames = dir.join("frames");
+    let args = ["--cloth-mesh", &split, "--weld", "--pin-vertices", "3", "--obj-dir", frames.to_str().unwrap()];
+    let output = drape(&[&args[..], &shear0[..], &["--frames", "10", "--no-timestamps", "--quiet"][..]].concat());
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let last = std::fs::read_to_string(frames.join("frame_00010.obj")).unwrap();
+    let heights: Vec<f32> = last
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|v| v.split(' ').nth(1).unwrap().parse().unwrap())
+        .collect();
+    // File vertex 3 is file vertex 1, welded particle 1: it stays where the scene put it.
+    assert_eq!(heights.len(), 4);
+    assert!(heights[1] > heights[0] + 0.1 && heights[1] > heights[2] + 0.1, "particle 1 is pinned: {heights:?}");
+    let (code, stderr) = run(&[&["--cloth-mesh", &split, "--weld", "--pin-vertices", "6"][..], &shear0[..]].concat());
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("the --cloth-mesh files have 6 vertices"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }

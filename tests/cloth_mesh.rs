@@ -293,6 +293,13 @@ fn bad_mesh_cloths_are_refused_and_loose_vertices_pinned() {
     let overflow = ClothBuilder::from_mesh(huge).build().unwrap_err();
     assert!(matches!(overflow, Error::InvalidParameter { name: "cloth mesh", .. }), "{overflow}");
     assert!(overflow.to_string().contains("beyond f32's range (a coordinate reaches 1e20 m)"), "{overflow}");
+    // A mass that underflows at the particles would pin them as if they had none.
+    let weightless = ClothBuilder::from_mesh(mesh.clone()).mass(1e-44).build().unwrap_err();
+    assert!(weightless.to_string().contains("times their density underflows f32"), "{weightless}");
+    // A cloth of 1e-10 m: no contact or spring resolves it in f32.
+    let speck = ClothMesh::from_parts(vec![Vec3::ZERO, 1e-10 * Vec3::X, 1e-10 * Vec3::Z], vec![[0, 1, 2]]).unwrap();
+    let speck = ClothBuilder::from_mesh(speck).build().unwrap_err();
+    assert!(speck.to_string().contains("spans only 1e-10 m"), "{speck}");
     let bad_box = ClothBuilder::from_mesh(mesh.clone()).pin_within(Vec3::ONE, Vec3::ZERO).build().unwrap_err();
     assert!(bad_box.to_string().contains("min <= max"), "{bad_box}");
     // A box beside the cloth pins nothing: refused, with where the cloth is.

@@ -300,7 +300,6 @@ fn cli_pieces_take_their_own_materials() {
         (vec!["--stiffness", "40,0,0", "--piece-stiffness", "2=40,0,1"], "where --stiffness has 0"),
         // A mesh cloth has no shear springs: a shear stiffness would do nothing.
         (vec!["--piece-stiffness", "2=160,10,8"], "2=160,10,8: a cloth from --cloth-mesh has no shear springs"),
-        (vec!["--stiffness", "40,10,2"], "give 0 (e.g. --stiffness 40,0,2)"),
     ];
     for (flags, expected) in usage {
         let (code, _, stderr) = drape(&[&meshes[..], &flags[..], &["--frames", "1"][..]].concat());

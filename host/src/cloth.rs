@@ -86,6 +86,21 @@ pub struct ClothBuilder {
     pub transform: Mat4,
 }
 
+/// The least a cloth may span (m; a grid's side, a mesh's box's longest side).
+pub const MIN_CLOTH_EXTENT: f32 = 1e-3;
+
+/// The longest side of the box around `points`.
+fn extent(points: &[Vec3]) -> f32 {
+    let (lo, hi) = points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    (hi - lo).max_element().max(0.0)
+}
+
+/// Whether triangle `t` of `vertices` spans an area in f64 (its corners not on one line).
+fn spans_in_f64(vertices: &[Vec3], t: [u32; 3]) -> bool {
+    let [a, b, c] = t.map(|i| vertices.get(i as usize).copied().unwrap_or(Vec3::ZERO).as_dvec3());
+    (b - a).cross(c - a) != glam::DVec3::ZERO
+}
+
 impl ClothBuilder {
     /// A `rows x cols` cloth, 1 m square, 0.2 kg/m^2, moderately stiff, with gravity, no pins.
     pub fn new(rows: u32, cols: u32) -> Self {
@@ -238,6 +253,18 @@ impl ClothBuilder {
         }
         if let Some(mesh) = &self.mesh
             && mesh.area() <= 0.0
+            && mesh.triangles.iter().any(|t| spans_in_f64(&mesh.vertices, *t))
+        {
+            return bad(
+                "cloth mesh",
+                format!(
+                    "is too small: its triangles' area underflows f32 (it spans {:e} m): give the mesh in metres",
+                    extent(&mesh.vertices)
+                ),
+            );
+        }
+        if let Some(mesh) = &self.mesh
+            && mesh.area() <= 0.0
         {
             return bad(
                 "cloth mesh",
@@ -252,6 +279,26 @@ impl ClothBuilder {
         for (name, value) in positive {
             if !(value.is_finite() && value > 0.0) {
                 return bad(name, format!("must be finite and > 0, got {value}"));
+            }
+        }
+        // Smaller, a cloth's contact and springs fall under f32's resolution and its stability
+        // bound with them (a 1e-10 m triangle's Lanczos estimate came out 0).
+        let sides = [("size", self.size), ("length", self.length.unwrap_or(self.size))];
+        if let Some((name, side)) = sides.into_iter().find(|&(_, side)| self.mesh.is_none() && side < MIN_CLOTH_EXTENT)
+        {
+            return bad(name, format!("must be at least {MIN_CLOTH_EXTENT} m (a cloth in metres), got {side:e}"));
+        }
+        if let Some(mesh) = &self.mesh {
+            let world: Vec<Vec3> = mesh.vertices.iter().map(|&v| self.transform.transform_point3(v)).collect();
+            let across = extent(&world);
+            if across < MIN_CLOTH_EXTENT {
+                return bad(
+                    "cloth mesh",
+                    format!(
+                        "spans only {across:e} m (its box's longest side), under the {MIN_CLOTH_EXTENT} m a cloth \
+                         needs: give the mesh in metres"
+                    ),
+                );
             }
         }
         let non_negative = [
@@ -509,6 +556,20 @@ impl ClothBuilder {
         let world_area: f32 = mesh.triangles.iter().map(|&t| crate::cloth_mesh::triangle_area(&world, t)).sum();
         let (densities, stiffness_factors) = self.triangle_materials(mesh, self.mass / world_area);
         let masses = lumped_masses(&world, &mesh.triangles, &densities);
+        // A vertex of a triangle whose mass underflowed would be pinned as if it had none.
+        let mut in_triangle = vec![false; count];
+        mesh.triangles.iter().flatten().for_each(|&i| in_triangle[i as usize] = true);
+        if let Some(i) = (0..count).find(|&i| in_triangle[i] && !masses[i].is_normal()) {
+            return Err(Error::InvalidParameter {
+                name: "cloth mesh",
+                problem: format!(
+                    "particle {i}'s mass is {:e} kg: the area of its triangles ({world_area:e} m^2 for the whole \
+                     cloth) times their density underflows f32; give the cloth more mass (or its pieces a larger \
+                     density), or the mesh in metres",
+                    masses[i]
+                ),
+            });
+        }
         let mut positions: Vec<Vec4> = world.iter().map(|p| p.extend(1.0)).collect();
         let mut loose = 0;
         for (p, &m) in positions.iter_mut().zip(&masses) {

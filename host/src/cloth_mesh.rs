@@ -103,6 +103,12 @@ impl ClothMesh {
         (ClothMesh { vertices, triangles, uvs, triangle_pieces }, joined)
     }
 
+    /// Each vertex's index in `weld_coincident`'s cloth (a vertex joined into an earlier one
+    /// takes that one's): where a pin given by the file's vertex index lands once welded.
+    pub fn weld_map(&self) -> Vec<u32> {
+        coincident_map(&self.vertices).0
+    }
+
     /// The pieces as one cloth mesh, in order: each piece's vertices follow the pieces' before
     /// it (a particle's index is its vertex's index in its piece plus the vertices of the
     /// pieces before), its triangles with them; texture coordinates are kept when every piece

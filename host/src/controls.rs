@@ -896,7 +896,23 @@ fn check_pose(pose: &RigidPose) -> Result<()> {
     if rotation.is_finite() && pose.translation.is_finite() && (rotation.length() - 1.0).abs() < 1e-3 {
         return Ok(());
     }
-    Err(invalid("collider pose", format!("rotation must be a unit quaternion and translation finite, got {pose:?}")))
+    let (r, t) = (pose.rotation, pose.translation);
+    Err(invalid(
+        "collider pose",
+        format!(
+            "the rotation must be a unit quaternion and the translation finite, got rotation (x, y, z, w) = \
+             ({}, {}, {}, {}) of length {} and translation ({}, {}, {}): normalise the quaternion \
+             (`Quat::normalize`), or build it with `Quat::from_axis_angle` from a unit axis",
+            r.x,
+            r.y,
+            r.z,
+            r.w,
+            rotation.length(),
+            t.x,
+            t.y,
+            t.z
+        ),
+    ))
 }
 
 /// The writes of a cloth's pending pin changes (the last change of each particle wins; one

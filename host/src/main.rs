@@ -80,24 +80,43 @@ fn main() -> ExitCode {
     }
 }
 
-/// The cloth of `--cloth-mesh`, placed for `scene` (see the flag).
-fn mesh_cloth(paths: &[std::path::PathBuf], weld: bool, scene: Option<&DrapeScene>) -> drape::Result<ClothBuilder> {
+/// The cloth of `--cloth-mesh`, placed for `scene` (see the flag), and `pins` (the files'
+/// vertex indices, the pieces' counted one after another) as its particles: with `weld`, a
+/// vertex joined into an earlier one is pinned as that one.
+fn mesh_cloth(
+    paths: &[std::path::PathBuf],
+    (weld, pins): (bool, &[u32]),
+    scene: Option<&DrapeScene>,
+) -> drape::Result<(ClothBuilder, Vec<u32>)> {
     let pieces = paths.iter().map(|p| ClothMesh::load_obj(p)).collect::<drape::Result<Vec<_>>>()?;
     let mut mesh = ClothMesh::join(&pieces);
+    let mut pins = pins.to_vec();
     if weld {
+        let map = mesh.weld_map();
+        if let Some(&i) = pins.iter().find(|&&i| i as usize >= map.len()) {
+            return Err(drape::Error::InvalidParameter {
+                name: "--pin-vertices",
+                problem: format!(
+                    "vertex {i} does not exist: the --cloth-mesh files have {} vertices (counted from 0, before \
+                     --weld joins any)",
+                    map.len()
+                ),
+            });
+        }
+        pins = pins.iter().map(|&i| map[i as usize]).collect();
         let (welded, joined) = mesh.weld_coincident();
         say!("cloth mesh: --weld joined {joined} vertices into others ({} particles left)", welded.vertices.len());
         mesh = welded;
     }
     let builder = ClothBuilder::from_mesh(mesh.clone());
     let Some(s) = scene else {
-        return Ok(builder);
+        return Ok((builder, pins));
     };
     let (lo, hi) = drape::Mesh { vertices: mesh.vertices.clone(), triangles: mesh.triangles.clone() }.bounds();
     let (mesh_lo, mesh_hi) = s.mesh.bounds();
     let centre = 0.5 * (mesh_lo + mesh_hi);
     let shift = Vec3::new(centre.x - 0.5 * (lo.x + hi.x), mesh_hi.y + 0.05 - lo.y, centre.z - 0.5 * (lo.z + hi.z));
-    Ok(builder.transform(glam::Mat4::from_translation(shift)))
+    Ok((builder.transform(glam::Mat4::from_translation(shift)), pins))
 }
 
 /// The `--piece-*` flags as each piece's material, by the library's piece index (from 0).
@@ -166,7 +185,22 @@ fn run(args: &Args) -> drape::Result<()> {
             builder
         }
         SceneArg::Drape => {
-            let mut s = DrapeScene::standard(&load_mesh(&args.mesh)?, args.grid);
+            let mesh = load_mesh(&args.mesh)?;
+            let (lo, hi) = mesh.bounds();
+            let across = (hi - lo).max_element();
+            // The scene scales its mesh to its size: from nothing it would scale to nothing.
+            if !across.is_normal() {
+                return Err(drape::Error::InvalidParameter {
+                    name: "--mesh",
+                    problem: format!(
+                        "{}: its vertices span {across:e} m, too little to scale to the scene's {} m: give the \
+                         mesh in metres",
+                        args.mesh,
+                        drape::scenes::MESH_EXTENT
+                    ),
+                });
+            }
+            let mut s = DrapeScene::standard(&mesh, args.grid);
             let topology = match args.holes {
                 HolesArg::Close => {
                     let (closed, report) = s.mesh.close_small_holes();
@@ -194,22 +228,21 @@ fn run(args: &Args) -> drape::Result<()> {
             builder
         }
     };
-    let builder = if args.cloth_mesh.is_empty() {
-        builder.listed_springs(args.listed_springs)
+    let (builder, pins) = if args.cloth_mesh.is_empty() {
+        (builder.listed_springs(args.listed_springs), args.pin_vertices.clone())
     } else {
         let wind = if args.scene == SceneArg::Swing { args.wind } else { Vec3::ZERO };
-        mesh_cloth(&args.cloth_mesh, args.weld, scene.as_ref())?.external_force(wind)
+        let (builder, pins) = mesh_cloth(&args.cloth_mesh, (args.weld, &args.pin_vertices), scene.as_ref())?;
+        (builder.external_force(wind), pins)
     };
     let builder = piece_materials(args).into_iter().fold(builder, |b, (piece, m)| b.piece_material(piece, m));
-    let builder = args.pin_vertices.iter().fold(builder, |b, &i| b.pin_vertex(i));
+    let builder = pins.iter().fold(builder, |b, &i| b.pin_vertex(i));
     let builder = match args.pin_box {
         Some((lo, hi)) => builder.pin_within(lo, hi),
         None => builder,
     };
-    let on_by_default = matches!(args.scene, SceneArg::Pile | SceneArg::Garment | SceneArg::Layers);
-    let self_collision = args.self_collision.unwrap_or(if on_by_default { OnOff::On } else { OnOff::Off });
-    let builder =
-        builder.self_collision((self_collision == OnOff::On).then_some(args.thickness)).self_friction(args.friction);
+    let self_collision = cli::args::self_collision_on(args);
+    let builder = builder.self_collision(self_collision.then_some(args.thickness)).self_friction(args.friction);
     let cloth_description = cloth_description(args, &builder);
     let builder = match args.velocity {
         Some(v) => builder.velocity(v),
@@ -220,6 +253,15 @@ fn run(args: &Args) -> drape::Result<()> {
         .stiffness(args.stiffness.x, args.stiffness.y, args.stiffness.z)
         .spring_damping(args.spring_damping)
         .build()?;
+    if built.positions.iter().all(|p| p.w == 0.0) {
+        return Err(drape::Error::InvalidParameter {
+            name: "--pin-vertices / --pin-box",
+            problem: format!(
+                "they pin all {} particles, so nothing would move: pin fewer (a box round an edge, a few vertices)",
+                built.positions.len()
+            ),
+        });
+    }
     let settings = SimSettings::default()
         .with_substeps(args.substeps)
         .with_integrator(match args.integrator {
@@ -466,7 +508,10 @@ fn run(args: &Args) -> drape::Result<()> {
         json.insert("pictures".into(), json!(p.written.iter().map(|w| w.display().to_string()).collect::<Vec<_>>()));
     }
     if let Some(cache) = usd {
-        cache.finish()?;
+        cache.finish().map_err(|e| drape::Error::InvalidParameter {
+            name: "--usd",
+            problem: format!("the USD cache could not be written: {e}"),
+        })?;
     }
     if args.no_timestamps {
         say!(

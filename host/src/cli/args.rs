@@ -110,7 +110,7 @@ pub(crate) struct Args {
     /// Collider voxels per axis (one sphere per non-empty voxel; `--contact spheres`).
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=256))]
     pub(crate) voxels: u32,
-    /// Contact thickness (m), in (0, 0.5]: kept from the colliders and, with
+    /// Contact thickness (m), in [0.0001, 0.5]: kept from the colliders and, with
     /// `--self-collision on`, by the cloth from itself.
     #[arg(long, default_value_t = drape::scenes::DEFAULT_THICKNESS, value_parser = parse_thickness, allow_hyphen_values = true)]
     pub(crate) thickness: f32,
@@ -146,7 +146,7 @@ pub(crate) struct Args {
     #[arg(long, action = clap::ArgAction::Append, value_parser = parse_piece_stiffness, value_name = "PIECE=K_STRUCT,K_SHEAR,K_BEND")]
     pub(crate) piece_stiffness: Vec<(usize, Vec3)>,
     /// A `--cloth-mesh` piece's own areal density (kg/m^2) as PIECE=DENSITY, PIECE counting the
-    /// --cloth-mesh files from 1, e.g. `--piece-density 2=0.4` (a heavy coat), in (0, 1000];
+    /// --cloth-mesh files from 1, e.g. `--piece-density 2=0.4` (a heavy coat), in [0.001, 1000];
     /// given once per piece. The other pieces weigh 0.2 kg/m^2.
     #[arg(long, action = clap::ArgAction::Append, value_parser = parse_piece_density, value_name = "PIECE=DENSITY")]
     pub(crate) piece_density: Vec<(usize, f32)>,
@@ -156,7 +156,8 @@ pub(crate) struct Args {
     /// vertices in the file's order, the first of each set kept; UVs stay per corner.
     #[arg(long)]
     pub(crate) weld: bool,
-    /// Pin these particles (vertex indices, comma separated; a grid's are row * cols + col).
+    /// Pin these particles (vertex indices, comma separated; a grid's are row * cols + col; a
+    /// --cloth-mesh's count the files' vertices from 0, before --weld joins any).
     #[arg(long, value_delimiter = ',')]
     pub(crate) pin_vertices: Vec<u32>,
     /// Pin every particle inside this box, given as MIN_X,MIN_Y,MIN_Z,MAX_X,MAX_Y,MAX_Z in the
@@ -243,8 +244,8 @@ pub(crate) struct Args {
     /// Structural, shear and bend stiffness (N/m) as K_STRUCT,K_SHEAR,K_BEND, each in
     /// [0, 1e6]. A `--cloth-mesh` has structural and bend springs only, each structural one
     /// scaled by the area of its edge's triangles over its squared length (1 on a square grid's
-    /// inner sides), so the mesh is one material whatever its triangles' shapes; give it
-    /// K_SHEAR 0 (e.g. 40,0,2).
+    /// inner sides), so the mesh is one material whatever its triangles' shapes (its K_SHEAR
+    /// does nothing).
     #[arg(long, value_parser = parse_stiffness, default_value = "40,10,2")]
     pub(crate) stiffness: Vec3,
     /// Damping along spring axes (N s/m), in [0, 100].
@@ -252,7 +253,7 @@ pub(crate) struct Args {
     pub(crate) spring_damping: f32,
     /// Wind: constant force on the whole cloth (N) as X,Y,Z, e.g. `--wind -1,0,0` (swing
     /// scene).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0.3,0,0.5")]
+    #[arg(long, value_parser = parse_wind, allow_hyphen_values = true, default_value = "0.3,0,0.5")]
     pub(crate) wind: Vec3,
     /// The cloth's initial velocity (m/s) as X,Y,Z, e.g. `--velocity=0,-10,0` (a throw), at most
     /// 1000 m/s.
@@ -309,21 +310,22 @@ pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), Strin
         }
     }
     check_pieces(args)?;
-    if given(matches, "stiffness") && !args.cloth_mesh.is_empty() && args.stiffness.y != 0.0 {
-        let k = args.stiffness;
-        return Err(format!(
-            "--stiffness {},{},{}: a cloth from --cloth-mesh has no shear springs (its springs lie along the mesh's \
-             edges, and bend springs across them), so the shear stiffness {} would do nothing: give 0 (e.g. \
-             --stiffness {},0,{})",
-            k.x, k.y, k.z, k.y, k.x, k.z
-        ));
-    }
+    check_paths_apart(args)?;
     if matches!(args.scene, SceneArg::Garment | SceneArg::Layers) && args.cloth_mesh.is_empty() && args.grid < 8 {
         return Err(format!(
             "--grid {} is too few particles around the {:?} scene's skirt: give 8 or more",
             args.grid, args.scene
         )
         .to_lowercase());
+    }
+    // The strip is a quarter of its length across, at least 2 particles: under 8 it would be
+    // narrower than asked.
+    if args.scene == SceneArg::Pile && args.cloth_mesh.is_empty() && args.grid < 8 {
+        return Err(format!(
+            "--grid {} is too few particles along the pile scene's strip (it is a quarter of that across): give 8 \
+             or more",
+            args.grid
+        ));
     }
     if args.obj_every.is_some() && args.obj_dir.is_none() {
         return Err("--obj-every needs --obj-dir (the directory to write the frames into)".into());
@@ -332,6 +334,47 @@ pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), Strin
         return Err("--png-dir shades the cloth with its vertex normals, which --no-normals skips: drop one".into());
     }
     Ok(())
+}
+
+/// No file the run writes (`--json`, `--usd`) is one it reads or the other output: it would be
+/// overwritten, an input before it is read.
+fn check_paths_apart(args: &Args) -> Result<(), String> {
+    use std::path::{Path, PathBuf};
+    let mut inputs: Vec<(&str, PathBuf)> = args.cloth_mesh.iter().map(|p| ("--cloth-mesh", p.clone())).collect();
+    inputs.extend(args.scene_file.iter().map(|p| ("--scene-file", p.clone())));
+    if Path::new(&args.mesh).is_file() {
+        inputs.push(("--mesh", PathBuf::from(&args.mesh)));
+    }
+    for table in &args.colliders {
+        if Path::new(&table.mesh).is_file() {
+            inputs.push(("a [[collider]] table's mesh", PathBuf::from(&table.mesh)));
+        }
+    }
+    let outputs: Vec<(&str, &PathBuf)> = [("--json", &args.json), ("--usd", &args.usd)]
+        .into_iter()
+        .filter_map(|(n, p)| Some((n, p.as_ref()?)))
+        .collect();
+    for (k, &(flag, out)) in outputs.iter().enumerate() {
+        if let Some((input, _)) = inputs.iter().find(|(_, p)| same_path(out, p)) {
+            return Err(format!(
+                "{flag} {} is the file {input} reads: the run would overwrite it; give {flag} another path",
+                out.display()
+            ));
+        }
+        if let Some((other, _)) = outputs[k + 1..].iter().find(|(_, p)| same_path(out, p)) {
+            return Err(format!("{flag} and {other} both write {}: give each its own file", out.display()));
+        }
+    }
+    Ok(())
+}
+
+/// Whether two paths name the same file: by their canonical forms when both exist, else by
+/// their absolute forms.
+fn same_path(a: &std::path::Path, b: &std::path::Path) -> bool {
+    match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => matches!((std::path::absolute(a), std::path::absolute(b)), (Ok(a), Ok(b)) if a == b),
+    }
 }
 
 /// Each `--piece-*` flag names one of the --cloth-mesh files, once.
@@ -427,7 +470,36 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
     if id == "voxels" && args.contact == ContactArg::Triangles {
         return Some("--voxels only applies with --contact spheres (triangle contact has no voxels)".into());
     }
+    let self_collision = self_collision_on(args);
+    if ["self_failsafe", "self_list_windows"].contains(&id) && !self_collision {
+        return Some(format!("{flag} only applies with --self-collision on"));
+    }
+    let colliders = args.scene != SceneArg::Swing || !args.colliders.is_empty();
+    if id == "crowded_contact" && !colliders {
+        return Some(format!(
+            "{flag} does nothing in the swing scene, which has no collider (add [[collider]] tables in a --scene-file)"
+        ));
+    }
+    if id == "one_workgroup_substeps" && (colliders || self_collision) {
+        return Some(format!(
+            "{flag} only applies to a cloth with no collider and no self-collision (their passes run between the \
+             substeps' stages): the swing scene without [[collider]] tables, self-collision off"
+        ));
+    }
+    if id == "contact_substeps" && args.substeps.is_some() && !self_collision {
+        return Some(format!(
+            "{flag} does nothing with --substeps, which fixes the substeps (it sets the self-collision passes only \
+             with --self-collision on): drop one"
+        ));
+    }
     None
+}
+
+/// Whether the cloth collides with itself: `--self-collision`, or the scene's default (on in
+/// the pile, garment and layers scenes).
+pub(crate) fn self_collision_on(args: &Args) -> bool {
+    let on_by_default = matches!(args.scene, SceneArg::Pile | SceneArg::Garment | SceneArg::Layers);
+    args.self_collision.unwrap_or(if on_by_default { OnOff::On } else { OnOff::Off }) == OnOff::On
 }
 
 /// A finite number in `lo..=hi` (`lo` excluded when `open_low`), or a message with the range.
@@ -441,8 +513,10 @@ pub(crate) fn number_in(text: &str, lo: f32, hi: f32, open_low: bool) -> Result<
     }
 }
 
+/// In [0.1 mm, 0.5 m]: thinner, a contact on a scene of metres falls under f32's resolution
+/// there (at 1e-8 m a quarter of the standard scene's cloth ended inside the sphere).
 pub(crate) fn parse_thickness(text: &str) -> Result<f32, String> {
-    number_in(text, 0.0, 0.5, true)
+    number_in(text, 1e-4, 0.5, false)
 }
 
 pub(crate) fn parse_sleep(text: &str) -> Result<f32, String> {
@@ -485,9 +559,10 @@ pub(crate) fn parse_piece_stiffness(text: &str) -> Result<(usize, Vec3), String>
     parse_piece(text, "K_STRUCT,K_SHEAR,K_BEND", parse_stiffness)
 }
 
-/// "PIECE=DENSITY", the density in (0, 1000] kg/m^2.
+/// "PIECE=DENSITY", the density in [0.001, 1000] kg/m^2 (lighter than a gram a square metre, a
+/// piece's masses underflow to nothing, which the cloth pins).
 pub(crate) fn parse_piece_density(text: &str) -> Result<(usize, f32), String> {
-    parse_piece(text, "DENSITY", |d| number_in(d, 0.0, 1000.0, true))
+    parse_piece(text, "DENSITY", |d| number_in(d, 1e-3, 1000.0, false))
 }
 
 /// Every output the flags name can be written, checked before any setup; the error names the
@@ -514,6 +589,9 @@ pub(crate) fn check_outputs(args: &Args) -> drape::Result<()> {
 /// The output directory exists (created if needed) and takes files, checked before any setup.
 pub(crate) fn check_output_dir(dir: &std::path::Path) -> drape::Result<()> {
     let io = |source| drape::Error::Io { path: dir.to_path_buf(), source };
+    if dir.exists() && !dir.is_dir() {
+        return Err(io(std::io::Error::other("it is a file, not a directory: give a directory (made if missing)")));
+    }
     std::fs::create_dir_all(dir).map_err(io)?;
     let probe = dir.join(".drape-write-test");
     std::fs::write(&probe, b"").map_err(io)?;
@@ -548,6 +626,20 @@ pub(crate) fn parse_vec3(text: &str) -> Result<Vec3, String> {
 const FASTEST_THROW: f32 = 1000.0;
 
 /// "X,Y,Z" (`parse_vec3`) no faster than `FASTEST_THROW`.
+/// The strongest wind `--wind` takes (N on the whole cloth): far past what any cloth's
+/// stability bound takes, short of the infinities its per-particle share and its diagnosis
+/// would otherwise reach.
+const STRONGEST_WIND: f32 = 1e6;
+
+/// "X,Y,Z" (N), at most `STRONGEST_WIND` in size.
+pub(crate) fn parse_wind(text: &str) -> Result<Vec3, String> {
+    let w = parse_vec3(text)?;
+    if w.length() > STRONGEST_WIND {
+        return Err(format!("a wind of {:e} N: at most {STRONGEST_WIND:e} N on the whole cloth", w.length()));
+    }
+    Ok(w)
+}
+
 pub(crate) fn parse_velocity(text: &str) -> Result<Vec3, String> {
     let v = parse_vec3(text)?;
     if v.length() > FASTEST_THROW {
@@ -578,10 +670,11 @@ pub(crate) fn parse_box(text: &str) -> Result<(Vec3, Vec3), String> {
 
 /// The file can be created and written, checked before any work (it is written at the end).
 pub(crate) fn check_output_file(path: &std::path::Path) -> drape::Result<()> {
+    // Not truncated here: a file the run then fails before writing keeps what it held.
     std::fs::OpenOptions::new()
         .create(true)
         .write(true)
-        .truncate(true)
+        .truncate(false)
         .open(path)
         .map(drop)
         .map_err(|source| drape::Error::Io { path: path.to_path_buf(), source })

@@ -413,6 +413,13 @@ impl ColliderTable {
         if scale.iter().any(|&s| s <= 0.0) {
             return Err(format!("`scale` must be above 0, got {scale:?}"));
         }
+        // Beyond, a mesh in metres becomes a point or a plane in f32, or a world of its own.
+        if scale.iter().any(|&s| !(SCALE_RANGE.0..=SCALE_RANGE.1).contains(&s)) {
+            return Err(format!(
+                "`scale` must be within [{:e}, {:e}] (scenes are in metres), got {scale:?}",
+                SCALE_RANGE.0, SCALE_RANGE.1
+            ));
+        }
         finite("rotate", &self.rotate.unwrap_or_default())?;
         finite("translate", &self.translate.unwrap_or_default())?;
         finite("velocity", &self.velocity.unwrap_or_default())?;
@@ -457,12 +464,21 @@ impl ColliderTable {
         let (lo, hi) = mesh.bounds();
         let motion = Motion {
             pivot: 0.5 * (lo + hi),
-            axis: vec3(self.spin_axis.unwrap_or([0.0, 1.0, 0.0])).normalize(),
+            axis: vec3(unit(self.spin_axis.unwrap_or([0.0, 1.0, 0.0]))),
             spin_rate: self.spin_rate.unwrap_or(0.0) as f32,
             velocity: vec3(self.velocity.unwrap_or_default()),
         };
         Ok(SceneCollider { name: format!("collider{}", index + 1), mesh, motion, sequence })
     }
+}
+
+/// The scales a `[[collider]]` table may give (each axis).
+const SCALE_RANGE: (f64, f64) = (1e-6, 1e6);
+
+/// `v` (not zero) at unit length, in f64: an axis of 1e20 normalised in f32 overflows to 0.
+fn unit(v: [f64; 3]) -> [f64; 3] {
+    let length = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+    v.map(|a| a / length)
 }
 
 fn vec3(v: [f64; 3]) -> Vec3 {

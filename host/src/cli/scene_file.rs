@@ -134,7 +134,7 @@ fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
         let id = key.replace('-', "_");
         let line = line_of(text, key);
         if key == "collider" {
-            if value.is_array() {
+            if value.as_array().is_some_and(|tables| tables.iter().all(toml::Value::is_table)) {
                 continue; // `[[collider]]` tables: read by `collider_tables`
             }
             return Err(usage(
@@ -176,11 +176,14 @@ fn file_flags(path: &Path, text: &str) -> Result<Vec<Entry>, clap::Error> {
             vec![format!("{flag}={value}")]
         } else {
             match value {
-                toml::Value::Boolean(true) => vec![flag],
+                toml::Value::Boolean(true) => vec![flag.clone()],
                 toml::Value::Boolean(false) => Vec::new(),
                 _ => return Err(usage(line, format!("`{key}` is a switch: true or false"))),
             }
         };
+        if let Some(earlier) = entries.iter().find(|e: &&Entry| e.id == id) {
+            return Err(usage(line, format!("`{}` and `{key}` both set {flag}: keep one", earlier.key)));
+        }
         entries.push(Entry { id, key: key.clone(), line, args });
     }
     entries.sort_by_key(|e| e.line);
@@ -242,15 +245,21 @@ fn line_at(text: &str, offset: usize) -> usize {
 
 /// The 1-based line where `key` is set, or opens a table (`[key]`), (0 if not found).
 fn line_of(text: &str, key: &str) -> usize {
-    let spellings = [key.to_string(), key.replace('_', "-"), key.replace('-', "_")];
+    let names = [key.to_string(), key.replace('_', "-"), key.replace('-', "_")];
+    // Bare, or quoted (`"frames" = 0`, `'frames' = 0`).
+    let spellings: Vec<String> = names.iter().flat_map(|k| [k.clone(), format!("\"{k}\""), format!("'{k}'")]).collect();
     text.lines()
         .position(|l| {
             let l = l.trim_start();
             let header = l.starts_with('[') && spellings.iter().any(|k| l.trim_matches(['[', ']', ' ']) == k);
+            // `key = ...`, or a dotted key under it (`grid.x = 8`).
             header
-                || spellings
-                    .iter()
-                    .any(|k| l.strip_prefix(k.as_str()).is_some_and(|rest| rest.trim_start().starts_with('=')))
+                || spellings.iter().any(|k| {
+                    l.strip_prefix(k.as_str()).is_some_and(|rest| {
+                        let rest = rest.trim_start();
+                        rest.starts_with('=') || rest.starts_with('.')
+                    })
+                })
         })
         .map_or(0, |i| i + 1)
 }
