@@ -967,6 +967,14 @@ fn outputs_inputs_and_degenerate_values_are_answered() {
     let (code, stderr) = run(&["--scene-file", &quoted]);
     assert_eq!(code, Some(2), "{stderr}");
     assert!(stderr.contains("line 2, key `substeps`"), "{stderr}");
+    // A file's flag that the command line makes pointless is said of the file's line.
+    let windy = file("windy.toml", "scene = \"swing\"\nwind = [1, 0, 0]\n");
+    let (code, stderr) = run(&["--scene-file", &windy, "--scene", "drape"]);
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--wind only applies to the swing scene") && stderr.contains("(`wind` on line 2 of"),
+        "{stderr}"
+    );
     let not_tables = file("colliders.toml", "collider = [1, 2]\n");
     let (code, stderr) = run(&["--scene-file", &not_tables]);
     assert_eq!(code, Some(2), "{stderr}");

@@ -53,7 +53,7 @@ fn init_logging() {
 
 fn main() -> ExitCode {
     init_logging();
-    let (matches, colliders) = match cli::scene_file::matches(std::env::args_os().collect()) {
+    let (matches, colliders, file_flags) = match cli::scene_file::matches(std::env::args_os().collect()) {
         Ok(found) => found,
         // An unreadable scene file is a runtime error (exit 1), like an unreadable mesh.
         Err(e) if e.kind() == clap::error::ErrorKind::Io => {
@@ -64,7 +64,7 @@ fn main() -> ExitCode {
     };
     let mut args = Args::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     args.colliders = colliders;
-    if let Err(problem) = check_flags(&args, &matches) {
+    if let Err(problem) = check_flags(&args, &matches, &file_flags) {
         Args::command().error(clap::error::ErrorKind::ArgumentConflict, problem).exit();
     }
     if args.print_scene {

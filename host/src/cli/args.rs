@@ -300,13 +300,17 @@ pub(crate) fn given(matches: &ArgMatches, id: &str) -> bool {
 }
 
 /// Flags a scene or mode would silently ignore are usage errors naming both.
-pub(crate) fn check_flags(args: &Args, matches: &ArgMatches) -> Result<(), String> {
+pub(crate) fn check_flags(
+    args: &Args,
+    matches: &ArgMatches,
+    file: &super::scene_file::FileFlags,
+) -> Result<(), String> {
     for arg in Args::command().get_arguments() {
         let id = arg.get_id().as_str();
         if given(matches, id)
             && let Some(reason) = unused(args, id)
         {
-            return Err(reason);
+            return Err(format!("{reason}{}", file.origin(id)));
         }
     }
     check_pieces(args)?;

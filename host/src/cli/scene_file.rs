@@ -16,7 +16,7 @@ use clap::error::{ContextKind, ContextValue, ErrorKind};
 use clap::parser::ValueSource;
 use clap::{ArgMatches, CommandFactory};
 use std::ffi::OsString;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Flags a scene file cannot hold (they are about reading or printing scene files).
 const NOT_IN_FILES: [&str; 4] = ["help", "version", "scene_file", "print_scene"];
@@ -60,12 +60,32 @@ struct PrintedColliders<'a> {
     collider: &'a [ColliderTable],
 }
 
-/// The command line's matches with the scene file's flags (if any) underneath, and the file's
-/// `[[collider]]` tables.
-pub(crate) fn matches(cli: Vec<OsString>) -> Result<(ArgMatches, Vec<ColliderTable>), clap::Error> {
+/// Which flags the scene file set (those the command line did not override), so an error about
+/// one names the file's line rather than a flag the user never typed.
+#[derive(Default)]
+pub(crate) struct FileFlags {
+    path: PathBuf,
+    /// Each flag's id, the file's key for it and its line.
+    keys: Vec<(String, String, usize)>,
+}
+
+impl FileFlags {
+    /// Where flag `id` was set, when the scene file set it: " (`key` on line N of scene file
+    /// F)"; else nothing.
+    pub(crate) fn origin(&self, id: &str) -> String {
+        match self.keys.iter().find(|(flag, _, _)| flag == id) {
+            Some((_, key, line)) => format!(" (`{key}` on line {line} of scene file {})", self.path.display()),
+            None => String::new(),
+        }
+    }
+}
+
+/// The command line's matches with the scene file's flags (if any) underneath, the file's
+/// `[[collider]]` tables, and which flags the file set.
+pub(crate) fn matches(cli: Vec<OsString>) -> Result<(ArgMatches, Vec<ColliderTable>, FileFlags), clap::Error> {
     let first = Args::command().try_get_matches_from(&cli)?;
     let Some(path) = first.get_one::<std::path::PathBuf>("scene_file").cloned() else {
-        return Ok((first, Vec::new()));
+        return Ok((first, Vec::new(), FileFlags::default()));
     };
     let text = std::fs::read_to_string(&path)
         .map_err(|e| Args::command().error(ErrorKind::Io, format!("--scene-file {}: {e}", path.display())))?;
@@ -76,15 +96,17 @@ pub(crate) fn matches(cli: Vec<OsString>) -> Result<(ArgMatches, Vec<ColliderTab
         table.mesh_sequence = table.mesh_sequence.as_ref().map(|m| beside(scene_dir(&path), "mesh_sequence", m));
     }
     let mut merged = vec![cli[0].clone()];
+    let mut file_flags = FileFlags { path: path.clone(), keys: Vec::new() };
     for entry in &entries {
         // A flag typed on the command line overrides the file.
         if first.value_source(&entry.id) != Some(ValueSource::CommandLine) {
             merged.extend(entry.args.iter().map(OsString::from));
+            file_flags.keys.push((entry.id.clone(), entry.key.clone(), entry.line));
         }
     }
     merged.extend(cli.into_iter().skip(1));
     let matches = Args::command().try_get_matches_from(merged).map_err(|e| locate(e, &path, &entries))?;
-    Ok((matches, colliders))
+    Ok((matches, colliders, file_flags))
 }
 
 /// A usage error said of the scene file's line.
