@@ -8,6 +8,20 @@ fn drape(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_drape")).args(args).output().unwrap()
 }
 
+/// A directory of this process's own under the temporary directory, made if missing.
+fn scratch_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("drape-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Writes `text` to `name` in `dir`; returns its path as a string (an argument).
+fn write_in(dir: &std::path::Path, name: &str, text: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path.to_str().unwrap().to_string()
+}
+
 /// Every bad input gets its exit code and a message naming the cause.
 #[test]
 fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
@@ -432,13 +446,8 @@ fn every_example_scene_runs() {
 /// runtime error naming it.
 #[test]
 fn scene_files_round_trip_override_and_explain_their_errors() {
-    let dir = std::env::temp_dir().join(format!("drape-scene-file-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let write = |name: &str, text: &str| {
-        let path = dir.join(name);
-        std::fs::write(&path, text).unwrap();
-        path.to_str().unwrap().to_string()
-    };
+    let dir = scratch_dir("scene-file");
+    let write = |name: &str, text: &str| write_in(&dir, name, text);
     let printed = drape(&["--scene", "swing", "--wind=-1,0,0.5", "--grid", "24", "--print-scene"]);
     assert!(printed.status.success());
     let first = String::from_utf8(printed.stdout).unwrap();
@@ -967,13 +976,8 @@ fn scene_file_mesh_sequence_deforms_a_collider() {
 /// a scene file's key given twice in its two spellings, or quoted, is answered at its line.
 #[test]
 fn outputs_inputs_and_degenerate_values_are_answered() {
-    let dir = std::env::temp_dir().join(format!("drape-cli-fuzzed-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = |name: &str, text: &str| {
-        let path = dir.join(name);
-        std::fs::write(&path, text).unwrap();
-        path.to_str().unwrap().to_string()
-    };
+    let dir = scratch_dir("cli-fuzzed");
+    let file = |name: &str, text: &str| write_in(&dir, name, text);
     let square = "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nf 1 2 3\nf 1 3 4\n";
     let cloth = file("cloth.obj", square);
     let quick = ["--frames", "1", "--no-timestamps", "--quiet"];

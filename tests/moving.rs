@@ -168,6 +168,24 @@ fn a_moving_collider_gpu_equals_cpu_and_bvh_equals_brute_force() {
 /// CPU twin bit for bit. Its leaves move over the frame, and contact takes the particles back by
 /// their remaining motion; written as `q1 - p1`, Mesa's NIR folded that to the motion itself and
 /// the GPU parted from the CPU by an f32 step at the first contact.
+/// Steps a solver and its CPU twin through frames 1..=`frames`, collider 0 moved to
+/// `vertices_at(frame)` before each, asserting they agree bit for bit after each.
+fn step_twins_by_vertices(
+    (gpu, cpu): (&mut Solver, &mut CpuSolver),
+    frames: u32,
+    vertices_at: impl Fn(u32) -> Vec<Vec3>,
+) {
+    for f in 1..=frames {
+        let vertices = vertices_at(f);
+        gpu.set_collider_vertices(ColliderId::new(0), &vertices).unwrap();
+        cpu.set_collider_vertices(ColliderId::new(0), &vertices).unwrap();
+        gpu.step().unwrap();
+        cpu.step().unwrap();
+        assert_eq!(gpu.positions(CLOTH).unwrap(), cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
+        assert_eq!(gpu.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU velocities");
+    }
+}
+
 #[test]
 fn a_deforming_triangle_collider_gpu_equals_cpu() {
     let ctx = context();
@@ -181,15 +199,7 @@ fn a_deforming_triangle_collider_gpu_equals_cpu() {
     let settings = SimSettings::default().with_timestamps(false);
     let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap();
     let (mut gpu, mut cpu) = (Solver::new(&ctx, &model).unwrap(), CpuSolver::new(&model).unwrap());
-    for f in 1..=20 {
-        let vertices = deformed(f);
-        gpu.set_collider_vertices(ColliderId::new(0), &vertices).unwrap();
-        cpu.set_collider_vertices(ColliderId::new(0), &vertices).unwrap();
-        gpu.step().unwrap();
-        cpu.step().unwrap();
-        assert_eq!(gpu.positions(CLOTH).unwrap(), cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
-        assert_eq!(gpu.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU velocities");
-    }
+    step_twins_by_vertices((&mut gpu, &mut cpu), 20, deformed);
     assert!(cpu.positions(CLOTH).unwrap().iter().any(|p| p.y > 0.05), "the ball did not push the cloth");
     assert_validation_clean(&ctx);
 }
@@ -378,15 +388,7 @@ fn a_ground_sliding_by_its_vertices_drags_the_cloth_as_one_moved_by_its_pose() {
     let by_pose = mean_x_velocity(&posed.velocities(CLOTH).unwrap());
     // By its vertices, on the GPU and its CPU twin.
     let (mut gpu, mut cpu) = (Solver::new(&ctx, &model).unwrap(), CpuSolver::new(&model).unwrap());
-    for f in 1..=FRAMES {
-        let vertices: Vec<Vec3> = floor.vertices.iter().map(|v| *v + shift(f)).collect();
-        gpu.set_collider_vertices(ColliderId::new(0), &vertices).unwrap();
-        cpu.set_collider_vertices(ColliderId::new(0), &vertices).unwrap();
-        gpu.step().unwrap();
-        cpu.step().unwrap();
-        assert_eq!(gpu.positions(CLOTH).unwrap(), cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
-        assert_eq!(gpu.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU velocities");
-    }
+    step_twins_by_vertices((&mut gpu, &mut cpu), FRAMES, |f| floor.vertices.iter().map(|v| *v + shift(f)).collect());
     let x = gpu.positions(CLOTH).unwrap();
     let by_vertices = mean_x_velocity(&gpu.velocities(CLOTH).unwrap());
     println!(

@@ -89,16 +89,10 @@ pub struct ClothBuilder {
 /// The least a cloth may span (m; a grid's side, a mesh's box's longest side).
 pub const MIN_CLOTH_EXTENT: f32 = 1e-3;
 
-/// The longest side of the box around `points`.
-fn extent(points: &[Vec3]) -> f32 {
-    let (lo, hi) = points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-    (hi - lo).max_element().max(0.0)
-}
-
-/// Whether triangle `t` of `vertices` spans an area in f64 (its corners not on one line).
-fn spans_in_f64(vertices: &[Vec3], t: [u32; 3]) -> bool {
-    let [a, b, c] = t.map(|i| vertices.get(i as usize).copied().unwrap_or(Vec3::ZERO).as_dvec3());
-    (b - a).cross(c - a) != glam::DVec3::ZERO
+/// The longest side of the box around the `vertices` that `triangles` use.
+fn extent(vertices: &[Vec3], triangles: &[[u32; 3]]) -> f32 {
+    let (lo, hi) = crate::mesh::used_bounds(vertices, triangles);
+    (hi - lo).max_element()
 }
 
 impl ClothBuilder {
@@ -238,8 +232,9 @@ impl ClothBuilder {
     pub fn build(&self) -> Result<Cloth> {
         let bad = |name: &'static str, problem: String| Err(Error::InvalidParameter { name, problem });
         // A mesh cloth's default mass is its area's: without area it would read as a bad mass.
-        if let Some(mesh) = &self.mesh
-            && !mesh.area().is_finite()
+        let area = self.mesh.as_ref().map(ClothMesh::area);
+        if let (Some(mesh), Some(area)) = (&self.mesh, area)
+            && !area.is_finite()
         {
             // Corners far from each other overflow f32's products before the mass does.
             let far = mesh.vertices.iter().map(|v| v.abs().max_element()).fold(0.0f32, f32::max);
@@ -251,20 +246,20 @@ impl ClothBuilder {
                 ),
             );
         }
-        if let Some(mesh) = &self.mesh
-            && mesh.area() <= 0.0
-            && mesh.triangles.iter().any(|t| spans_in_f64(&mesh.vertices, *t))
+        if let (Some(mesh), Some(area)) = (&self.mesh, area)
+            && area <= 0.0
+            && mesh.triangles.iter().any(|&t| crate::mesh::spans_area(&mesh.vertices, t))
         {
             return bad(
                 "cloth mesh",
                 format!(
                     "is too small: its triangles' area underflows f32 (it spans {:e} m): give the mesh in metres",
-                    extent(&mesh.vertices)
+                    extent(&mesh.vertices, &mesh.triangles)
                 ),
             );
         }
-        if let Some(mesh) = &self.mesh
-            && mesh.area() <= 0.0
+        if let (Some(mesh), Some(area)) = (&self.mesh, area)
+            && area <= 0.0
         {
             return bad(
                 "cloth mesh",
@@ -290,7 +285,7 @@ impl ClothBuilder {
         }
         if let Some(mesh) = &self.mesh {
             let world: Vec<Vec3> = mesh.vertices.iter().map(|&v| self.transform.transform_point3(v)).collect();
-            let across = extent(&world);
+            let across = extent(&world, &mesh.triangles);
             if across < MIN_CLOTH_EXTENT {
                 return bad(
                     "cloth mesh",

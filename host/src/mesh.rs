@@ -72,13 +72,7 @@ impl Mesh {
         }
         validate(&vertices, &triangles).map_err(error)?;
         let (mesh, _joined) = Mesh { vertices, triangles }.weld_coincident();
-        // Exact in f64 (products of f32 coordinates' differences are exact there): zero only for
-        // corners on one line.
-        let has_area = |t: &[u32; 3]| {
-            let [a, b, c] = t.map(|i| mesh.vertices[i as usize].as_dvec3());
-            (b - a).cross(c - a) != glam::DVec3::ZERO
-        };
-        if !mesh.triangles.iter().any(has_area) {
+        if !mesh.triangles.iter().any(|&t| spans_area(&mesh.vertices, t)) {
             return Err(error(
                 "no triangles with area: every face has two corners at the same point or its corners on one line"
                     .into(),
@@ -286,13 +280,7 @@ impl Mesh {
     /// vertices (the bunny has 1,113) that are not part of the surface. Indices out of range are
     /// skipped; a mesh without triangles gives (0, 0).
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        let mut min = Vec3::splat(f32::INFINITY);
-        let mut max = Vec3::splat(f32::NEG_INFINITY);
-        for v in self.triangles.iter().flatten().filter_map(|&i| self.vertices.get(i as usize)) {
-            min = min.min(*v);
-            max = max.max(*v);
-        }
-        if min.cmple(max).all() { (min, max) } else { (Vec3::ZERO, Vec3::ZERO) }
+        used_bounds(&self.vertices, &self.triangles)
     }
 
     /// The standard benchmark placement (design.md §2): uniform scale so the larger horizontal (X
@@ -337,6 +325,28 @@ fn cut_comment(line: &str) -> &str {
     match line.split_whitespace().next() {
         Some("v" | "vt" | "vn" | "f" | "l") => line.split('#').next().unwrap_or(""),
         _ => line,
+    }
+}
+
+/// (min, max) over the `vertices` that `triangles` use (`Mesh::bounds`).
+pub(crate) fn used_bounds(vertices: &[Vec3], triangles: &[[u32; 3]]) -> (Vec3, Vec3) {
+    let mut min = Vec3::splat(f32::INFINITY);
+    let mut max = Vec3::splat(f32::NEG_INFINITY);
+    for v in triangles.iter().flatten().filter_map(|&i| vertices.get(i as usize)) {
+        min = min.min(*v);
+        max = max.max(*v);
+    }
+    if min.cmple(max).all() { (min, max) } else { (Vec3::ZERO, Vec3::ZERO) }
+}
+
+/// Whether triangle `t` of `vertices` spans an area, exactly: in f64 the products of f32
+/// coordinates' differences are exact, so zero only for corners on one line (an f32 area that
+/// underflowed or overflowed is not zero here). An index out of range spans nothing.
+pub(crate) fn spans_area(vertices: &[Vec3], t: [u32; 3]) -> bool {
+    let corner = |i: u32| vertices.get(i as usize).map(|v| v.as_dvec3());
+    match (corner(t[0]), corner(t[1]), corner(t[2])) {
+        (Some(a), Some(b), Some(c)) => (b - a).cross(c - a) != glam::DVec3::ZERO,
+        _ => false,
     }
 }
 

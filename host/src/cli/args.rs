@@ -629,7 +629,6 @@ pub(crate) fn parse_vec3(text: &str) -> Result<Vec3, String> {
 /// frame at it moves the cloth further than its contact substeps can follow.
 const FASTEST_THROW: f32 = 1000.0;
 
-/// "X,Y,Z" (`parse_vec3`) no faster than `FASTEST_THROW`.
 /// The strongest wind `--wind` takes (N on the whole cloth): far past what any cloth's
 /// stability bound takes, short of the infinities its per-particle share and its diagnosis
 /// would otherwise reach.
@@ -644,6 +643,7 @@ pub(crate) fn parse_wind(text: &str) -> Result<Vec3, String> {
     Ok(w)
 }
 
+/// "X,Y,Z" (`parse_vec3`) no faster than `FASTEST_THROW`.
 pub(crate) fn parse_velocity(text: &str) -> Result<Vec3, String> {
     let v = parse_vec3(text)?;
     if v.length() > FASTEST_THROW {
