@@ -116,6 +116,7 @@ pub static APPLY_SELF_CONTACT: Kernel = Kernel {
             read("pushes"),
             write("start"),
             write("health"),
+            read("self_params"),
         ],
         WORKGROUP_SIZE,
     ),
@@ -174,15 +175,16 @@ fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn apply_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [params, x, v, delta, velocity_changes, pushes, start, health] = d.bindings()?;
+    let [params, x, v, delta, velocity_changes, pushes, start, health, self_params] = d.bindings()?;
     let p: SimParams = params.first()?;
+    let thickness = self_params.first::<ColliderParams>()?.thickness;
     let (x, v) = (x.slice_mut::<Vec4>(), v.slice_mut::<Vec4>());
     let corrections = (delta.slice::<u32>(), pushes.slice::<u32>());
     let velocity_changes = velocity_changes.slice::<u32>();
     let (start, health) = (start.slice_mut::<Vec4>(), health.first_mut::<Health>()?);
     for i in 0..threads.min(p.particle_count) {
         count_self_contact(i, corrections, health);
-        apply_self_contact_at(i, x, v, (corrections.0, velocity_changes));
+        apply_self_contact_at((i, thickness), x, v, (corrections.0, velocity_changes));
         start[i as usize] = x[i as usize];
     }
     Ok(())

@@ -614,7 +614,8 @@ impl SelfContactBuffers {
     /// swept since the last pass; `features` (the colliders' vertices and edges against the
     /// cloth: vertex corrections into the pass's sums, edge pushes applied at once and the tree
     /// refit again, in a pass where a collider edge pushed); then the
-    /// pairs, and the mean of all corrections applied (which records the next pass's start).
+    /// pairs, and the mean of the corrections applied (`drape_kernels::self_contact::correction_of`;
+    /// it records the next pass's start).
     /// The pairs sweep the pushes with the rest of the pass's motion, so a push through a layer
     /// of cloth is a crossing they undo.
     pub fn substep_steps(
@@ -759,6 +760,7 @@ impl SelfContactBuffers {
                 self.pushes.id(),
                 self.start.id(),
                 cloth.health.id(),
+                self.tree.collider.id(),
             ],
             Dispatch::Threads(self.particles),
         ));

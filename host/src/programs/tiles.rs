@@ -393,14 +393,14 @@ mod tests {
         let settled = Vec4::new(0.0, 0.0, 0.0, SETTLED);
         let mut x = vec![Vec4::new(0.0, 0.0, 0.0, 1.0); 3];
         let mut v = vec![settled; 3];
-        // Particle 0 pushed 1/2^24 m along +y, particle 1's velocity changed (fixed-point sums
-        // x, y, z, count), particle 2 left alone.
+        // Particle 0 pushed 1 µm along +y (at a thickness of 5 mm), particle 1's velocity
+        // changed (fixed-point sums x, y, z, count), particle 2 left alone.
         let mut delta = vec![0u32; 3 * CORRECTION_WORDS as usize];
-        add_correction(&mut delta, 0, Vec3::new(0.0, 1.0 / 16_777_216.0, 0.0), 0);
+        add_correction(&mut delta, 0, Vec3::new(0.0, 1e-6, 0.0), 0, 0.005);
         let mut velocity_changes = vec![0u32; 12];
         (velocity_changes[4], velocity_changes[7]) = (1, 1);
         for i in 0..3 {
-            apply_self_contact_at(i, &mut x, &mut v, (&delta, &velocity_changes));
+            apply_self_contact_at((i, 0.005), &mut x, &mut v, (&delta, &velocity_changes));
         }
         assert_eq!([v[0].w, v[1].w, v[2].w], [0.0, 0.0, SETTLED]);
         assert!(x[0].y > 0.0 && x[1] == x[2]);
