@@ -440,6 +440,29 @@ fn every_example_scene_runs() {
     std::fs::remove_dir_all(&out).ok();
 }
 
+/// `--print-scene` refuses a path whose bytes are not UTF-8 (a usage error naming the flag): a
+/// scene file is TOML, which holds only UTF-8, and the lossy copy it once wrote named another
+/// file (`bad\u{FFFD}.obj` for `bad\xff.obj`), so the printed scene failed when run.
+#[cfg(unix)]
+#[test]
+fn print_scene_refuses_a_path_that_is_not_utf8() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = scratch_dir("print-scene-utf8");
+    let path = dir.join(std::ffi::OsStr::from_bytes(b"bad\xff.obj"));
+    std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 2 3\n").unwrap();
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_drape"))
+        .arg("--cloth-mesh")
+        .arg(&path)
+        .arg("--print-scene")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("--cloth-mesh") && stderr.contains("not UTF-8"), "{stderr}");
+    assert!(output.stdout.is_empty(), "nothing printed: {}", String::from_utf8_lossy(&output.stdout));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `--print-scene` writes the effective scene, which read back as a scene file prints the same;
 /// command-line flags override the file; bad files get usage errors naming the file, line and
 /// key (unknown keys, values out of range, the wrong kind of value), an unreadable one a

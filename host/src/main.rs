@@ -68,7 +68,10 @@ fn main() -> ExitCode {
         Args::command().error(clap::error::ErrorKind::ArgumentConflict, problem).exit();
     }
     if args.print_scene {
-        print!("{}", cli::scene_file::print(&args, &matches));
+        match cli::scene_file::print(&args, &matches) {
+            Ok(scene) => print!("{scene}"),
+            Err(problem) => Args::command().error(clap::error::ErrorKind::InvalidUtf8, problem).exit(),
+        }
         return ExitCode::SUCCESS;
     }
     match run(&args) {

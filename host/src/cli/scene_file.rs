@@ -307,8 +307,9 @@ fn locate(error: clap::Error, path: &Path, entries: &[Entry]) -> clap::Error {
 
 /// The effective scene (the file's values, the flags over them, the defaults) as a scene file.
 /// A flag the scene does not use is written commented out, with the reason; the file's
-/// colliders follow as `[[collider]]` tables.
-pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
+/// colliders follow as `[[collider]]` tables. A value that is not UTF-8 (a path's bytes) is
+/// refused: a TOML file holds only UTF-8, and a lossy copy would name another file.
+pub(crate) fn print(args: &Args, matches: &ArgMatches) -> Result<String, String> {
     let mut out = String::from("# drape scene: `drape --scene-file THIS.toml` runs it; flags override it.\n");
     for arg in Args::command().get_arguments() {
         let id = arg.get_id().as_str();
@@ -322,7 +323,17 @@ pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
             let Some(raw) = matches.get_raw(id) else {
                 continue; // an optional flag not given: its absence is the default
             };
-            let mut values: Vec<String> = raw.map(|v| v.to_string_lossy().into_owned()).collect();
+            let mut values = Vec::new();
+            for v in raw {
+                let Some(text) = v.to_str() else {
+                    return Err(format!(
+                        "--print-scene: the value {} of --{key} is not UTF-8, which a scene file (TOML) cannot \
+                         hold; rename the file, or give a link to it whose name is UTF-8",
+                        v.to_string_lossy()
+                    ));
+                };
+                values.push(text.to_string());
+            }
             if READ_FROM_FILES.contains(&id) {
                 // Absolute, so the printed file reads the same mesh wherever it is saved.
                 values = values.iter().map(|v| beside(Path::new("."), id, v)).collect();
@@ -348,7 +359,7 @@ pub(crate) fn print(args: &Args, matches: &ArgMatches) -> String {
             Err(e) => out += &format!("# the [[collider]] tables could not be written: {e}\n"),
         }
     }
-    out
+    Ok(out)
 }
 
 /// A flag's value as TOML: a number, a list of numbers, or a string.
