@@ -8,8 +8,9 @@
 //! - A substep within the bound: the springs are stable, so a load stretched them past the
 //!   limit: the external force or gravity when it exceeds what a particle's structural springs
 //!   hold at the stretch limit (an upper limit: the message says the force must be well below
-//!   it), else the motion (a fast particle or a contact pushing it), for which more substeps
-//!   help.
+//!   it), or the whole cloth's external force when it exceeds that (pins carry the whole load
+//!   through a few springs), else the motion (a fast particle or a contact pushing it), for
+//!   which more substeps help.
 
 use super::{Stability, max_stable_substep};
 use drape_types::SimParams;
@@ -92,6 +93,20 @@ pub fn cause(
             force * particles,
             params.k_struct,
             held * particles
+        )
+    } else if force * particles > held {
+        // Each particle's share is held, but a pinned (or caught) cloth carries its whole load
+        // through the few springs at its pins: the swing scene under 1e4 N of wind (2.4 N a
+        // particle, 23 N held) blew up in its first frame, and the motion was blamed; under a
+        // smaller load it swings ever faster first, which more substeps do not help.
+        format!(
+            "the substep is within the stability bound, so the load drove it: the external force, {:.3e} N on the \
+             cloth, is more than the {held:.3e} N that a particle's four structural springs ({} N/m) bear at \
+             {max_stretch}x stretch, and a cloth held by pins (or caught on a collider) carries its whole load through \
+             the few springs there (its fastest particle moved at {speed:.3e} m/s in the last healthy frame); use a \
+             force well below {held:.3e} N on the cloth, or stiffer springs",
+            force * particles,
+            params.k_struct
         )
     } else if weight > held {
         format!(
