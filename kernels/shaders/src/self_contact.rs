@@ -577,19 +577,6 @@ fn add_weighted(sums: &mut [u32], base: usize, d: Vec3, thickness: f32) {
     atomics::add(&mut sums[base + 3], weight);
 }
 
-/// The weighted mean of the sum at words `base..base + 3` (`add_weighted`) in metres, or `None`
-/// when nothing was added.
-#[inline]
-fn weighted_mean_at(sums: &[u32], base: usize, thickness: f32) -> Option<Vec3> {
-    let weight = sums[base + 3];
-    if weight == 0 {
-        return None;
-    }
-    // The mean in integers (exact on both sides), then in metres.
-    let mean = |word: u32| ((word as i32) / weight as i32) as f32;
-    Some(Vec3::new(mean(sums[base]), mean(sums[base + 1]), mean(sums[base + 2])) * (thickness * (1.0 / RELATIVE_SCALE)))
-}
-
 /// The displacement particle `i`'s corrections (`CORRECTION_WORDS`) give it, at the cloth's
 /// `thickness`: the mean of those that undo a crossing when it has any, else the mean of all
 /// weighted by their lengths. In one plain mean with the pushes of every pair near it, a pair's
@@ -610,7 +597,8 @@ pub fn correction_of(delta: &[u32], i: usize, thickness: f32) -> Option<Vec3> {
     let base = CORRECTION_WORDS as usize * i;
     match mean_at(delta, base + CROSSED_WORD, FIXED_SCALE) {
         Some(d) => Some(d),
-        None => weighted_mean_at(delta, base, thickness),
+        // The weighted mean in thicknesses (the sum over its weight), then in metres.
+        None => mean_at(delta, base, RELATIVE_SCALE).map(|mean| mean * thickness),
     }
 }
 
@@ -1819,7 +1807,8 @@ pub fn count_self_contact(index: u32, (delta, pushes): (&[u32], &[u32]), health:
     let base = PUSH_WORDS as usize * i;
     let pushed =
         (pushes[base] | pushes[base + 1] | pushes[base + 2]) | (pushes[base + 3] | pushes[base + 4] | pushes[base + 5]);
-    let corrected = delta[CORRECTION_WORDS as usize * i + 3] | delta[CORRECTION_WORDS as usize * i + CROSSED_WORD + 3];
+    let corrections = CORRECTION_WORDS as usize * i;
+    let corrected = delta[corrections + 3] | delta[corrections + CROSSED_WORD + 3];
     if corrected > 0 || pushed != 0 {
         atomics::add(&mut health.self_contacts, 1);
     }
@@ -1851,8 +1840,8 @@ pub fn mean_of(sums: &[u32], i: usize, scale: f32) -> Option<Vec3> {
     mean_at(sums, 4 * i, scale)
 }
 
-/// The mean of the fixed-point sum at words `base..base + 3` (`scale` units per unit), or
-/// `None` when nothing was added.
+/// The mean of the fixed-point sum at words `base..base + 3` (`scale` units per unit) over its
+/// count or weight (word `base + 3`), or `None` when nothing was added.
 #[inline]
 fn mean_at(sums: &[u32], base: usize, scale: f32) -> Option<Vec3> {
     let count = sums[base + 3];
