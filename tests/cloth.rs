@@ -387,6 +387,31 @@ fn blow_up_names_the_quantity_that_drove_it() {
     // scene's blow-up at rest under 1e4 N of wind was put down to motion).
     let pinned = blow_up(ClothBuilder::new(8, 8).external_force(Vec3::new(1000.0, 0.0, 0.0)), None);
     assert!(pinned.contains("so the load drove it") && pinned.contains("pins"), "{pinned}");
+    assert!(pinned.contains("the 2.057e2 N"), "4 springs x 40 N/m x 1/7 m x 9: {pinned}");
+    // The same cloth from its triangle mesh: its parameters carry no grid steps, and its springs
+    // were taken to hold 1.7e-35 N (every garment's blow-up blamed on its load). An interior
+    // vertex holds by four sides (1/7 m) and two diagonals (sqrt 2 / 7 m, half the stiffness,
+    // `Spring::stiffness_scale`): 40 N/m x (4 + sqrt 2) / 7 m x 9 = 278.4 N.
+    let grid = ClothBuilder::new(8, 8).build().unwrap();
+    let vertices = grid.positions.iter().map(|p| p.truncate()).collect();
+    let mesh = drape::ClothMesh::from_parts(vertices, grid.triangles.clone()).unwrap();
+    let meshed = ClothBuilder::from_mesh(mesh).pin_vertex(0).pin_vertex(7);
+    let meshed = blow_up(meshed.external_force(Vec3::new(1000.0, 0.0, 0.0)), None);
+    assert!(meshed.contains("so the load drove it") && meshed.contains("pins"), "{meshed}");
+    assert!(meshed.contains("the 2.784e2 N") || meshed.contains("the 2.785e2 N"), "{meshed}");
+    // Its weight under 1e5 m/s^2 of gravity: the gravity that would be stable is what its
+    // springs hold for its mass (it read 1.7e-31 m/s^2).
+    let grid = ClothBuilder::new(8, 8).build().unwrap();
+    let vertices = grid.positions.iter().map(|p| p.truncate()).collect();
+    let mesh = drape::ClothMesh::from_parts(vertices, grid.triangles.clone()).unwrap();
+    let crushed = ClothBuilder::from_mesh(mesh).pin_vertex(0).pin_vertex(7);
+    let crushed = blow_up(crushed.gravity(Vec3::new(0.0, -1e5, 0.0)), None);
+    let stable: f32 = crushed
+        .split_once("gravity below ")
+        .and_then(|(_, rest)| rest.split_once(" m/s^2"))
+        .and_then(|(value, _)| value.parse().ok())
+        .unwrap_or_else(|| panic!("no stable gravity named: {crushed}"));
+    assert!((10.0..1e5).contains(&stable), "{stable} m/s^2: {crushed}");
     // Automatic substeps ran: the message offers a fixed count, not automatic substeps again.
     assert!(pushed.contains("or fix at least") && !pushed.contains("or automatic substeps"), "{pushed}");
     assert!(stiff.contains("(or automatic substeps)"), "fixed substeps under the bound: {stiff}");

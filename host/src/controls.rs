@@ -186,6 +186,12 @@ pub const CROWDED_ON: u32 = 64;
 pub const CROWDED_OFF: u32 = 16;
 
 impl ClothControl {
+    /// What the cloth's structural springs hold, for a blow-up's diagnosis
+    /// (`stability::diagnosis::StructuralHold`; `None` for a grid).
+    pub(crate) fn structural_hold(&self) -> Option<crate::stability::diagnosis::StructuralHold> {
+        self.bound.hold
+    }
+
     /// Follows the last frame's crowded particles (`crowded` particle-substeps over its
     /// `substeps`) under the automatic choice; returns whether the choice changed.
     fn observe_crowded(&mut self, crowded: u32, substeps: u32) -> bool {

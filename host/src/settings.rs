@@ -364,8 +364,9 @@ pub(crate) fn check_health(
     let stability = &control.stability;
     let speed = control.motion.last_speed();
     let integrator = settings.integrator.id();
+    let cloth_springs = (&control.params, control.structural_hold());
     let cause =
-        stability::diagnosis::cause(&control.params, stability, integrator, (settings.max_stretch, speed), collider);
+        stability::diagnosis::cause(cloth_springs, stability, integrator, (settings.max_stretch, speed), collider);
     Err(Error::Unstable {
         cloth,
         frame,

@@ -13,7 +13,49 @@
 //!   which more substeps help.
 
 use super::{Stability, max_stable_substep};
+use crate::cloth::{Cloth, ClothTopology};
+use drape_kernels::cloth::STRUCTURAL;
 use drape_types::SimParams;
+
+/// What a spring-list cloth's structural springs hold against a load on one particle (a grid's
+/// follow from its parameters), as the sums over a particle's structural springs of stiffness
+/// scale x rest length (m: at stretch s they pull with k_struct x that x (s - 1)): the largest
+/// of its free particles' (`reach`, what a force on each particle is compared with: as a grid's
+/// interior particle, held by all four), and for its weight the mass (kg) and sum of the free
+/// particle whose springs hold most for its mass (`weighed`). Upper limits: a load beyond them
+/// drives the cloth apart. A mesh cloth's parameters carry no grid steps: taken from those, its
+/// springs held 1.7e-35 N, and every blow-up of a garment blamed its load.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct StructuralHold {
+    pub reach: f32,
+    pub weighed: (f32, f32),
+}
+
+impl StructuralHold {
+    /// `None` for a grid cloth (`SimParams::rest` gives its springs) or one with no free
+    /// particle on a structural spring.
+    pub fn of(cloth: &Cloth) -> Option<Self> {
+        let ClothTopology::Springs(topology) = &cloth.topology else { return None };
+        let free = topology.particles.iter().zip(&cloth.positions).filter(|(p, x)| x.w > 0.0 && p.inverse_mass > 0.0);
+        let held: Vec<(f32, f32)> = free
+            .filter_map(|(p, _)| {
+                let springs = topology.springs.get(p.first as usize..(p.first + p.count) as usize)?;
+                let structural = springs.iter().filter(|s| s.family == STRUCTURAL);
+                let reach: f32 = structural.map(|s| s.stiffness_scale * s.rest).sum();
+                (reach > 0.0).then_some((1.0 / p.inverse_mass, reach))
+            })
+            .collect();
+        let reach = held.iter().map(|&(_, reach)| reach).reduce(f32::max)?;
+        let weighed = held.iter().copied().min_by(|a, b| (a.0 / a.1).total_cmp(&(b.0 / b.1)))?;
+        Some(StructuralHold { reach, weighed })
+    }
+
+    /// A grid's: a particle's four structural springs, each a grid step (the shorter) long.
+    fn of_grid(params: &SimParams) -> Self {
+        let reach = 4.0 * params.rest.x.min(params.rest.y).max(f32::MIN_POSITIVE);
+        StructuralHold { reach, weighed: (params.particle_mass, reach) }
+    }
+}
 
 /// The fastest-moving collider of the frame that blew up: its index in the model and how fast
 /// any point of its surface moved at most (m/s, by its pose and its vertices).
@@ -23,11 +65,11 @@ pub struct ColliderMotion {
     pub speed: f32,
 }
 
-/// The cause of a blow-up of a cloth with `params` running at `stability`, with `max_stretch`
-/// the stretch limit, `speed` the fastest particle of the last healthy frame (m/s) and
-/// `collider` the fastest collider of the frame (if any moved).
+/// The cause of a blow-up of a cloth with `params` (and, for a spring list, `hold`) running at
+/// `stability`, with `max_stretch` the stretch limit, `speed` the fastest particle of the last
+/// healthy frame (m/s) and `collider` the fastest collider of the frame (if any moved).
 pub fn cause(
-    params: &SimParams,
+    (params, hold): (&SimParams, Option<StructuralHold>),
     stability: &Stability,
     integrator: u32,
     (max_stretch, speed): (f32, f32),
@@ -78,17 +120,20 @@ pub fn cause(
             )
         };
     }
-    // Within the bound: a load. What four structural springs hold at the stretch limit.
-    let rest = params.rest.x.min(params.rest.y).max(f32::MIN_POSITIVE);
-    let held = 4.0 * params.k_struct * rest * (max_stretch - 1.0);
+    // Within the bound: a load. What a particle's structural springs hold at the stretch limit.
+    let hold = hold.unwrap_or_else(|| StructuralHold::of_grid(params));
+    let held = params.k_struct * hold.reach * (max_stretch - 1.0);
     let force = params.external_force.truncate().length();
-    let weight = params.gravity.truncate().length() * params.particle_mass;
+    // Gravity's: of the particle held most for its weight.
+    let (mass, reach) = hold.weighed;
+    let weight = params.gravity.truncate().length() * mass;
+    let held_up = params.k_struct * reach * (max_stretch - 1.0);
     let particles = params.particle_count.max(1) as f32;
     if force > held {
         format!(
             "the substep is within the stability bound, so the load drove it: the external force, {:.3e} N on the \
              cloth ({force:.3e} N per particle), exceeds the {held:.3e} N per particle that even a particle held by \
-             all four of its structural springs ({} N/m) bears at {max_stretch}x stretch; the cloth as a whole bears \
+             all its structural springs ({} N/m) bears at {max_stretch}x stretch; the cloth as a whole bears \
              less, so use a force well below {:.3e} N on the cloth, or stiffer springs",
             force * particles,
             params.k_struct,
@@ -101,19 +146,19 @@ pub fn cause(
         // smaller load it swings ever faster first, which more substeps do not help.
         format!(
             "the substep is within the stability bound, so the load drove it: the external force, {:.3e} N on the \
-             cloth, is more than the {held:.3e} N that a particle's four structural springs ({} N/m) bear at \
+             cloth, is more than the {held:.3e} N that a particle's structural springs ({} N/m) bear at \
              {max_stretch}x stretch, and a cloth held by pins (or caught on a collider) carries its whole load through \
              the few springs there (its fastest particle moved at {speed:.3e} m/s in the last healthy frame); use a \
              force well below {held:.3e} N on the cloth, or stiffer springs",
             force * particles,
             params.k_struct
         )
-    } else if weight > held {
+    } else if weight > held_up {
         format!(
             "the substep is within the stability bound, but gravity pulls each particle with {weight:.3e} N, more than \
-             the springs hold at {max_stretch}x stretch ({held:.3e} N): gravity below {:.3e} m/s^2, or stiffer springs, \
-             would be stable",
-            held / params.particle_mass
+             the springs hold at {max_stretch}x stretch ({held_up:.3e} N): gravity below {:.3e} m/s^2, or stiffer \
+             springs, would be stable",
+            held_up / mass
         )
     } else if let Some(c) = collider.filter(|c| c.speed > speed) {
         // A collider faster than any particle: what pushed the cloth apart is the collider.

@@ -164,6 +164,9 @@ impl std::fmt::Display for BoundSource {
 pub struct BoundInputs {
     pub profile: SpringProfile,
     pub state: Option<Linearisation>,
+    /// What a spring list's structural springs hold, for a blow-up's diagnosis (`None`: a
+    /// grid, whose parameters give it).
+    pub hold: Option<diagnosis::StructuralHold>,
     last: Arc<Mutex<Option<(SpectrumKey, Spectrum)>>>,
 }
 
@@ -176,13 +179,14 @@ impl BoundInputs {
         BoundInputs {
             profile: SpringProfile::of(cloth),
             state: Some(Linearisation::of(cloth)),
+            hold: diagnosis::StructuralHold::of(cloth),
             last: Default::default(),
         }
     }
 
     /// Gershgorin only.
     pub fn gershgorin(profile: SpringProfile) -> Self {
-        BoundInputs { profile, state: None, last: Default::default() }
+        BoundInputs { profile, state: None, hold: None, last: Default::default() }
     }
 
     /// (omega_max, gamma_max) and where they come from.
