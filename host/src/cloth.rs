@@ -328,6 +328,17 @@ impl ClothBuilder {
                 return bad("pin box", format!("needs finite corners with min <= max, got {lo} and {hi}"));
             }
         }
+        // A mesh has no rows: a grid pin there pinned nothing, silently (`pin_top_corners` on
+        // a garment left it free to fall).
+        if let (Some(_), Some(&(r, c))) = (&self.mesh, self.pins.first()) {
+            return bad(
+                "pins",
+                format!(
+                    "({r}, {c}) is a grid's row and column, and this cloth is built from a mesh: pin its vertices \
+                     by index (`pin_vertex`) or those inside a box (`pin_within`)"
+                ),
+            );
+        }
         let (mut cloth, local) = match &self.mesh {
             None => self.build_grid()?,
             Some(mesh) => self.build_mesh(mesh)?,
