@@ -273,7 +273,7 @@ fn mesh_normals_follow_the_winding() {
     }
 }
 
-/// Bad mesh cloths are refused with the cause: a pin past the last vertex or a grid's pin, a mesh without
+/// Bad mesh cloths are refused with the cause: a pin past the last vertex or a grid's pin or size, a mesh without
 /// triangles, a mesh whose triangles have no area, an index out of range. A vertex of no triangle is pinned where it is.
 #[test]
 fn bad_mesh_cloths_are_refused_and_loose_vertices_pinned() {
@@ -286,6 +286,12 @@ fn bad_mesh_cloths_are_refused_and_loose_vertices_pinned() {
     let corners = ClothBuilder::from_mesh(mesh.clone()).pin_top_corners().build().unwrap_err();
     assert!(matches!(corners, Error::InvalidParameter { name: "pins", .. }), "{corners}");
     assert!(corners.to_string().contains("pin_vertex"), "{corners}");
+    // A grid's size on a mesh, whose vertices give its size: refused, not ignored.
+    let sized = ClothBuilder::from_mesh(mesh.clone()).size(2.0).build().unwrap_err();
+    assert!(matches!(sized, Error::InvalidParameter { name: "size", .. }), "{sized}");
+    assert!(sized.to_string().contains("transform"), "{sized}");
+    let stretched = ClothBuilder::from_mesh(mesh.clone()).dimensions(1.0, 3.0).build().unwrap_err();
+    assert!(matches!(stretched, Error::InvalidParameter { name: "size", .. }), "{stretched}");
     assert!(ClothMesh::from_parts(mesh.vertices.clone(), vec![]).is_err());
     assert!(ClothMesh::from_parts(mesh.vertices.clone(), vec![[0, 1, n]]).is_err());
     let flat = ClothMesh::from_parts(vec![Vec3::ZERO, Vec3::X, 2.0 * Vec3::X], vec![[0, 1, 2], [0, 0, 1]]).unwrap();

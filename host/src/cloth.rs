@@ -328,6 +328,17 @@ impl ClothBuilder {
                 return bad("pin box", format!("needs finite corners with min <= max, got {lo} and {hi}"));
             }
         }
+        // A mesh's size is its vertices': a grid's size there scaled nothing, silently.
+        if self.mesh.is_some() && (self.size != 1.0 || self.length.is_some()) {
+            return bad(
+                "size",
+                format!(
+                    "{} m is a grid's size, and this cloth is built from a mesh, whose vertices give its size: scale \
+                     it with `transform`",
+                    self.size
+                ),
+            );
+        }
         // A mesh has no rows: a grid pin there pinned nothing, silently (`pin_top_corners` on
         // a garment left it free to fall).
         if let (Some(_), Some(&(r, c))) = (&self.mesh, self.pins.first()) {
