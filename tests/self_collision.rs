@@ -775,6 +775,53 @@ fn a_cloth_hanging_from_a_cone_s_tip_is_not_pierced() {
     assert_validation_clean(&ctx);
 }
 
+/// Two sheets stacked a little over a thickness apart, falling onto a sharp cone's tip: both
+/// tent over it, and where they are pressed together there the cone's push on the lower sheet's
+/// cell and the sheets' pushes on each other part them unevenly, so the sheets cross each other
+/// at the tip and the tip comes through the upper one (with the fail-safe off, `--check-every-
+/// frame` on 40 x 40 sheets: frames 10-14 crossed; "Stacked sheets on a cone's tip" in
+/// docs/numbers.md). The passes do not prevent it; the fail-safe puts those cells back, and no
+/// frame ends with an intersection of any kind.
+#[test]
+fn stacked_sheets_on_a_cone_s_tip_end_no_frame_crossed() {
+    let ctx = context();
+    let scene = drape::scenes::DrapeScene::standard(&cone(16, 1.0, 34.0), SHEET);
+    let sheet = scene.cloth.clone().build().unwrap();
+    let piece = |lift: f32| {
+        let vertices = sheet.positions.iter().map(|p| p.truncate() + Vec3::new(0.0, lift, 0.0)).collect();
+        ClothMesh::from_parts(vertices, sheet.triangles.clone()).unwrap()
+    };
+    let stacked = ClothMesh::join(&[piece(0.0), piece(GAP)]);
+    let cloth = drape::ClothBuilder::from_mesh(stacked).self_collision(Some(0.005)).build().unwrap();
+    let collider = scene.triangle_collider();
+    let run = |failsafe: bool| {
+        let settings = SimSettings::default().with_timestamps(false).with_self_failsafe(failsafe);
+        let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap();
+        let mut sim = Solver::new(&ctx, &model).unwrap();
+        let (mut crossed, mut put_back) = (0, 0);
+        for _ in 0..FRAMES {
+            put_back += sim.step_report().unwrap().self_rollbacks;
+            let x = sim.positions(CLOTH).unwrap();
+            let found = count_intersections(&x, &cloth.triangles, (&scene.mesh.vertices, &scene.mesh.triangles));
+            crossed += (found.total() > 0) as u32;
+        }
+        (crossed, put_back)
+    };
+    const SHEET: u32 = 32;
+    const GAP: f32 = 0.012;
+    const FRAMES: u32 = 40;
+    let (crossed_without, _) = run(false);
+    let (crossed, put_back) = run(true);
+    println!(
+        "two {SHEET}^2 sheets on a cone's tip: {crossed_without} of {FRAMES} frames crossed without the fail-safe; \
+         with it {crossed}, {put_back} particles put back"
+    );
+    assert!(crossed_without > 0, "the sheets must cross at the tip without the fail-safe (the scene must test it)");
+    assert!(put_back > 0, "the fail-safe must put the crossed cells back");
+    assert_eq!(crossed, 0, "with the fail-safe {crossed} of {FRAMES} frames ended crossed");
+    assert_validation_clean(&ctx);
+}
+
 /// A needle's tip through the cloth hanging from it: the standard scene (24 x 24, 8 times its
 /// mass) over a 4-sided spike of 6 degrees (8.9 m tall once the scene scales it), whose tip holds
 /// the whole cloth up through one cell. From frame 28 the cell slips over the tip within a pass
