@@ -3,10 +3,11 @@
 //! with self-collision on and off, the two solvers stepped in turn frame by frame so the
 //! machine's noise falls on both alike. Per scene: the medians and fastest of the GPU span per
 //! frame (timestamps: the first pass's start to the last one's end) and of the wall time, the
-//! ratio on / off, the substeps; then the self-collision solver's passes at 64^2. On a CPU
-//! driver it also gives the process's CPU time per frame (every thread's, the driver's workers
-//! included: the frame's work, which another tenant's load on the machine moves less than the
-//! wall time, the same code's wall ratio having ranged 2.27x-2.70x at 64^2 on this VM).
+//! ratio on / off, the substeps; the whole run's totals (the ratio of the mean frames); then the
+//! self-collision solver's passes at 64^2. On a CPU driver it also gives the process's CPU time
+//! per frame (every thread's, the driver's workers included: the frame's work, which another
+//! tenant's load on the machine moves less than the wall time, the same code's wall ratio
+//! having ranged 2.27x-2.70x at 64^2 on this VM).
 //!
 //! `cargo bench --bench self_collision` runs every scene; `-- 64 pile` only those named; add
 //! `no-timestamps` to run the solvers without timestamp queries (wall times only: on lavapipe a
@@ -128,7 +129,7 @@ fn main() {
         "wall on/off"
     );
     let mut passes_64 = None;
-    let mut cpu_rows = Vec::new();
+    let (mut cpu_rows, mut run_rows) = (Vec::new(), Vec::new());
     for case in &cases {
         let (mut off, mut on) =
             (solver(&ctx, &case.scene, false, timestamps), solver(&ctx, &case.scene, true, timestamps));
@@ -179,6 +180,18 @@ fn main() {
             format!("{:.2}x", cpu_on / cpu_off),
             format!("{:.2}x", least_on / least_off),
         ));
+        let total = |r: &Run| r.report.wall_ms_per_frame().iter().sum::<f64>();
+        let cpu_total = |r: &Run| r.cpu_ms.iter().sum::<f64>();
+        run_rows.push(format!(
+            "{:<16} {:>14.1} {:>14.1} {:>12} {:>14.1} {:>14.1} {:>12}",
+            case.name,
+            total(&runs_off),
+            total(&runs_on),
+            format!("{:.2}x", total(&runs_on) / total(&runs_off)),
+            cpu_total(&runs_off),
+            cpu_total(&runs_on),
+            format!("{:.2}x", cpu_total(&runs_on) / cpu_total(&runs_off)),
+        ));
         if timestamps && case.name == "icosphere 64^2" {
             passes_64 = Some(b.table());
         }
@@ -195,6 +208,18 @@ fn main() {
         for row in &cpu_rows {
             println!("{row}");
         }
+    }
+    // The medians above are of the frames a run mostly has (a cloth hanging calm); its impact
+    // and settling frames lie above them and cost several times more: the whole run tells those.
+    println!(
+        "\nThe whole run: every frame's wall time and the process's CPU time summed (ms), the ratio of the mean frames:"
+    );
+    println!(
+        "{:<16} {:>14} {:>14} {:>12} {:>14} {:>14} {:>12}",
+        "scene", "wall off", "wall on", "on/off", "cpu off", "cpu on", "on/off"
+    );
+    for row in &run_rows {
+        println!("{row}");
     }
     if let Some(table) = passes_64 {
         println!("\nThe icosphere 64^2 frame with self-collision, per pass:\n{table}");
