@@ -86,6 +86,9 @@ pub struct ClothBuilder {
     pub transform: Mat4,
 }
 
+/// A grid's side (m) unless `ClothBuilder::size` or `dimensions` sets it.
+const DEFAULT_GRID_SIZE: f32 = 1.0;
+
 /// The least a cloth may span (m; a grid's side, a mesh's box's longest side).
 pub const MIN_CLOTH_EXTENT: f32 = 1e-3;
 
@@ -101,7 +104,7 @@ impl ClothBuilder {
         ClothBuilder {
             rows,
             cols,
-            size: 1.0,
+            size: DEFAULT_GRID_SIZE,
             length: None,
             mass: 0.2,
             mesh: None,
@@ -329,7 +332,7 @@ impl ClothBuilder {
             }
         }
         // A mesh's size is its vertices': a grid's size there scaled nothing, silently.
-        if self.mesh.is_some() && (self.size != 1.0 || self.length.is_some()) {
+        if self.mesh.is_some() && (self.size != DEFAULT_GRID_SIZE || self.length.is_some()) {
             return bad(
                 "size",
                 format!(

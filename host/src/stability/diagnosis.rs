@@ -122,12 +122,13 @@ pub fn cause(
     }
     // Within the bound: a load. What a particle's structural springs hold at the stretch limit.
     let hold = hold.unwrap_or_else(|| StructuralHold::of_grid(params));
-    let held = params.k_struct * hold.reach * (max_stretch - 1.0);
+    let bears = |reach: f32| params.k_struct * reach * (max_stretch - 1.0);
+    let held = bears(hold.reach);
     let force = params.external_force.truncate().length();
     // Gravity's: of the particle held most for its weight.
     let (mass, reach) = hold.weighed;
     let weight = params.gravity.truncate().length() * mass;
-    let held_up = params.k_struct * reach * (max_stretch - 1.0);
+    let held_up = bears(reach);
     let particles = params.particle_count.max(1) as f32;
     if force > held {
         format!(
