@@ -131,6 +131,43 @@ fn a_fast_plate_does_not_jump_through_the_cloth_between_frames() {
     assert_validation_clean(&ctx);
 }
 
+/// The same plate at 4 m/s moved by its spheres (`set_collider_spheres`, as a renderer moves
+/// sphere proxies on a skinned body's bones) instead of its pose: each centre sweeps from where
+/// the last frame left it over the frame's substeps, so the cloth is carried instead of the
+/// spheres jumping through it (with the spheres set at the frame's start instead, all 16
+/// particles over the plate ended below it from frame 2 on), and the GPU equals its CPU twin
+/// bit for bit through it.
+#[test]
+fn fast_deforming_spheres_do_not_jump_through_the_cloth_between_frames() {
+    let ctx = context();
+    let at = |height: f32| -> Vec<Vec4> {
+        plate(7, 0.03, 0.03).iter().map(|s| *s + Vec4::new(0.0, height, 0.0, 0.0)).collect()
+    };
+    let mut height = -0.1;
+    let collider = Collider::new(at(height), 0.005);
+    let settings = SimSettings::default().with_timestamps(false);
+    let model = Model::single(&trampoline(24, 0.0), std::slice::from_ref(&collider), settings).unwrap();
+    let (mut gpu, mut cpu) = (Solver::new(&ctx, &model).unwrap(), CpuSolver::new(&model).unwrap());
+    let per_frame = 4.0 / 60.0;
+    assert!(per_frame > 2.0 * 0.03 + 0.005);
+    let mut below = 0;
+    for f in 1..=6 {
+        height += per_frame;
+        gpu.set_collider_spheres(ColliderId::new(0), &at(height)).unwrap();
+        cpu.set_collider_spheres(ColliderId::new(0), &at(height)).unwrap();
+        gpu.step().unwrap();
+        cpu.step().unwrap();
+        let positions = gpu.positions(CLOTH).unwrap();
+        assert_eq!(positions, cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
+        assert_eq!(gpu.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU velocities");
+        below = below.max(below_plate(&positions, Quat::IDENTITY, Vec3::new(0.0, height, 0.0), 0.08));
+    }
+    assert_eq!(below, 0, "particles ended below the fast spheres: they jumped through the cloth");
+    let top = gpu.positions(CLOTH).unwrap().iter().map(|p| p.y).fold(f32::MIN, f32::max);
+    assert!(top >= height, "cloth top {top}, plate at {height}: the plate passed through");
+    assert_validation_clean(&ctx);
+}
+
 /// With a moving collider the GPU frame equals its CPU twin bit for bit, and the BVH contact
 /// equals the brute-force contact.
 #[test]
@@ -218,8 +255,9 @@ fn a_deforming_collider_is_refit_and_not_entered() {
         Solver::new(&ctx, &Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap()).unwrap();
     let mut cpu = CpuSolver::new(&Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap()).unwrap();
     let mut worst = f32::INFINITY;
-    let mut spheres = base.clone();
+    let (mut previous, mut spheres) = (base.clone(), base.clone());
     for f in 1..=30 {
+        previous = spheres.clone();
         // Swell the radii (2.5 r spacing keeps gaps) and bend the rod upwards in the middle.
         spheres = base
             .iter()
@@ -237,8 +275,14 @@ fn a_deforming_collider_is_refit_and_not_entered() {
         worst = worst.min(clearance(&positions, &spheres, Quat::IDENTITY, Vec3::ZERO));
     }
     assert!(worst > -1e-4, "a particle ended {:.2} mm inside the deforming collider", -worst * 1e3);
+    // The last frame deformed, so its spheres sweep from the frame before's; a frame without a
+    // change stands them still again.
     let tree = gpu.collider_bvh(ColliderId::new(0)).unwrap();
-    tree.validate(&spheres).expect("the refit tree bounds the deformed leaves");
+    tree.validate_swept(&previous, &spheres).expect("the refit tree bounds the sweeping leaves");
+    assert!(tree.validate(&spheres).is_err(), "the last frame's leaves must sweep");
+    gpu.step().unwrap();
+    let tree = gpu.collider_bvh(ColliderId::new(0)).unwrap();
+    tree.validate(&spheres).expect("the refit tree bounds the deformed leaves, standing still");
     assert!(gpu.set_collider_spheres(ColliderId::new(0), &spheres[1..]).is_err(), "a different leaf count is refused");
     assert_validation_clean(&ctx);
 }

@@ -9,8 +9,8 @@ use crate::programs::contact::{ColliderLeaves, ContactLeaves};
 use crate::programs::spheres::SphereBvh;
 use crate::programs::triangles::TriangleBvh;
 use drape_kernels::lbvh::aabb_centre;
-use drape_kernels::spheres::sphere_aabb;
-use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE, Triangle};
+use drape_kernels::spheres::{sphere_aabb, sphere_leaf_at, swept_sphere_aabb};
+use drape_types::{Aabb, BvhNode, ColliderParams, LEAF_BIT, NO_NODE, SphereLeaf, Triangle};
 use glam::{Vec3, Vec4};
 use std::sync::Arc;
 
@@ -101,7 +101,7 @@ pub struct Lbvh {
     pub order: Vec<u32>,
     /// The leaves in sorted order: spheres of a sphere collider, triangles of a mesh collider
     /// (the other is empty), and their boxes (what the tree is built from).
-    pub spheres: Vec<Vec4>,
+    pub spheres: Vec<SphereLeaf>,
     pub triangles: Vec<Triangle>,
     pub leaf_bounds: Vec<Aabb>,
     /// N - 1 internal nodes (root = 0).
@@ -154,6 +154,7 @@ impl GpuLbvh {
         engine.allocate(&resources)?;
         engine.upload(b.tree.collider, std::slice::from_ref(&params))?;
         engine.upload(b.spheres, spheres)?;
+        engine.upload(b.previous, spheres)?;
         let buffers = ColliderLeaves::Spheres(b);
         let mut this = GpuLbvh { engine, buffers, params, timings: FrameTimings::default() };
         this.rebuild(true)?;
@@ -184,6 +185,7 @@ pub fn build_cpu(spheres: &[Vec4], params: &ColliderParams) -> Result<Lbvh> {
     let mut cpu = CpuExecutor::new(&resources);
     cpu.upload(b.tree.collider, std::slice::from_ref(params))?;
     cpu.upload(b.spheres, spheres)?;
+    cpu.upload(b.previous, spheres)?;
     cpu.run(&b.build_steps())?;
     read_tree(&cpu, &ColliderLeaves::Spheres(b))
 }
@@ -219,14 +221,25 @@ fn contains(outer: &Aabb, inner: &Aabb) -> bool {
 
 impl Lbvh {
     /// Checks the invariants for the sphere leaf kind built from `input`: those of
-    /// `validate_boxes`, and each sorted sphere is its input sphere.
+    /// `validate_boxes`, and each sorted sphere is its input sphere, standing still.
     pub fn validate(&self, input: &[Vec4]) -> std::result::Result<(), String> {
-        let boxes: Vec<Aabb> = input.iter().map(|s| sphere_aabb(*s)).collect();
+        self.validate_swept(input, input)
+    }
+
+    /// `validate` for spheres that swept from `previous` to `input` over the frame: each leaf's
+    /// box holds its sweep (`swept_sphere_aabb`), and each sorted leaf is its input sphere with
+    /// that sweep.
+    pub fn validate_swept(&self, previous: &[Vec4], input: &[Vec4]) -> std::result::Result<(), String> {
+        if previous.len() != input.len() {
+            return Err(format!("{} previous spheres for {} spheres", previous.len(), input.len()));
+        }
+        let boxes: Vec<Aabb> = input.iter().zip(previous).map(|(s, p)| swept_sphere_aabb(*p, *s)).collect();
         self.validate_boxes(&boxes)?;
         if self.spheres.len() != input.len() {
             return Err(format!("expected {} spheres", input.len()));
         }
-        match self.order.iter().enumerate().find(|&(sorted, &o)| self.spheres[sorted] != input[o as usize]) {
+        let leaf_of = |o: u32| sphere_leaf_at(o as usize, input, previous);
+        match self.order.iter().enumerate().find(|&(sorted, &o)| self.spheres[sorted] != leaf_of(o)) {
             Some((sorted, o)) => Err(format!("leaf {sorted} is not sphere {o}")),
             None => Ok(()),
         }

@@ -112,6 +112,7 @@ impl SolverProgram {
                 ColliderShape::Spheres(spheres) => {
                     let b = SphereBvh::declare(&mut resources, &name, params.leaf_count);
                     initial.push((b.spheres.id(), bytes(spheres)));
+                    initial.push((b.previous.id(), bytes(spheres)));
                     ColliderLeaves::Spheres(b)
                 }
                 ColliderShape::Triangles { vertices, triangles } => {

@@ -257,7 +257,7 @@ fn sphere_carriers_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let [params, collider, pose, nodes, aabbs, leaves, anchors, carriers, frames, choice] = d.bindings()?;
     let p: drape_types::SimParams = params.first()?;
     let (c, pose): (ColliderParams, ColliderPose) = (collider.first()?, pose.first()?);
-    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<Vec4>());
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaves.slice::<drape_types::SphereLeaf>());
     let (anchors, carriers, frames) =
         (anchors.slice::<Vec4>(), carriers.slice_mut::<u32>(), frames.slice_mut::<Vec4>());
     let choice = choice.first_mut::<u32>()?;
@@ -446,5 +446,32 @@ mod tests {
             }
         }
         assert!(touching > 100, "{touching} pairs with touching boxes");
+    }
+
+    /// A sphere of a deforming collider carries a particle that started the frame beside it by
+    /// its own motion: the carrier's frames stand at its centre where the frame started (its
+    /// centre less its sweep) and where it ends, not both at the end.
+    #[test]
+    fn a_deforming_sphere_carries_a_particle_from_where_its_centre_started() {
+        use drape_kernels::self_failsafe::{CARRIER_FRAME_WORDS, CarrierOut, sphere_carrier_at};
+        use drape_kernels::self_pairs::{ANCHOR_WORDS, FRAME_START_WORD};
+        use drape_types::{ColliderParams, ColliderPose, RigidPose, SphereLeaf};
+        use glam::Vec4;
+        let (start, end) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.0, 0.1, 0.0));
+        let leaf = SphereLeaf { sphere: end.extend(0.05), sweep: (end - start).extend(0.0) };
+        let collider = ColliderParams { leaf_count: 1, thickness: 0.005, ..Default::default() };
+        let pose = ColliderPose {
+            previous: RigidPose::IDENTITY,
+            current: RigidPose::IDENTITY,
+            sweep: Vec4::new(0.1, 0.0, 0.0, 0.0),
+        };
+        let mut anchors = vec![Vec4::ZERO; ANCHOR_WORDS as usize];
+        anchors[FRAME_START_WORD as usize] = Vec4::new(0.0, 0.06, 0.0, 0.0);
+        let (mut carriers, mut frames, mut choice) = (vec![0u32], vec![Vec4::ZERO; CARRIER_FRAME_WORDS as usize], 0);
+        let out = CarrierOut { carriers: &mut carriers, frames: &mut frames, choice: &mut choice };
+        sphere_carrier_at((0, 1, 2), (&collider, &pose), (&[], &[], &[leaf]), &anchors, out);
+        assert_eq!(carriers, [3], "collider 2 carries the particle");
+        let frames: Vec<Vec3> = frames.iter().map(|f| f.truncate()).collect();
+        assert_eq!(frames, [start, start + Vec3::X, start + Vec3::Y, end, end + Vec3::X, end + Vec3::Y]);
     }
 }

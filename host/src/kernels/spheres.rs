@@ -7,12 +7,12 @@ use super::contact::{
     detect_brute_force_cpu, detect_candidates_cpu, detect_cpu, detect_crowded_cpu, update_contact_cpu,
     update_contact_springs_cpu,
 };
-use super::lbvh::{THREADS, gather_cpu};
+use super::lbvh::THREADS;
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::crowded::CROWDED_THREADS;
-use drape_kernels::spheres::{Spheres, sphere_aabb};
-use drape_types::{Aabb, ColliderParams};
+use drape_kernels::spheres::{Spheres, sphere_leaf_at, swept_sphere_aabb};
+use drape_types::{Aabb, ColliderParams, SphereLeaf};
 use glam::Vec4;
 
 const fn spec(entry: &'static str, bindings: &'static [BindingSpec]) -> KernelSpec {
@@ -22,7 +22,12 @@ const fn spec(entry: &'static str, bindings: &'static [BindingSpec]) -> KernelSp
 pub static SPHERE_BOUNDS: Kernel = Kernel {
     spec: spec(
         "spheres::sphere_bounds",
-        &[BindingSpec::read("collider"), BindingSpec::read("spheres"), BindingSpec::write("bounds")],
+        &[
+            BindingSpec::read("collider"),
+            BindingSpec::read("spheres"),
+            BindingSpec::read("previous"),
+            BindingSpec::write("bounds"),
+        ],
     ),
     cpu: bounds_cpu,
 };
@@ -32,11 +37,12 @@ pub static GATHER_SPHERES: Kernel = Kernel {
         &[
             BindingSpec::read("collider"),
             BindingSpec::read("spheres"),
+            BindingSpec::read("previous"),
             BindingSpec::read("order"),
             BindingSpec::write("sorted"),
         ],
     ),
-    cpu: gather_cpu::<Vec4>,
+    cpu: gather_cpu,
 };
 
 pub static DETECT_SPHERES: Kernel =
@@ -69,11 +75,23 @@ pub static DETECT_SPHERES_BRUTE_FORCE: Kernel = Kernel {
 
 fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [collider, spheres, bounds] = d.bindings()?;
+    let [collider, spheres, previous, bounds] = d.bindings()?;
     let c: ColliderParams = collider.first()?;
-    let (spheres, bounds) = (spheres.slice::<Vec4>(), bounds.slice_mut::<Aabb>());
-    for i in 0..threads.min(c.leaf_count) {
-        bounds[i as usize] = sphere_aabb(spheres[i as usize]);
+    let (spheres, previous, bounds) = (spheres.slice::<Vec4>(), previous.slice::<Vec4>(), bounds.slice_mut::<Aabb>());
+    for i in 0..threads.min(c.leaf_count) as usize {
+        bounds[i] = swept_sphere_aabb(previous[i], spheres[i]);
+    }
+    Ok(())
+}
+
+fn gather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [collider, spheres, previous, order, sorted] = d.bindings()?;
+    let c: ColliderParams = collider.first()?;
+    let (spheres, previous) = (spheres.slice::<Vec4>(), previous.slice::<Vec4>());
+    let (order, sorted) = (order.slice::<u32>(), sorted.slice_mut::<SphereLeaf>());
+    for i in 0..threads.min(c.leaf_count) as usize {
+        sorted[i] = sphere_leaf_at(order[i] as usize, spheres, previous);
     }
     Ok(())
 }

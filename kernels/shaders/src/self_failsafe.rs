@@ -70,7 +70,7 @@ use crate::self_pairs::{
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BvhNode, CarrierPush, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health, NO_LEAF, RigidPose,
-    SelfPassPush, SimParams, Triangle,
+    SelfPassPush, SimParams, SphereLeaf, Triangle,
 };
 use spirv_std::spirv;
 
@@ -435,12 +435,13 @@ pub fn triangle_carrier_at(
 }
 
 /// `triangle_carrier_at` for a sphere collider: the nearest sphere's centre and two points a
-/// metre from it, placed by the pose then and now (a sphere's own motion is not swept over the
-/// frame: its contact takes it where it stands).
+/// metre from it, where the frame started it (its centre less its sweep, placed by the pose
+/// then) and where it ends it (placed by the pose now), so a deforming collider's sphere carries
+/// the particle with its own motion too.
 pub fn sphere_carrier_at(
     (i, count, slot): (u32, u32, u32),
     (collider, pose): (&ColliderParams, &ColliderPose),
-    (nodes, aabbs, leaves): (&[BvhNode], &[Aabb], &[Vec4]),
+    (nodes, aabbs, leaves): (&[BvhNode], &[Aabb], &[SphereLeaf]),
     anchors: &[Vec4],
     out: CarrierOut,
 ) {
@@ -451,10 +452,10 @@ pub fn sphere_carrier_at(
     if leaf == NO_LEAF {
         return;
     }
-    let c = leaves[leaf as usize].xyz();
-    let local = [c, c + Vec3::X, c + Vec3::Y];
-    let at = |p: &RigidPose| [to_world(p, local[0]), to_world(p, local[1]), to_world(p, local[2])];
-    set_carrier(i, slot, (at(&pose.previous), at(&pose.current)), out);
+    let sphere = leaves[leaf as usize];
+    let (then, now) = (sphere.sphere.xyz() - sphere.sweep.xyz(), sphere.sphere.xyz());
+    let at = |p: &RigidPose, c: Vec3| [to_world(p, c), to_world(p, c + Vec3::X), to_world(p, c + Vec3::Y)];
+    set_carrier(i, slot, (at(&pose.previous, then), at(&pose.current, now)), out);
 }
 
 /// How far (a share of the triangle's shortest side) the fail-safe carries a cloth triangle's
@@ -1027,7 +1028,7 @@ pub fn failsafe_carriers_spheres(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] pose: &ColliderPose,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] nodes: &[BvhNode],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaves: &[SphereLeaf],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] anchors: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] carriers: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] carrier_frames: &mut [Vec4],

@@ -1,11 +1,15 @@
 //! The sphere leaf kind (the paper's voxel spheres: xyz centre, w radius): each sphere's box for
 //! the LBVH build, the spheres gathered into the tree's leaf order, and the contact detect pass
 //! over them (the generic traversal of `contact` with the sphere's hit test).
+//!
+//! A deforming collider's spheres (new ones each frame) sweep: each centre moves linearly from
+//! where the last frame left it to the new one over the frame's substeps, as a deforming mesh's
+//! vertices do, so a sphere moving faster than its size per frame carries the cloth instead of
+//! jumping through it. A radius takes its new value from the frame's start.
 
 use crate::contact::{LeafKind, point_in_aabb};
-use crate::lbvh::gather_at;
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
-use drape_types::{Aabb, ColliderParams};
+use drape_types::{Aabb, ColliderParams, SphereLeaf};
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
 use spirv_std::spirv;
@@ -15,6 +19,22 @@ use spirv_std::spirv;
 pub fn sphere_aabb(s: Vec4) -> Aabb {
     let r = Vec3::splat(s.w);
     Aabb { min: (s.xyz() - r).extend(0.0), max: (s.xyz() + r).extend(0.0) }
+}
+
+/// Bounds of sphere `current` over a frame whose centre moved there from `previous`'s (the
+/// radius `current`'s): every place the sphere passes through as it sweeps.
+#[inline]
+pub fn swept_sphere_aabb(previous: Vec4, current: Vec4) -> Aabb {
+    let (start, end) = (sphere_aabb(previous.xyz().extend(current.w)), sphere_aabb(current));
+    Aabb { min: start.min.min(end.min), max: start.max.max(end.max) }
+}
+
+/// Sphere `i` (input order) as a leaf: where the frame ends it, and how its centre moved from
+/// `previous` (equal spheres give a zero sweep).
+#[inline]
+pub fn sphere_leaf_at(i: usize, spheres: &[Vec4], previous: &[Vec4]) -> SphereLeaf {
+    let sphere = spheres[i];
+    SphereLeaf { sphere, sweep: (sphere.xyz() - previous[i].xyz()).extend(0.0) }
 }
 
 /// If p1 lies within `sphere` inflated by `thickness`, the parameter in [0, 1] of the first
@@ -43,11 +63,12 @@ pub fn hit_parameter(p0: Vec3, p1: Vec3, sphere: Vec4, thickness: f32) -> f32 {
 
 /// Spheres as contact leaves: a particle is in contact when its substep motion ends within
 /// radius + thickness of a centre (the paper's test), and goes to the first point of its motion
-/// on the inflated sphere (radially out if it started inside).
+/// on the inflated sphere (radially out if it started inside). A sweeping sphere's tests see the
+/// motion relative to it (`relative`).
 pub struct Spheres;
 
 impl LeafKind for Spheres {
-    type Leaf = Vec4;
+    type Leaf = SphereLeaf;
 
     /// Only the motion's end point counts, so a subtree matters when its grown box holds it.
     #[inline]
@@ -67,16 +88,17 @@ impl LeafKind for Spheres {
     /// several overlapping spheres) the shallowest wins, whose radial push-out moves the
     /// particle least (pushing out of a deep sphere can push it through a thin part of the mesh).
     #[inline]
-    fn hit(sphere: Vec4, p0: Vec3, p1: Vec3, thickness: f32) -> (f32, f32) {
+    fn hit(leaf: SphereLeaf, p0: Vec3, p1: Vec3, thickness: f32) -> (f32, f32) {
+        let sphere = leaf.sphere;
         let t = hit_parameter(p0, p1, sphere, thickness);
         let depth = if t > 1.0 { 0.0 } else { sphere.w + thickness - (p1 - sphere.xyz()).length() };
         (t, depth)
     }
 
     #[inline]
-    fn surface(sphere: Vec4, p0: Vec3, p1: Vec3, t: f32, thickness: f32) -> (Vec3, Vec3) {
-        let c = sphere.xyz();
-        let radius = sphere.w + thickness;
+    fn surface(leaf: SphereLeaf, p0: Vec3, p1: Vec3, t: f32, thickness: f32) -> (Vec3, Vec3) {
+        let c = leaf.sphere.xyz();
+        let radius = leaf.sphere.w + thickness;
         if t <= 0.0 {
             // Started inside: push p1 radially onto the surface.
             let out = p1 - c;
@@ -91,35 +113,51 @@ impl LeafKind for Spheres {
             (hit, n)
         }
     }
+
+    /// `p` plus the share `left` of the centre's motion still to come: where `p` is against
+    /// the sphere as it stands at the frame's end (exact for a translating centre).
+    #[inline]
+    fn relative(leaf: SphereLeaf, p: Vec3, left: f32) -> Vec3 {
+        p + Self::still_to_move(leaf, left)
+    }
+
+    #[inline]
+    fn still_to_move(leaf: SphereLeaf, left: f32) -> Vec3 {
+        leaf.sweep.xyz() * left
+    }
 }
 
-/// `bounds[i]` = the box of sphere `i` (input order).
+/// `bounds[i]` = the box of sphere `i` (input order) over the frame, sweeping from `previous`
+/// (`swept_sphere_aabb`).
 #[spirv(compute(threads(256)))]
 pub fn sphere_bounds(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] collider: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] spheres: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] bounds: &mut [Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] previous: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] bounds: &mut [Aabb],
 ) {
     let i = id.x;
     if i < collider.leaf_count {
-        bounds[i as usize] = sphere_aabb(spheres[i as usize]);
+        bounds[i as usize] = swept_sphere_aabb(previous[i as usize], spheres[i as usize]);
     }
 }
 
-/// Puts the spheres in the tree's leaf order: `sorted[i] = spheres[order[i]]`.
+/// Puts the spheres in the tree's leaf order as leaves: `sorted[i]` = sphere `order[i]`
+/// (`sphere_leaf_at`).
 #[spirv(compute(threads(256)))]
 pub fn gather_spheres(
     #[spirv(global_invocation_id)] id: UVec3,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] collider: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] spheres: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] order: &[u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] sorted: &mut [Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] previous: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] order: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] sorted: &mut [SphereLeaf],
 ) {
     let i = id.x;
     if i < collider.leaf_count {
-        gather_at(i, spheres, order, sorted);
+        sorted[i as usize] = sphere_leaf_at(order[i as usize] as usize, spheres, previous);
     }
 }
 
-crate::contact::contact_entry_points!(Spheres, Vec4);
+crate::contact::contact_entry_points!(Spheres, SphereLeaf);

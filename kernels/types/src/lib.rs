@@ -184,6 +184,7 @@ const _: () = assert!(core::mem::size_of::<FailsafePush>() == 16);
 const _: () = assert!(core::mem::size_of::<CarrierPush>() == 16);
 const _: () = assert!(core::mem::size_of::<ColliderPose>() == 80);
 const _: () = assert!(core::mem::size_of::<TileParams>() == 32);
+const _: () = assert!(core::mem::size_of::<SphereLeaf>() == 32);
 
 /// Marks a child index in `BvhNode` as a leaf (sorted sphere index) rather than an internal node.
 pub const LEAF_BIT: u32 = 0x8000_0000;
@@ -491,6 +492,20 @@ pub struct Triangle {
     /// xyz: the centroid's displacement over the frame (end minus start); w: how far any corner
     /// moved beyond that translation (zero for a static or rigidly moving collider, whose
     /// motion is its pose's).
+    pub sweep: Vec4,
+}
+
+/// A collider sphere at the end of the frame (xyz centre, w radius, in the collider's own
+/// frame) and how its centre moved over the frame when the collider deforms: a leaf of the
+/// sphere leaf kind, gathered into the tree's order.
+#[repr(C)]
+#[derive(Copy, Clone, Debug, Default, PartialEq)]
+#[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
+pub struct SphereLeaf {
+    pub sphere: Vec4,
+    /// xyz: the centre's displacement over the frame (end minus start; zero for a static or
+    /// rigidly moving collider, whose motion is its pose's); w: zero. The radius is the end's
+    /// over the whole frame.
     pub sweep: Vec4,
 }
 
