@@ -1700,31 +1700,77 @@ fn layers_on_a_deforming_body_keep_apart_alike_on_the_gpu_and_the_cpu() {
     assert_eq!((put_back, crossed), (0, 0), "particles put back, frames with an intersection (of 60)");
 }
 
-/// The fail-safe's sub-graph (`programs::self_failsafe`) on the GPU equals its CPU twin bit for
-/// bit when it puts particles back: the small pile's frames, each frame's start from the solver
-/// (anchors, tree and pair lists as a frame builds them) and its end shaken by up to 12 mm per
-/// particle, so some triangles leave their predicted regions and walk, others test their lists,
-/// and layers 5 mm apart cross. Positions, velocities and the health's counts are equal, particles
-/// go back to where the frame started (in the first round and in later ones; the whole cloth in
-/// a frame whose rounds cannot undo the shake by parts, fewer than half of them), and afterwards
-/// no pair is found crossing.
-#[test]
-fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
+/// What the fail-safe did over the shaken frames of the small pile (`failsafe_on_shaken_frames`).
+#[derive(Debug, Default)]
+struct ShakenTally {
+    /// Frames compared, particles put back, those put back after the first round, frames that
+    /// put the whole cloth back.
+    compared: u32,
+    put_back: usize,
+    later_rounds: u32,
+    whole: u32,
+    /// Particles carried with the collider (`Health::self_rollbacks_carried`), and of those
+    /// (in frames not put back whole) the ones that ended where the collider's motion took
+    /// where the frame started them.
+    carried: u32,
+    carried_with_it: u32,
+}
+
+/// A ground of spheres under the small pile, 5 cm apart, their tops at y = 0, that moved by
+/// `motion` over the frame (`previous`, `spheres`): a deforming sphere collider.
+fn sphere_ground(motion: Vec3) -> (Vec<Vec4>, Vec<Vec4>) {
+    let r = 0.05;
+    let mut spheres = Vec::new();
+    for i in 0..100 {
+        for k in 0..24 {
+            spheres.push(Vec4::new(-2.0 + 0.05 * i as f32, -r, -0.6 + 0.05 * k as f32, r));
+        }
+    }
+    let previous = spheres.iter().map(|s| *s - motion.extend(0.0)).collect();
+    (previous, spheres)
+}
+
+/// Runs the fail-safe's sub-graph (`programs::self_failsafe`) on the GPU and its CPU twin over
+/// the small pile's frames, each frame's start from the solver (anchors, tree and pair lists as a
+/// frame builds them) and its end shaken by up to 12 mm per particle, so some triangles leave
+/// their predicted regions and walk, others test their lists, and layers 5 mm apart cross; with
+/// `carrier`, a ground of spheres that moved by it over the frame lies under the pile
+/// (`sphere_ground`), which carries the particles near it. Asserts in every shaken frame that
+/// positions, velocities and the health's counts are equal, that the particles put back lie
+/// where the frame started them (or, carried, where the ground's motion took that), and that
+/// afterwards no pair is found crossing.
+fn failsafe_on_shaken_frames(carrier: Option<Vec3>) -> ShakenTally {
     use drape::cpu::CpuExecutor;
     use drape::gpu::Engine;
+    use drape::programs::contact::{ColliderBuffers, ColliderLeaves};
     use drape::programs::self_contact::SelfContactBuffers;
-    use drape_types::Health;
+    use drape::programs::spheres::SphereBvh;
+    use drape_types::{ColliderPose, Health, RigidPose};
 
     let ctx = context();
     let thickness = 0.005;
     let (cloth, owned, mut sim, graph) = stepped_small_pile(thickness, Vec4::new(0.0, -9.81, 0.0, 0.0));
-    let PileGraph { resources, own, s, params, substeps } = graph;
+    let PileGraph { mut resources, own, s, params, substeps } = graph;
     let (n, t) = (cloth.particle_count() as u32, cloth.triangles.len() as u32);
+    let motion = carrier.unwrap_or(Vec3::ZERO);
+    let (previous, spheres) = sphere_ground(motion);
+    let ground = carrier.map(|_| {
+        let leaves = SphereBvh::declare(&mut resources, "ground", spheres.len() as u32);
+        ColliderBuffers::declare(&mut resources, "ground", ColliderLeaves::Spheres(leaves))
+    });
+    let ground_params = drape::lbvh::collider_params(&spheres, thickness, 0.5).unwrap();
+    // Still by its pose; its spheres' own motion is what carries.
+    let sweep = Vec4::new(motion.length(), 0.0, 0.0, 0.0);
+    let ground_pose = ColliderPose { previous: RigidPose::IDENTITY, current: RigidPose::IDENTITY, sweep };
     let mut steps = vec![];
+    if let Some(g) = &ground {
+        steps.extend(g.leaves.kind().build_steps());
+    }
     s.frame_start_steps(&own, (substeps, substeps), (true, true), &mut steps);
     let start_steps = steps;
     let mut steps = vec![];
-    s.failsafe.frame_end_steps((&s, &own), (true, substeps), &[], &mut steps);
+    let colliders: Vec<&ColliderBuffers> = ground.iter().collect();
+    s.failsafe.frame_end_steps((&s, &own), (true, substeps), &colliders, &mut steps);
     let failsafe_steps = steps;
     let mut engine = Engine::new(&ctx).unwrap();
     engine.allocate(&resources).unwrap();
@@ -1733,7 +1779,7 @@ fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
     let mut cpu = CpuExecutor::new(&resources);
     let mut rng = common::Rng::new(0x5851_f42d_4c95_7f2du64);
     let mut shake = || rng.range(-0.012, 0.012);
-    let (mut put_back, mut compared, mut later_rounds, mut whole) = (0, 0, 0, 0);
+    let mut tally = ShakenTally::default();
     for frame in 1..=60 {
         let (before, v_before) = (sim.positions(CLOTH).unwrap(), sim.velocities(CLOTH).unwrap());
         sim.step().unwrap();
@@ -1752,6 +1798,14 @@ fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
             upload(bytemuck::cast_slice(&[SelfContactBuffers::params(t, thickness, 0.5)]), s.tree.collider.id());
             upload(bytemuck::cast_slice(&before), own.x.id());
             upload(bytemuck::cast_slice(&v_before), own.v.id());
+            if let Some(g) = &ground
+                && let ColliderLeaves::Spheres(b) = &g.leaves
+            {
+                upload(bytemuck::cast_slice(&[ground_params]), b.tree.collider.id());
+                upload(bytemuck::cast_slice(&spheres), b.spheres.id());
+                upload(bytemuck::cast_slice(&previous), b.previous.id());
+                upload(bytemuck::cast_slice(&[ground_pose]), g.pose.id());
+            }
         };
         inputs(&mut |bytes, id| cpu.upload_bytes(id, bytes).unwrap());
         inputs(&mut |bytes, id| engine.upload_bytes(id, bytes).unwrap());
@@ -1769,29 +1823,68 @@ fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
         assert_eq!(gv, cpu.read(own.v, n as usize).unwrap(), "{at}: velocities");
         let health: Health = engine.download(own.health, 1).unwrap()[0];
         assert_eq!(health, cpu.read(own.health, 1).unwrap()[0], "{at}: health");
+        // Put back where the frame started, carried by the ground to where its motion took
+        // that, or (a particle of pairs of both kinds: the mean of its carries) in between.
+        let d = motion.extend(0.0);
+        let share = |i: usize| if carrier.is_some() { (gx[i] - before[i]).dot(d) / d.length_squared() } else { 0.0 };
+        let home = |i: usize| match carrier {
+            None => gx[i] == before[i],
+            Some(_) => (gx[i] - (before[i] + d * share(i))).length() < 1e-5 && (-1e-3..=1.001).contains(&share(i)),
+        };
+        let moved: Vec<usize> = (0..n as usize).filter(|&i| gx[i] != x[i]).collect();
+        assert!(moved.iter().all(|&i| home(i)), "{at}: a particle put back elsewhere");
+        let carried = moved.iter().filter(|&&i| carrier.is_some() && (share(i) - 1.0).abs() < 1e-3).count();
         if health.self_rollback_all != 0 {
-            // The rounds could not undo the shake by parts: the whole cloth is at its start.
-            assert!((0..n as usize).all(|i| gx[i] == before[i] || x[i] == before[i]), "{at}: the whole cloth back");
-            whole += 1;
+            // The rounds could not undo the shake by parts: the whole cloth is back.
+            assert_eq!(moved.len(), n as usize, "{at}: the whole cloth back");
+            tally.whole += 1;
+        } else {
+            // A particle a later round puts back again counts again (a carried pair's mean of
+            // carries may still cross); in the world it goes where it went before, unmarked.
+            match carrier {
+                None => assert_eq!(moved.len() as u32, health.self_rollbacks, "{at}: the particles put back"),
+                Some(_) => assert!(moved.len() as u32 <= health.self_rollbacks, "{at}: the particles put back"),
+            }
+            assert!(carried as u32 <= health.self_rollbacks_carried, "{at}: {carried} carried all the way");
         }
-        let back = (0..n as usize).filter(|&i| gx[i] == before[i] && x[i] != before[i]).count();
-        assert_eq!(back as u32, health.self_rollbacks, "{at}: the particles put back are at the frame's start");
-        put_back += back;
-        compared += 1;
+        tally.carried_with_it += carried as u32;
+        tally.put_back += moved.len();
+        tally.carried += health.self_rollbacks_carried;
+        tally.compared += 1;
         let counters =
             cpu.read(s.failsafe.counters, 2 * drape_kernels::self_failsafe::ROLLBACK_ROUNDS as usize).unwrap();
-        later_rounds += counters[3];
+        tally.later_rounds += counters[3];
         // Checked again from the frame's start to where the fail-safe left it: nothing crosses.
         cpu.upload(own.health, &[Health::default()]).unwrap();
         cpu.run(&failsafe_steps).unwrap();
         let again: Health = cpu.read(own.health, 1).unwrap()[0];
         assert_eq!((again.self_rollbacks, again.self_rollback_all), (0, 0), "{at}: checked again");
     }
-    assert!(compared == 10 && put_back > 20, "the shaken frames must put particles back ({put_back})");
-    assert!(whole < compared / 2, "most shaken frames must be undone by parts ({whole} of {compared} whole)");
-    println!("{put_back} particles put back, {later_rounds} of them after the first round, {whole} frames whole");
-    assert!(later_rounds > 0, "the rounds after the first must put particles back too");
     assert_validation_clean(&ctx);
+    tally
+}
+
+/// The fail-safe's sub-graph on the GPU equals its CPU twin bit for bit when it puts particles
+/// back (`failsafe_on_shaken_frames`): in the first round and in later ones, the whole cloth in
+/// a frame whose rounds cannot undo the shake by parts (fewer than half of them).
+#[test]
+fn the_failsafe_puts_the_same_particles_back_on_the_gpu_and_the_cpu() {
+    let tally = failsafe_on_shaken_frames(None);
+    println!("{tally:?}");
+    assert!(tally.compared == 10 && tally.put_back > 20, "the shaken frames must put particles back ({tally:?})");
+    assert!(tally.whole < tally.compared / 2, "most shaken frames must be undone by parts ({tally:?})");
+    assert!(tally.later_rounds > 0, "the rounds after the first must put particles back too");
+}
+
+/// The same over a ground of spheres that moved 1 cm sideways over each frame by its spheres
+/// (a deforming sphere collider): the particles of the crossed pairs near it go back carried by
+/// the spheres' own motion, to where it took the frame's start, alike on the GPU and the CPU.
+#[test]
+fn the_failsafe_carries_pairs_with_a_deforming_sphere_collider_alike_on_the_gpu_and_the_cpu() {
+    let tally = failsafe_on_shaken_frames(Some(Vec3::new(0.01, 0.0, 0.0)));
+    println!("{tally:?}");
+    assert!(tally.compared == 10 && tally.carried_with_it > 20, "the ground must carry particles back ({tally:?})");
+    assert!(tally.whole < tally.compared / 2, "most shaken frames must be undone by parts ({tally:?})");
 }
 
 /// A closed cylinder hanging from `top` (its axis along -y): `radius`, `length`, `around`
