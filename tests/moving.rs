@@ -136,7 +136,7 @@ fn a_fast_plate_does_not_jump_through_the_cloth_between_frames() {
 /// the last frame left it over the frame's substeps, so the cloth is carried instead of the
 /// spheres jumping through it (with the spheres set at the frame's start instead, all 16
 /// particles over the plate ended below it from frame 2 on), and the GPU equals its CPU twin
-/// bit for bit through it.
+/// and the brute-force contact bit for bit through it.
 #[test]
 fn fast_deforming_spheres_do_not_jump_through_the_cloth_between_frames() {
     let ctx = context();
@@ -147,7 +147,9 @@ fn fast_deforming_spheres_do_not_jump_through_the_cloth_between_frames() {
     let collider = Collider::new(at(height), 0.005);
     let settings = SimSettings::default().with_timestamps(false);
     let model = Model::single(&trampoline(24, 0.0), std::slice::from_ref(&collider), settings).unwrap();
+    let brute = Model::single(&trampoline(24, 0.0), &[collider.clone().brute_force()], settings).unwrap();
     let (mut gpu, mut cpu) = (Solver::new(&ctx, &model).unwrap(), CpuSolver::new(&model).unwrap());
+    let mut gpu_brute = Solver::new(&ctx, &brute).unwrap();
     let per_frame = 4.0 / 60.0;
     assert!(per_frame > 2.0 * 0.03 + 0.005);
     let mut below = 0;
@@ -155,10 +157,13 @@ fn fast_deforming_spheres_do_not_jump_through_the_cloth_between_frames() {
         height += per_frame;
         gpu.set_collider_spheres(ColliderId::new(0), &at(height)).unwrap();
         cpu.set_collider_spheres(ColliderId::new(0), &at(height)).unwrap();
+        gpu_brute.set_collider_spheres(ColliderId::new(0), &at(height)).unwrap();
         gpu.step().unwrap();
         cpu.step().unwrap();
+        gpu_brute.step().unwrap();
         let positions = gpu.positions(CLOTH).unwrap();
         assert_eq!(positions, cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
+        assert_eq!(positions, gpu_brute.positions(CLOTH).unwrap(), "frame {f}: BVH != brute force");
         assert_eq!(gpu.velocities(CLOTH).unwrap(), cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU velocities");
         below = below.max(below_plate(&positions, Quat::IDENTITY, Vec3::new(0.0, height, 0.0), 0.08));
     }

@@ -614,7 +614,8 @@ impl Controls {
         self.colliders.iter().map(|c| c.end_of_last_frame).collect()
     }
 
-    /// New spheres of sphere collider `id` in its own frame (a deforming collider): same count.
+    /// New spheres of sphere collider `id` in its own frame (a deforming collider), where the
+    /// next frame ends them: same count.
     pub fn set_collider_spheres(&mut self, id: ColliderId, spheres: &[Vec4]) -> Result<()> {
         if let Some(s) = spheres.iter().find(|s| !s.is_finite() || s.w < 0.0) {
             return Err(invalid("collider spheres", format!("centres must be finite and radii >= 0, got {s}")));
@@ -1023,7 +1024,10 @@ macro_rules! runtime_setters {
             }
 
             /// Deforms sphere collider `collider`: new spheres in its own frame, as many as it was
-            /// built with. The next frame writes them and refits the LBVH on the GPU (same tree).
+            /// built with, where the next frame ends them. The next frame writes them and refits
+            /// the LBVH on the GPU (same tree); over its substeps each centre sweeps there from
+            /// where the last frame left it (contact follows it, as it does a deforming mesh's
+            /// vertices), while each radius takes its new value from the frame's start.
             pub fn set_collider_spheres(
                 &mut self,
                 collider: $crate::ColliderId,
