@@ -173,6 +173,45 @@ fn fast_deforming_spheres_do_not_jump_through_the_cloth_between_frames() {
     assert_validation_clean(&ctx);
 }
 
+/// A sphere swelling under the pinned cloth (`set_collider_spheres`, its radius 10 -> 16 cm in
+/// one frame, 3.6 m/s at its surface) grows over the frame's substeps and pushes the cloth out
+/// with its surface's speed, as a deforming mesh's surface does: the particle over its top
+/// leaves the frame rising at about that speed, none ends a frame inside it, and the GPU equals
+/// its CPU twin bit for bit.
+#[test]
+fn a_swelling_sphere_pushes_the_cloth_out_with_its_surface() {
+    let ctx = context();
+    let (n, growth) = (13, 0.06);
+    let sphere = |r: f32| vec![Vec4::new(0.0, 0.0, 0.0, r)];
+    let collider = Collider::new(sphere(0.1), 0.005);
+    let settings = SimSettings::default().with_timestamps(false);
+    let model = Model::single(&trampoline(n, 0.11), std::slice::from_ref(&collider), settings).unwrap();
+    let (mut gpu, mut cpu) = (Solver::new(&ctx, &model).unwrap(), CpuSolver::new(&model).unwrap());
+    let top = (n * n / 2) as usize;
+    let (mut radius, mut worst, mut rising) = (0.1, f32::INFINITY, 0.0);
+    for f in 1..=8 {
+        if f == 5 {
+            radius += growth;
+            gpu.set_collider_spheres(ColliderId::new(0), &sphere(radius)).unwrap();
+            cpu.set_collider_spheres(ColliderId::new(0), &sphere(radius)).unwrap();
+        }
+        gpu.step().unwrap();
+        cpu.step().unwrap();
+        let (x, v) = (gpu.positions(CLOTH).unwrap(), gpu.velocities(CLOTH).unwrap());
+        assert_eq!(x, cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
+        assert_eq!(v, cpu.velocities(CLOTH).unwrap(), "frame {f}: GPU != CPU velocities");
+        worst = worst.min(clearance(&x, &sphere(radius), Quat::IDENTITY, Vec3::ZERO));
+        if f == 5 {
+            rising = v[top].y;
+        }
+    }
+    let speed = growth * 60.0;
+    println!("the top particle rose at {rising:.3} m/s after the growth frame (surface {speed:.1} m/s)");
+    assert!(worst > -1e-4, "a particle ended {:.2} mm inside the swelling sphere", -worst * 1e3);
+    assert!(rising > 0.5 * speed, "the top particle rose at {rising} m/s, its surface at {speed} m/s");
+    assert_validation_clean(&ctx);
+}
+
 /// With a moving collider the GPU frame equals its CPU twin bit for bit, and the BVH contact
 /// equals the brute-force contact.
 #[test]

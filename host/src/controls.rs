@@ -1025,9 +1025,9 @@ macro_rules! runtime_setters {
 
             /// Deforms sphere collider `collider`: new spheres in its own frame, as many as it was
             /// built with, where the next frame ends them. The next frame writes them and refits
-            /// the LBVH on the GPU (same tree); over its substeps each centre sweeps there from
-            /// where the last frame left it (contact follows it, as it does a deforming mesh's
-            /// vertices), while each radius takes its new value from the frame's start.
+            /// the LBVH on the GPU (same tree); over its substeps each sphere sweeps there from
+            /// where the last frame left it, centre and radius (contact follows it and takes its
+            /// surface's motion, as it does a deforming mesh's).
             pub fn set_collider_spheres(
                 &mut self,
                 collider: $crate::ColliderId,

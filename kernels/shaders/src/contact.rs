@@ -73,6 +73,13 @@ pub trait LeafKind {
     fn still_to_move(_leaf: Self::Leaf, _left: f32) -> Vec3 {
         Vec3::ZERO
     }
+    /// `leaf` with the size it has when `left` of the frame (a fraction) is to come, for a kind
+    /// whose leaves grow or shrink over the frame (a deforming collider's spheres); where it
+    /// stands is still the frame's end (`relative`). A motion's tests take the leaf at the
+    /// motion's end. Itself for leaves that keep their size.
+    fn at(leaf: Self::Leaf, _left: f32) -> Self::Leaf {
+        leaf
+    }
     /// How far the surface of leaf `leaf` (of `leaves`, the first `count` of which are the
     /// tree's leaves) moves over the frame at point `p` (where the frame ends): a deforming
     /// collider's own motion there, in its frame (`Contact::leaf_motion`). The leaf's mean
@@ -121,10 +128,11 @@ pub fn consider(best: Candidate, t: f32, key: f32, leaf: u32) -> Candidate {
 /// tests against the leaves as they stand at the frame's end.
 pub type Left = (f32, f32);
 
-/// `K::hit` of the motion `p0 -> p1` relative to `leaf` (see `LeafKind::relative`).
+/// `K::hit` of the motion `p0 -> p1` relative to `leaf` (see `LeafKind::relative`), sized as at
+/// the motion's end (`LeafKind::at`).
 #[inline]
 pub fn hit_relative<K: LeafKind>(leaf: K::Leaf, p0: Vec3, p1: Vec3, thickness: f32, left: Left) -> (f32, f32) {
-    K::hit(leaf, K::relative(leaf, p0, left.0), K::relative(leaf, p1, left.1), thickness)
+    K::hit(K::at(leaf, left.1), K::relative(leaf, p0, left.0), K::relative(leaf, p1, left.1), thickness)
 }
 
 /// `K::blocks` of the path `a -> b` relative to `leaf`.
@@ -302,7 +310,7 @@ fn surface_of<K: LeafKind>(
 ) -> (Vec3, Vec3, Vec3, Vec3) {
     let leaf = leaves[best.leaf as usize];
     let (q0, q1) = (K::relative(leaf, p0, left.0), K::relative(leaf, p1, left.1));
-    let (position, normal) = K::surface(leaf, q0, q1, best.t, thickness);
+    let (position, normal) = K::surface(K::at(leaf, left.1), q0, q1, best.t, thickness);
     // Back by the leaf's remaining motion itself, not `q1 - p1`: Mesa's NIR, taking float math
     // as reassociable, folds that to the motion, which the CPU's rounding does not (a deforming
     // collider's contacts parted the GPU from its CPU twin by an f32 step). The position

@@ -2,10 +2,10 @@
 //! the LBVH build, the spheres gathered into the tree's leaf order, and the contact detect pass
 //! over them (the generic traversal of `contact` with the sphere's hit test).
 //!
-//! A deforming collider's spheres (new ones each frame) sweep: each centre moves linearly from
-//! where the last frame left it to the new one over the frame's substeps, as a deforming mesh's
-//! vertices do, so a sphere moving faster than its size per frame carries the cloth instead of
-//! jumping through it. A radius takes its new value from the frame's start.
+//! A deforming collider's spheres (new ones each frame) sweep: each centre and radius moves
+//! linearly from where the last frame left it to the new one over the frame's substeps, as a
+//! deforming mesh's vertices do, so a sphere moving faster than its size per frame carries the
+//! cloth instead of jumping through it, and one that swells pushes it out gradually.
 
 use crate::contact::{LeafKind, point_in_aabb};
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
@@ -21,20 +21,20 @@ pub fn sphere_aabb(s: Vec4) -> Aabb {
     Aabb { min: (s.xyz() - r).extend(0.0), max: (s.xyz() + r).extend(0.0) }
 }
 
-/// Bounds of sphere `current` over a frame whose centre moved there from `previous`'s (the
-/// radius `current`'s): every place the sphere passes through as it sweeps.
+/// Bounds of sphere `current` over a frame in which it swept there from `previous` (centre and
+/// radius linearly): the balls between lie in the two ends' convex hull, so in their boxes'.
 #[inline]
 pub fn swept_sphere_aabb(previous: Vec4, current: Vec4) -> Aabb {
-    let (start, end) = (sphere_aabb(previous.xyz().extend(current.w)), sphere_aabb(current));
+    let (start, end) = (sphere_aabb(previous), sphere_aabb(current));
     Aabb { min: start.min.min(end.min), max: start.max.max(end.max) }
 }
 
-/// Sphere `i` (input order) as a leaf: where the frame ends it, and how its centre moved from
+/// Sphere `i` (input order) as a leaf: where the frame ends it, and how it moved and grew from
 /// `previous` (equal spheres give a zero sweep).
 #[inline]
 pub fn sphere_leaf_at(i: usize, spheres: &[Vec4], previous: &[Vec4]) -> SphereLeaf {
     let sphere = spheres[i];
-    SphereLeaf { sphere, sweep: (sphere.xyz() - previous[i].xyz()).extend(0.0) }
+    SphereLeaf { sphere, sweep: sphere - previous[i] }
 }
 
 /// If p1 lies within `sphere` inflated by `thickness`, the parameter in [0, 1] of the first
@@ -124,6 +124,23 @@ impl LeafKind for Spheres {
     #[inline]
     fn still_to_move(leaf: SphereLeaf, left: f32) -> Vec3 {
         leaf.sweep.xyz() * left
+    }
+
+    /// The motion over the frame of the surface point under `p` (where the frame ends): the
+    /// centre's, and the radius's growth along the way out through `p`.
+    #[inline]
+    fn motion_at(leaves: &[SphereLeaf], _count: u32, leaf: u32, p: Vec3) -> Vec3 {
+        let leaf = leaves[leaf as usize];
+        let out = p - leaf.sphere.xyz();
+        let len = out.length();
+        let n = if len > 1e-12 { out * (1.0 / len) } else { Vec3::ZERO };
+        leaf.sweep.xyz() + n * leaf.sweep.w
+    }
+
+    /// The radius when `left` of the frame is to come: the end's less the growth still to come.
+    #[inline]
+    fn at(leaf: SphereLeaf, left: f32) -> SphereLeaf {
+        SphereLeaf { sphere: leaf.sphere.xyz().extend(leaf.sphere.w - leaf.sweep.w * left), sweep: leaf.sweep }
     }
 }
 

@@ -496,16 +496,16 @@ pub struct Triangle {
 }
 
 /// A collider sphere at the end of the frame (xyz centre, w radius, in the collider's own
-/// frame) and how its centre moved over the frame when the collider deforms: a leaf of the
+/// frame) and how it moved and grew over the frame when the collider deforms: a leaf of the
 /// sphere leaf kind, gathered into the tree's order.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 #[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
 pub struct SphereLeaf {
     pub sphere: Vec4,
-    /// xyz: the centre's displacement over the frame (end minus start; zero for a static or
-    /// rigidly moving collider, whose motion is its pose's); w: zero. The radius is the end's
-    /// over the whole frame.
+    /// The sphere at the frame's end less the sphere at its start: xyz the centre's
+    /// displacement, w the radius's growth (zero for a static or rigidly moving collider, whose
+    /// motion is its pose's).
     pub sweep: Vec4,
 }
 
