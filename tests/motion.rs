@@ -102,6 +102,41 @@ fn only_a_collider_moving_near_the_cloth_wakes_it() {
     assert_validation_clean(&ctx);
 }
 
+/// A ball teleported from far away into the sleeping cloth (`teleport_collider`, or its sphere
+/// moved by `teleport_collider_spheres`) wakes it, and the cloth is pushed out of the ball.
+#[test]
+fn a_collider_teleported_into_the_sleeping_cloth_wakes_it() {
+    let ctx = context();
+    for by_spheres in [false, true] {
+        let (cloth, ground) = cloth_over_ground();
+        let far = glam::Vec4::new(10.0, 0.5, 0.0, 0.2);
+        let mut builder = Model::builder();
+        builder.add_cloth(cloth);
+        builder.add_collider(ground);
+        let ball = builder.add_collider(Collider::new(vec![far], 0.005));
+        let mut sim = Solver::new(&ctx, &builder.settings(settings()).build().unwrap()).unwrap();
+        until_asleep(&mut sim, 300);
+        // Its top 10 cm over the ground, under the cloth's middle.
+        let under = glam::Vec4::new(0.0, -0.1, 0.0, 0.2);
+        if by_spheres {
+            sim.teleport_collider_spheres(ball, &[under]).unwrap();
+        } else {
+            sim.teleport_collider(ball, Quat::IDENTITY, (under - far).truncate()).unwrap();
+        }
+        let woke = sim.step_report().unwrap().cloths_asleep == 0;
+        for _ in 0..3 {
+            sim.step().unwrap();
+        }
+        let x = sim.positions(CLOTH).unwrap();
+        let inside = x.iter().filter(|p| p.truncate().distance(under.truncate()) < under.w - 1e-4).count();
+        let top = x.iter().map(|p| p.y).fold(f32::MIN, f32::max);
+        assert!(woke, "by spheres {by_spheres}: the teleported ball must wake the cloth");
+        assert_eq!(inside, 0, "by spheres {by_spheres}: particles left inside the ball");
+        assert!(top > 0.1, "by spheres {by_spheres}: the ball must lift the cloth (top {top} m)");
+    }
+    assert_validation_clean(&ctx);
+}
+
 /// A force change wakes a sleeping cloth; without sleeping it never sleeps; the CPU twin
 /// sleeps at the same frame as the GPU.
 #[test]

@@ -212,6 +212,80 @@ fn a_swelling_sphere_pushes_the_cloth_out_with_its_surface() {
     assert_validation_clean(&ctx);
 }
 
+/// How a collider goes from below the pinned cloth to above it in one frame (`teleport`):
+/// moved there, it sweeps up through the cloth and carries it; teleported, it jumps past it.
+#[derive(Copy, Clone, Debug, PartialEq)]
+enum Passage {
+    Moved,
+    Teleported,
+}
+
+/// A plate of spheres 20 cm under a pinned 12 x 12 cloth goes 40 cm up in frame 11, past the
+/// cloth, by its pose (`by_spheres` false) or by its spheres, `passage` saying how; returns the
+/// cloth's highest particle three frames later and whether the plate's tree stood still in the
+/// frame it went (its leaves' boxes those of its spheres there). The GPU equals its CPU twin
+/// in every frame.
+fn plate_passing_the_cloth(by_spheres: bool, passage: Passage) -> (f32, bool) {
+    let ctx = context();
+    let plate_at =
+        |y: f32| -> Vec<Vec4> { plate(5, 0.05, 0.05).iter().map(|s| *s + Vec4::new(0.0, y, 0.0, 0.0)).collect() };
+    let collider = Collider::new(plate_at(-0.2), 0.005);
+    let settings = SimSettings::default().with_timestamps(false);
+    let model = Model::single(&trampoline(12, 0.0), std::slice::from_ref(&collider), settings).unwrap();
+    let (mut gpu, mut cpu) = (Solver::new(&ctx, &model).unwrap(), CpuSolver::new(&model).unwrap());
+    let plate = ColliderId::new(0);
+    let mut still = false;
+    for f in 1..=14 {
+        if f == 11 {
+            let (spheres, up) = (plate_at(0.2), Vec3::new(0.0, 0.4, 0.0));
+            match (by_spheres, passage) {
+                (false, Passage::Moved) => {
+                    gpu.set_collider_pose(plate, Quat::IDENTITY, up).unwrap();
+                    cpu.set_collider_pose(plate, Quat::IDENTITY, up).unwrap();
+                }
+                (false, Passage::Teleported) => {
+                    gpu.teleport_collider(plate, Quat::IDENTITY, up).unwrap();
+                    cpu.teleport_collider(plate, Quat::IDENTITY, up).unwrap();
+                }
+                (true, Passage::Moved) => {
+                    gpu.set_collider_spheres(plate, &spheres).unwrap();
+                    cpu.set_collider_spheres(plate, &spheres).unwrap();
+                }
+                (true, Passage::Teleported) => {
+                    gpu.teleport_collider_spheres(plate, &spheres).unwrap();
+                    cpu.teleport_collider_spheres(plate, &spheres).unwrap();
+                }
+            }
+        }
+        gpu.step().unwrap();
+        cpu.step().unwrap();
+        assert_eq!(gpu.positions(CLOTH).unwrap(), cpu.positions(CLOTH).unwrap(), "frame {f}: GPU != CPU");
+        if f == 11 {
+            let standing = if by_spheres { plate_at(0.2) } else { plate_at(-0.2) };
+            still = gpu.collider_bvh(plate).unwrap().validate(&standing).is_ok();
+        }
+    }
+    assert_validation_clean(&ctx);
+    let top = gpu.positions(CLOTH).unwrap().iter().map(|p| p.y).fold(f32::MIN, f32::max);
+    (top, still)
+}
+
+/// A collider moved past the cloth in one frame sweeps through it and carries it up; teleported
+/// (`teleport_collider`, `teleport_collider_spheres`: a respawn, a cut), it jumps past without
+/// touching it, its leaves standing still in that frame.
+#[test]
+fn a_teleported_collider_jumps_past_the_cloth_that_a_moved_one_carries() {
+    for by_spheres in [false, true] {
+        let (carried, swept) = plate_passing_the_cloth(by_spheres, Passage::Moved);
+        let (left, still) = plate_passing_the_cloth(by_spheres, Passage::Teleported);
+        println!("by spheres {by_spheres}: highest particle {carried:.3} m moved, {left:.3} m teleported");
+        assert!(carried > 0.15, "moved by spheres {by_spheres}, the plate must carry the cloth up ({carried} m)");
+        assert!(left < 0.01, "teleported by spheres {by_spheres}, the plate must leave the cloth ({left} m)");
+        assert!(still, "teleported by spheres {by_spheres}, the plate's leaves must stand still");
+        assert_eq!(swept, !by_spheres, "moved by its spheres, the plate's leaves sweep in that frame");
+    }
+}
+
 /// With a moving collider the GPU frame equals its CPU twin bit for bit, and the BVH contact
 /// equals the brute-force contact.
 #[test]

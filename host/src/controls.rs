@@ -84,6 +84,9 @@ struct ColliderControl {
     /// New spheres or vertices (collider frame) for the next frame: written, then the LBVH is
     /// refit.
     deformed: Option<Vec<Vec4>>,
+    /// `deformed` is a teleport: its leaves stand there from the frame's start instead of
+    /// sweeping there from `current`.
+    deformation_jumps: bool,
     /// The spheres or vertices the GPU holds (what a frame that deforms sweeps from).
     current: Vec<Vec4>,
     /// Whether the last frame's leaves swept (so the next one, if it does not deform, resets
@@ -316,6 +319,7 @@ impl Controls {
                 target: pose,
                 written: ColliderPose { previous: pose, current: pose, sweep: glam::Vec4::ZERO },
                 deformed: None,
+                deformation_jumps: false,
                 frame_speed: 0.0,
             })
             .collect();
@@ -599,13 +603,22 @@ impl Controls {
         Ok(())
     }
 
-    /// Puts collider `id` at `pose` without sweeping there: the next frame starts and ends at it.
-    pub fn teleport_collider(&mut self, id: ColliderId, pose: RigidPose) -> Result<()> {
+    /// Puts collider `id` at `pose` without sweeping there: the next frame starts and ends at it
+    /// (a restored state's place; the cloths' sleep is the state's).
+    pub fn place_collider(&mut self, id: ColliderId, pose: RigidPose) -> Result<()> {
         check_pose(&pose)?;
         let c = self.collider(id)?;
         let pose =
             RigidPose { rotation: pose.rotation.normalize(), translation: pose.translation.truncate().extend(0.0) };
         (c.end_of_last_frame, c.target) = (pose, pose);
+        Ok(())
+    }
+
+    /// `place_collider`, waking every cloth: the collider may now lie where a sleeping cloth
+    /// rests.
+    pub fn teleport_collider(&mut self, id: ColliderId, pose: RigidPose) -> Result<()> {
+        self.place_collider(id, pose)?;
+        self.wake_all();
         Ok(())
     }
 
@@ -632,6 +645,26 @@ impl Controls {
         self.deform(id, "vertices", vertices.iter().map(|v| v.extend(0.0)).collect())
     }
 
+    /// New spheres of sphere collider `id`, standing there from the next frame's start (a
+    /// teleport: no sweep), waking every cloth.
+    pub fn teleport_collider_spheres(&mut self, id: ColliderId, spheres: &[Vec4]) -> Result<()> {
+        self.set_collider_spheres(id, spheres)?;
+        self.jump_deformation(id)
+    }
+
+    /// New vertex positions of mesh collider `id`, standing there from the next frame's start
+    /// (a teleport: no sweep), waking every cloth.
+    pub fn teleport_collider_vertices(&mut self, id: ColliderId, vertices: &[Vec3]) -> Result<()> {
+        self.set_collider_vertices(id, vertices)?;
+        self.jump_deformation(id)
+    }
+
+    fn jump_deformation(&mut self, id: ColliderId) -> Result<()> {
+        self.collider(id)?.deformation_jumps = true;
+        self.wake_all();
+        Ok(())
+    }
+
     fn deform(&mut self, id: ColliderId, what: &'static str, data: Vec<Vec4>) -> Result<()> {
         let c = self.collider(id)?;
         let (kind, count) = c.deformable;
@@ -641,7 +674,7 @@ impl Controls {
         if data.len() != count as usize {
             return Err(invalid("collider", format!("expected {count} {what}, got {}", data.len())));
         }
-        c.deformed = Some(data);
+        (c.deformed, c.deformation_jumps) = (Some(data), false);
         Ok(())
     }
 
@@ -718,10 +751,12 @@ impl Controls {
             c.end_of_last_frame = c.target;
             let leaves = buffers.leaves.kind();
             if let Some(data) = c.deformed.take() {
-                // Leaves that sweep go from what the GPU holds to the new input over the frame.
+                // Leaves that sweep go from what the GPU holds to the new input over the frame;
+                // teleported ones stand at the new input from its start.
+                let jumps = std::mem::take(&mut c.deformation_jumps);
                 if let Some(from) = leaves.swept_from() {
-                    steps.push(Step::write(from, 0, &c.current));
-                    c.sweeping = true;
+                    steps.push(Step::write(from, 0, if jumps { &data } else { &c.current }));
+                    c.sweeping = !jumps;
                 }
                 steps.push(Step::write(leaves.deformable(), 0, &data));
                 steps.extend(leaves.refit_steps());
@@ -882,6 +917,9 @@ impl ColliderControl {
     /// How far its leaves move over the coming frame in its own frame at most (the deformed
     /// input against what the GPU holds; 0 when it is not deformed).
     fn leaves_motion(&self) -> f32 {
+        if self.deformation_jumps {
+            return 0.0;
+        }
         self.deformed.as_ref().map_or(0.0, |next| {
             next.iter()
                 .zip(&self.current)
@@ -1021,6 +1059,42 @@ macro_rules! runtime_setters {
                 translation: glam::Vec3,
             ) -> $crate::Result<()> {
                 self.controls.set_collider_pose(collider, $crate::rigid_pose(rotation, translation))
+            }
+
+            /// Puts `collider` at `rotation`, `translation` without sweeping there (a respawn, a
+            /// cut in an animation): the next frame starts and ends with it there, and every
+            /// cloth wakes. Sphere contact pushes out a particle it now holds; triangle contact
+            /// keeps each particle on the side it finds it, so teleport a mesh clear of the
+            /// cloth.
+            pub fn teleport_collider(
+                &mut self,
+                collider: $crate::ColliderId,
+                rotation: glam::Quat,
+                translation: glam::Vec3,
+            ) -> $crate::Result<()> {
+                self.controls.teleport_collider(collider, $crate::rigid_pose(rotation, translation))
+            }
+
+            /// `set_collider_spheres` without the sweep: the spheres stand at their new place
+            /// from the next frame's start (as `teleport_collider` puts a pose), and every cloth
+            /// wakes.
+            pub fn teleport_collider_spheres(
+                &mut self,
+                collider: $crate::ColliderId,
+                spheres: &[glam::Vec4],
+            ) -> $crate::Result<()> {
+                self.controls.teleport_collider_spheres(collider, spheres)
+            }
+
+            /// `set_collider_vertices` without the sweep: the vertices stand at their new place
+            /// from the next frame's start (as `teleport_collider` puts a pose), and every cloth
+            /// wakes.
+            pub fn teleport_collider_vertices(
+                &mut self,
+                collider: $crate::ColliderId,
+                vertices: &[glam::Vec3],
+            ) -> $crate::Result<()> {
+                self.controls.teleport_collider_vertices(collider, vertices)
             }
 
             /// Deforms sphere collider `collider`: new spheres in its own frame, as many as it was

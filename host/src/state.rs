@@ -113,7 +113,7 @@ impl State {
             controls.restore_motion(i, cloth.motion.clone(), tiles_restored);
         }
         for (i, pose) in self.collider_poses.iter().enumerate() {
-            controls.teleport_collider(ColliderId(i), *pose)?;
+            controls.place_collider(ColliderId(i), *pose)?;
         }
         Ok(())
     }

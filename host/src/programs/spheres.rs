@@ -18,7 +18,7 @@ pub struct SphereBvh {
     /// Spheres in input order (xyz centre, w radius) at the frame's end: what the host writes.
     pub spheres: Handle<Vec4>,
     /// The same at the frame's start (equal to `spheres` unless the collider deforms): the
-    /// centres sweep from these to `spheres` over the frame.
+    /// spheres sweep from these to `spheres` over the frame (centres and radii).
     pub previous: Handle<Vec4>,
     /// Spheres in the tree's leaf order, with their sweeps: what the traversal reads.
     pub sorted: Handle<SphereLeaf>,
