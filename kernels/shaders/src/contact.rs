@@ -61,17 +61,25 @@ pub trait LeafKind {
     /// for some `p0`, `p1` in `region`, so a candidate list misses no leaf a motion inside its
     /// query box can touch.
     fn may_touch_region(b: &Aabb, region: &Aabb, thickness: f32) -> bool;
+    /// How far `leaf` moves over the frame as a whole (a deforming collider's leaf: what its
+    /// sweep translates it by; nothing for leaves that do not move).
+    #[inline]
+    fn translation(_leaf: Self::Leaf) -> Vec3 {
+        Vec3::ZERO
+    }
     /// Where `p`, a point at the time when `left` of the frame (a fraction) is still to come,
     /// is relative to `leaf` as it stands at the frame's end, for a leaf that moves over the
-    /// frame (a deforming collider's): `p` plus the leaf's remaining motion. The tests then see
-    /// the motion relative to the leaf. Identity for leaves that do not move.
-    fn relative(_leaf: Self::Leaf, p: Vec3, _left: f32) -> Vec3 {
-        p
+    /// frame: `p` plus the leaf's remaining motion. The tests then see the motion relative to
+    /// the leaf.
+    #[inline]
+    fn relative(leaf: Self::Leaf, p: Vec3, left: f32) -> Vec3 {
+        p + Self::still_to_move(leaf, left)
     }
     /// How far `leaf` still moves when `left` of the frame (a fraction) is to come (what
-    /// `relative` adds; nothing for leaves that do not move).
-    fn still_to_move(_leaf: Self::Leaf, _left: f32) -> Vec3 {
-        Vec3::ZERO
+    /// `relative` adds): that share of its `translation`.
+    #[inline]
+    fn still_to_move(leaf: Self::Leaf, left: f32) -> Vec3 {
+        Self::translation(leaf) * left
     }
     /// `leaf` with the size it has when `left` of the frame (a fraction) is to come, for a kind
     /// whose leaves grow or shrink over the frame (a deforming collider's spheres); where it

@@ -114,16 +114,10 @@ impl LeafKind for Spheres {
         }
     }
 
-    /// `p` plus the share `left` of the centre's motion still to come: where `p` is against
-    /// the sphere as it stands at the frame's end (exact for a translating centre).
+    /// The centre's motion over the frame (`relative` is then exact for the centre).
     #[inline]
-    fn relative(leaf: SphereLeaf, p: Vec3, left: f32) -> Vec3 {
-        p + Self::still_to_move(leaf, left)
-    }
-
-    #[inline]
-    fn still_to_move(leaf: SphereLeaf, left: f32) -> Vec3 {
-        leaf.sweep.xyz() * left
+    fn translation(leaf: SphereLeaf) -> Vec3 {
+        leaf.sweep.xyz()
     }
 
     /// The motion over the frame of the surface point under `p` (where the frame ends): the

@@ -487,17 +487,11 @@ impl LeafKind for Triangles {
         (centre - closest_on_triangle(centre, &t)).length() <= reach + margin
     }
 
-    /// The leaf stands at the frame's end; with `left` of the frame to come, it still has that
-    /// share of its sweep's translation to move, so a point then is where `p` plus that share is
-    /// now.
+    /// The centroid's motion over the frame: its corners move within the sweep's residual of
+    /// it (`swept_triangle_leaf`), which `hit` grows the radius by.
     #[inline]
-    fn relative(t: Triangle, p: Vec3, left: f32) -> Vec3 {
-        p + Self::still_to_move(t, left)
-    }
-
-    #[inline]
-    fn still_to_move(t: Triangle, left: f32) -> Vec3 {
-        t.sweep.xyz() * left
+    fn translation(t: Triangle) -> Vec3 {
+        t.sweep.xyz()
     }
 
     #[inline]
