@@ -693,27 +693,35 @@ fn a_spike_does_not_pierce_a_cloth_of_one_triangle() {
 /// spike at its middle, whose tip meets the middle of a cloth cell, where no particle is.
 /// Particle contact alone lets the tip through the cell (the spike's edges cross the cloth);
 /// with the collider's vertices tested against the cloth's faces (on with self-collision) the
-/// cloth tents over the tip, and no spike edge crosses it in any frame.
+/// cloth tents over the tip, and no spike edge crosses it in any frame, whichever side the
+/// pass walks from.
 #[test]
 fn a_spike_does_not_pierce_a_cloth_cell() {
+    use drape::FeatureWalks;
     let ctx = context();
     let (mesh, top) = platform_with_spike();
     // Cells of 0.8 / 15 m; shifted by half a cell so the tip is under a cell's middle.
     let cell = 0.8 / 15.0;
-    let run = |self_collision: Option<f32>| {
+    let run = |self_collision: Option<f32>, walks: FeatureWalks| {
         let cloth = drape::ClothBuilder::new(16, 16)
             .size(0.8)
             .transform(glam::Mat4::from_translation(Vec3::new(0.5 * cell, top + 0.03, 0.5 * cell)))
             .self_collision(self_collision)
             .build()
             .unwrap();
-        crossings_over_90_frames(&ctx, &mesh, &cloth, SimSettings::default())
+        crossings_over_90_frames(&ctx, &mesh, &cloth, SimSettings::default().with_feature_walks(walks))
     };
-    let (pierced, flat) = run(None);
-    let (tented, tent) = run(Some(0.005));
-    println!("without face contact: {pierced} crossings, cloth up to {flat} m; with: {tented}, up to {tent} m");
+    let (pierced, flat) = run(None, FeatureWalks::Automatic);
+    let (tented, tent) = run(Some(0.005), FeatureWalks::Automatic);
+    // The same pass walked from the cloth's side, each cloth triangle walking the platform's tree.
+    let (tented_from_cloth, _) = run(Some(0.005), FeatureWalks::FromCloth);
+    println!(
+        "without face contact: {pierced} crossings, cloth up to {flat} m; with: {tented}, up to {tent} m; \
+         walked from the cloth's side: {tented_from_cloth}"
+    );
     assert!(pierced > 0, "the tip must pierce the cell without face contact (the scene must test it)");
     assert_eq!(tented, 0, "the tip pierced the cloth with the collider's vertices against its faces");
+    assert_eq!(tented_from_cloth, 0, "the tip pierced the cloth with its features walked from the cloth's side");
     assert!(tent > top, "the cloth must tent over the tip (highest particle {tent} m)");
     assert_validation_clean(&ctx);
 }
@@ -960,6 +968,47 @@ fn a_spinning_star_s_knife_edges_do_not_cut_the_cloth() {
     assert!(most > bound, "the star's motion must raise the substeps above the bound's {bound}");
     assert_eq!(crossed, 0, "the spinning star cut the cloth in {crossed} of 40 frames (substeps up to {most})");
     assert_eq!(put_back, 0, "the fail-safe found or put back {put_back} (pairs, particles) against a moving collider");
+    assert_validation_clean(&ctx);
+}
+
+/// The collider features' pass walked from the cloth's side (each cloth triangle walks the
+/// star's tree: `FeatureWalks::FromCloth`) tests the pairs the collider's side tests, each by
+/// the same function, so the frames are the same bit for bit, under a star that spins about its
+/// own axis (its pose both turns and moves over every pass: the cloth's walk places the star's
+/// boxes by both ends' poses) and lands the cloth on its knife edges; the CPU twin walking from
+/// the cloth's side equals the GPU. (The cloth's walk placing the star's boxes by the start
+/// pose alone parts the two sides' frames.)
+#[test]
+fn collider_features_walked_from_the_cloth_s_side_equal_the_collider_s_side() {
+    use drape::{ColliderId, FeatureWalks};
+    use glam::Quat;
+    let ctx = context();
+    let (scene, centre, cloth) = star_under_a_cloth();
+    let collider = scene.triangle_collider();
+    let model = |walks: FeatureWalks| {
+        let settings = SimSettings::default().with_timestamps(false).with_feature_walks(walks);
+        Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap()
+    };
+    let mut from_collider = Solver::new(&ctx, &model(FeatureWalks::FromCollider)).unwrap();
+    let mut from_cloth = Solver::new(&ctx, &model(FeatureWalks::FromCloth)).unwrap();
+    let mut cpu = CpuSolver::new(&model(FeatureWalks::FromCloth)).unwrap();
+    for frame in 1..=40 {
+        let turn = Quat::from_rotation_y(8.0 * frame as f32 / 60.0);
+        let translation = centre - turn * centre;
+        from_collider.set_collider_pose(ColliderId::new(0), turn, translation).unwrap();
+        from_cloth.set_collider_pose(ColliderId::new(0), turn, translation).unwrap();
+        cpu.set_collider_pose(ColliderId::new(0), turn, translation).unwrap();
+        from_collider.step().unwrap();
+        from_cloth.step().unwrap();
+        cpu.step().unwrap();
+        let x = from_cloth.positions(CLOTH).unwrap();
+        assert!(x == from_collider.positions(CLOTH).unwrap(), "frame {frame}: the two sides' positions differ");
+        assert!(
+            from_cloth.velocities(CLOTH).unwrap() == from_collider.velocities(CLOTH).unwrap(),
+            "frame {frame}: the two sides' velocities differ"
+        );
+        assert!(x == cpu.positions(CLOTH).unwrap(), "frame {frame}: GPU and CPU positions differ (cloth's side)");
+    }
     assert_validation_clean(&ctx);
 }
 

@@ -98,6 +98,7 @@ pub use lbvh::Lbvh;
 pub use mesh::Mesh;
 pub use model::{ClothId, Collider, ColliderId, ColliderShape, ContactSearch, Model, ModelBuilder, rigid_pose};
 pub use motion::Sleep;
+pub use programs::self_contact::FeatureWalks;
 pub use settings::{Integrator, SimSettings};
 pub use solver::{FrameReport, MemoryReport, Solver, VertexBuffers};
 pub use stability::Stability;

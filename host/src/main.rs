@@ -19,7 +19,8 @@ use drape::metrics::{TriangleBvh, accuracy_of_cloth};
 use drape::scenes::DrapeScene;
 use drape::timing::TimingReport;
 use drape::{
-    ClothBuilder, ClothMesh, Collider, ContactSearch, Context, Integrator, Model, SimSettings, Solver, Validation,
+    ClothBuilder, ClothMesh, Collider, ColliderShape, ContactSearch, Context, Integrator, Model, SimSettings, Solver,
+    Validation,
 };
 use glam::Vec3;
 use serde_json::json;
@@ -279,6 +280,7 @@ fn run(args: &Args) -> drape::Result<()> {
         .with_self_failsafe(args.self_failsafe == OnOff::On)
         .with_self_list_windows(args.self_list_windows == OnOff::On)
         .with_crowded_contact(args.crowded_contact.forced())
+        .with_feature_walks(args.feature_walks.walks())
         .with_one_workgroup_substeps(args.one_workgroup_substeps.forced());
     let search = match (args.brute_force, args.search) {
         (true, _) | (_, SearchArg::BruteForce) => ContactSearch::BruteForce,
@@ -424,6 +426,7 @@ fn run(args: &Args) -> drape::Result<()> {
     let mut report = TimingReport::default();
     let (mut ran, mut skipped, mut fallbacks, mut crowded, mut handed_over) = (0, 0, 0u64, 0u64, 0u64);
     let (mut self_walks, mut self_triangle_passes, mut self_unlisted) = (0u64, 0u64, 0u64);
+    let mut features_from_cloth = 0u64;
     let mut rollbacks = Rollbacks::default();
     let collider_ids: Vec<_> = model.collider_ids().collect();
     let frame_dt = sim.settings().frame_dt;
@@ -465,6 +468,7 @@ fn run(args: &Args) -> drape::Result<()> {
         self_walks += u64::from(r.self_walks);
         self_triangle_passes += u64::from(r.self_triangle_passes);
         self_unlisted += u64::from(r.self_passes_without_lists);
+        features_from_cloth += u64::from(r.feature_walks_from_cloth);
         rollbacks.record(&r, frame);
         progress.set(frame);
         // Every n-th frame and the last, as the pictures (a run shorter than n still gets one).
@@ -555,6 +559,22 @@ fn run(args: &Args) -> drape::Result<()> {
                 "self-collision pair lists: {self_walks} of {self_triangle_passes} triangle-passes walked the tree \
                  instead ({:.2} %: left their predicted region, or their list was full{unlisted})",
                 100.0 * self_walks as f64 / self_triangle_passes as f64
+            );
+        }
+        let triangle_colliders =
+            colliders.iter().filter(|c| matches!(c.shape, ColliderShape::Triangles { .. })).count();
+        if triangle_colliders > 0 {
+            let collider_frames = triangle_colliders as u64 * u64::from(args.frames);
+            json.insert(
+                "collider_feature_walks".into(),
+                json!({ "from_the_cloth": features_from_cloth, "collider_frames": collider_frames }),
+            );
+            say!(
+                "self-collision collider vertices + edges: walked from the cloth's side in {features_from_cloth} of \
+                 {collider_frames} collider-frames (--feature-walks {}: the cloth's side when a collider lists over \
+                 {} possibly sharp triangles per cloth triangle)",
+                args.feature_walks.name(),
+                drape_kernels::feature_walks::CLOTH_SIDE_RATIO
             );
         }
         json.insert("self_collision_failsafe".into(), rollbacks.json());

@@ -5,6 +5,7 @@ use crate::error::{Error, Result};
 use crate::motion::Sleep;
 use crate::programs::cloth::FramePlan;
 use crate::programs::contact::Crowded;
+use crate::programs::self_contact::FeatureWalks;
 use crate::stability::{self, BoundInputs, DEFAULT_SAFETY, Stability};
 use drape_types::{Health, SimParams, integrator};
 
@@ -86,6 +87,13 @@ pub struct SimSettings {
     /// CPU driver, where a workgroup's lanes run on one core (lavapipe, 64^2: 36 ms a frame
     /// against 19).
     pub one_workgroup_substeps: Option<bool>,
+    /// Which side walks a self-collision pass's collider vertices and edges against the cloth:
+    /// each listed sharp collider triangle walks the cloth's tree, or each cloth triangle walks
+    /// the collider's (`drape_kernels::feature_walks`). The same frame, bit for bit. Automatic
+    /// (the default): the cloth's side when the collider lists more sharp triangles than
+    /// `drape_kernels::feature_walks::CLOTH_SIDE_RATIO` per cloth triangle (a scanned collider),
+    /// frame by frame.
+    pub feature_walks: FeatureWalks,
     /// The device is a GPU (`on_device`): the automatic `crowded_contact` may hand crowded
     /// particles over; on a CPU driver it only counts them.
     pub(crate) device_is_gpu: bool,
@@ -111,6 +119,7 @@ impl Default for SimSettings {
             self_list_windows: true,
             crowded_contact: None,
             one_workgroup_substeps: None,
+            feature_walks: FeatureWalks::Automatic,
             device_is_gpu: true,
             device_max_workgroup: u32::MAX,
         }
@@ -167,6 +176,11 @@ impl SimSettings {
     /// Whether parts of a cloth (tiles) sleep on their own, under the `sleep` policy.
     pub fn with_tile_sleep(mut self, on: bool) -> Self {
         self.tile_sleep = on;
+        self
+    }
+    /// Which side walks the self-collision passes' collider features (`feature_walks`).
+    pub fn with_feature_walks(mut self, walks: FeatureWalks) -> Self {
+        self.feature_walks = walks;
         self
     }
     /// Whether crowded particles' contact is shared by a workgroup each (`None`: automatic,
@@ -328,6 +342,7 @@ impl SimSettings {
                 Some(false) => Crowded::Ignored,
                 None => Crowded::Counted,
             },
+            feature_walks: self.feature_walks,
             one_workgroup: self.one_workgroup_substeps.unwrap_or(
                 self.device_is_gpu && params.particle_count <= ONE_WORKGROUP_PARTICLES && self.one_workgroup_fits(),
             ),

@@ -60,6 +60,10 @@ pub struct FrameReport {
     pub self_rollback_collider_pairs: u32,
     /// Of the particles put back, those carried with a moving collider.
     pub self_rollbacks_carried: u32,
+    /// Triangle colliders whose sharp vertices and edges the frame's self-collision passes
+    /// tested by walks from the cloth's side (`FeatureWalks`), counted once per collider and
+    /// self-colliding cloth.
+    pub feature_walks_from_cloth: u32,
     /// Cloths that slept through the frame (ran nothing).
     pub cloths_asleep: u32,
     /// Tiles of the awake cloths that slept through the frame (`SimSettings::tile_sleep`),
@@ -191,6 +195,7 @@ impl Solver {
                 report.self_rollbacks_whole += health.self_rollback_all;
                 report.self_rollback_collider_pairs += health.self_rollback_collider_pairs;
                 report.self_rollbacks_carried += health.self_rollbacks_carried;
+                report.feature_walks_from_cloth += health.feature_walks_from_cloth;
                 let passes = plan.self_passes.clamp(1, plan.substeps.max(1));
                 report.self_triangle_passes += s.tree.leaves * passes;
                 // Without lists every triangle walks; with them, those that escaped and those

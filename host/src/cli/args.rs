@@ -77,6 +77,32 @@ impl AutoOnOff {
     }
 }
 
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum FeatureWalksArg {
+    Auto,
+    Collider,
+    Cloth,
+}
+
+impl FeatureWalksArg {
+    pub(crate) fn walks(self) -> drape::FeatureWalks {
+        match self {
+            FeatureWalksArg::Auto => drape::FeatureWalks::Automatic,
+            FeatureWalksArg::Collider => drape::FeatureWalks::FromCollider,
+            FeatureWalksArg::Cloth => drape::FeatureWalks::FromCloth,
+        }
+    }
+
+    /// The flag's value, as given.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            FeatureWalksArg::Auto => "auto",
+            FeatureWalksArg::Collider => "collider",
+            FeatureWalksArg::Cloth => "cloth",
+        }
+    }
+}
+
 #[derive(Copy, Clone, Debug, ValueEnum)]
 pub(crate) enum IntegratorArg {
     Rk4,
@@ -210,6 +236,13 @@ pub(crate) struct Args {
     /// workgroup's lanes run one after another).
     #[arg(long, value_enum, default_value = "auto")]
     pub(crate) crowded_contact: AutoOnOff,
+    /// With `--self-collision on`, which side walks each pass's collider vertices and edges
+    /// against the cloth: each sharp collider triangle walks the cloth's tree, or each cloth
+    /// triangle walks the collider's. The same frames, bit for bit (auto: frame by frame, the
+    /// cloth's side when the collider lists more than 8 sharp triangles per cloth triangle, as a
+    /// scanned collider does).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub(crate) feature_walks: FeatureWalksArg,
     /// Run a frame's substeps in one workgroup, one dispatch for the frame, when nothing runs
     /// between their stages (no collider, no self-collision): the same frame, bit for bit on
     /// lavapipe (auto: on a GPU for a cloth of at most 1024 particles, where a dispatch costs
@@ -475,7 +508,7 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
         return Some("--voxels only applies with --contact spheres (triangle contact has no voxels)".into());
     }
     let self_collision = self_collision_on(args);
-    if ["self_failsafe", "self_list_windows"].contains(&id) && !self_collision {
+    if ["self_failsafe", "self_list_windows", "feature_walks"].contains(&id) && !self_collision {
         return Some(format!("{flag} only applies with --self-collision on"));
     }
     let colliders = args.scene != SceneArg::Swing || !args.colliders.is_empty();

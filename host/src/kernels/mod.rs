@@ -4,6 +4,7 @@
 //! family's file and to `ALL`.
 
 pub mod contact;
+pub mod feature_walks;
 pub mod integrate;
 pub mod lbvh;
 pub mod normals;
@@ -19,7 +20,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 61] = [
+pub const ALL: [&Kernel; 63] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &integrate::INTEGRATE_SUBSTEPS,
@@ -42,6 +43,8 @@ pub const ALL: [&Kernel; 61] = [
     &self_pairs::TEST_QUEUED_PAIRS,
     &sharp_features::LIST_SHARP_FEATURES,
     &self_contact::COLLIDER_FEATURE_CONTACT,
+    &feature_walks::CHOOSE_FEATURE_WALKS,
+    &feature_walks::COLLIDER_FEATURES_FROM_CLOTH,
     &self_contact::APPLY_SELF_CONTACT,
     &self_contact::APPLY_COLLIDER_PUSHES,
     &self_failsafe::FAILSAFE_BOXES,

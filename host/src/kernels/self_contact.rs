@@ -8,7 +8,7 @@ use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::contact::substep_motion;
 use drape_kernels::self_contact::{
-    PairResponse, SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, arm_second_refit,
+    EVERY_CLOTH_LEAF, PairResponse, SCENE_THREADS, apply_collider_push_at, apply_self_contact_at, arm_second_refit,
     collider_feature_contact_at, copy_start, count_self_contact, forget_walkers, frame_of, gather_cloth_triangle,
     longest_edge2, report_scene, tested_features, write_scene,
 };
@@ -265,7 +265,7 @@ fn collider_feature_contact_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> 
             mesh,
             &motion,
             &c,
-            tree,
+            (tree, EVERY_CLOTH_LEAF),
             owned,
             (x, x_prev),
             (out, &mut *pushes, &mut *health),

@@ -22,6 +22,7 @@ pub static LIST_SHARP_FEATURES: Kernel = Kernel {
             BindingSpec::write("sharp"),
             BindingSpec::write("sharp_args"),
             BindingSpec::write("tree_every_pass"),
+            BindingSpec::write("listed"),
         ],
         WORKGROUP_SIZE,
     ),
@@ -30,7 +31,7 @@ pub static LIST_SHARP_FEATURES: Kernel = Kernel {
 
 fn list_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, collider, vertices, previous, indices, features, sharp, sharp_args, tree_every_pass] =
+    let [self_params, collider, vertices, previous, indices, features, sharp, sharp_args, tree_every_pass, listed] =
         d.bindings()?;
     let self_params = self_params.first::<ColliderParams>()?;
     let collider = collider.first::<ColliderParams>()?;
@@ -39,10 +40,13 @@ fn list_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let features = features.slice::<UVec4>();
     let (list, args) = (sharp.slice_mut::<u32>(), sharp_args.first_mut::<DispatchArgs>()?);
     let tree_every_pass = tree_every_pass.first_mut::<u32>()?;
+    let flags = listed.slice_mut::<u32>();
     for t in 0..threads.min(features.len() as u32) {
-        if may_be_sharp(t, tested_features(features[t as usize], &collider), mesh, longest2, thickness) {
+        let sharp = may_be_sharp(t, tested_features(features[t as usize], &collider), mesh, longest2, thickness);
+        if sharp {
             list_sharp(t, list, args, tree_every_pass);
         }
+        *flags.get_mut(t as usize).ok_or("the sharp flags are shorter than the collider's triangles")? = sharp as u32;
     }
     Ok(())
 }

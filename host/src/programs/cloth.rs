@@ -4,7 +4,7 @@
 use super::contact::{
     CONTACT_LABEL, ColliderBuffers, ContactBuffers, Crowded, EULER_UPDATE_CONTACT_LABEL, RK4_UPDATE_CONTACT_LABEL,
 };
-use super::self_contact::{SelfContactBuffers, SelfContactCloth, pass_due, window_ends};
+use super::self_contact::{FeatureWalks, SelfContactBuffers, SelfContactCloth, pass_due, window_ends};
 use super::tiles::TileBuffers;
 use crate::cloth::{Cloth, ClothTopology};
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
@@ -219,6 +219,9 @@ pub struct FramePlan {
     /// else runs between their stages (no collider, no self-collision): `drape_kernels::substeps`,
     /// `SimSettings::one_workgroup_substeps`. The same frame.
     pub one_workgroup: bool,
+    /// Which side walks the self-collision passes' collider features
+    /// (`SimSettings::feature_walks`). The same frame.
+    pub feature_walks: FeatureWalks,
 }
 
 /// The timing table's line of a frame's substeps run in one workgroup.
@@ -258,7 +261,7 @@ pub fn frame_steps(
         let tree = (plan.self_lists, plan.self_rebuild);
         s.frame_start_steps(&cloth.self_contact_cloth(), (window.1, plan.substeps), tree, &mut steps);
         for (index, (collider, _)) in colliders.iter().enumerate() {
-            s.sharp_feature_steps(collider, index, &mut steps);
+            s.sharp_feature_steps((collider, index), (plan.feature_walks, cloth.health), &mut steps);
         }
     }
     // The substep after the last self-collision pass: where the next pass's sweep begins.
@@ -309,7 +312,7 @@ pub fn frame_steps(
             let features = colliders
                 .iter()
                 .enumerate()
-                .filter_map(|(index, (collider, _))| s.collider_feature_step(&own, (collider, index), span))
+                .flat_map(|(index, (collider, _))| s.collider_feature_steps(&own, (collider, index), span))
                 .collect();
             s.windowed_substep_steps(&own, (span, window, plan.self_lists), features, &mut steps);
             pass_from = substep + 1;

@@ -14,6 +14,7 @@ use super::empty_dispatch;
 use super::lbvh::LbvhBuffers;
 use super::self_failsafe::FailsafeBuffers;
 use crate::graph::{BufferId, Dispatch, Handle, Resources, Step};
+use crate::kernels::feature_walks::{CHOOSE_FEATURE_WALKS, COLLIDER_FEATURES_FROM_CLOTH};
 use crate::kernels::self_contact::{
     APPLY_COLLIDER_PUSHES, APPLY_SELF_CONTACT, COLLIDER_FEATURE_CONTACT, GATHER_CLOTH_TRIANGLES, SELF_SCENE_BOUNDS,
 };
@@ -22,6 +23,7 @@ use crate::kernels::self_pairs::{
     REGATHER_CLOTH_TRIANGLES, SELF_TRIANGLE_CONTACT, TEST_QUEUED_PAIRS, WALK_SELF_PAIRS,
 };
 use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
+use drape_kernels::feature_walks::{WALKS_AUTOMATIC, WALKS_FROM_CLOTH, WALKS_FROM_COLLIDER};
 use drape_kernels::self_contact::{CORRECTION_WORDS, NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
 use drape_kernels::self_pairs::{
     ANCHOR_WORDS, FIND_WALKERS, LIST_ENTRY_WORDS, QUEUED_PAIR_WORDS, QUEUED_PAIRS_MOST, QUEUED_PAIRS_PER_TRIANGLE,
@@ -110,10 +112,39 @@ pub struct SelfContactBuffers {
 pub struct SharpFeatures {
     pub list: Handle<u32>,
     pub args: Handle<DispatchArgs>,
+    /// Per collider triangle, 1 where the frame listed it (what a cloth triangle's walk of the
+    /// collider's tree looks up).
+    pub listed: Handle<u32>,
+    /// The passes' dispatches from the collider's side (over the list) and from the cloth's
+    /// (over its triangles): one of them over no workgroup (`drape_kernels::feature_walks`).
+    pub from_collider: Handle<DispatchArgs>,
+    pub from_cloth: Handle<DispatchArgs>,
 }
 
 /// The timing table's line of the frame's list of a collider's possibly sharp triangles.
 pub const SHARP_FEATURES_LABEL: &str = "self: collider sharp triangles";
+
+/// Which side walks a self-collision pass's collider features against the cloth
+/// (`drape_kernels::feature_walks`): the same pairs, each tested once by the same function, so
+/// the same frames bit for bit; different costs.
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub enum FeatureWalks {
+    /// Frame by frame, the side measured cheaper: the cloth's triangles when the collider lists
+    /// more than `drape_kernels::feature_walks::CLOTH_SIDE_RATIO` sharp triangles per cloth
+    /// triangle (a scanned collider such as the dragon), else the listed collider triangles.
+    #[default]
+    Automatic,
+    /// Each listed collider triangle walks the cloth's tree.
+    FromCollider,
+    /// Each cloth triangle walks the collider's tree for the listed triangles near it.
+    FromCloth,
+}
+
+/// The timing table's line of the frame's choice of the side the collider features walk from.
+pub const CHOOSE_FEATURE_WALKS_LABEL: &str = "self: collider features' side";
+
+/// The timing table's line of the collider features walked from the cloth's side.
+pub const COLLIDER_FEATURES_FROM_CLOTH_LABEL: &str = "self: collider vertices + edges (cloth's walks)";
 
 /// Per triangle, the edges (bit k: edge k, from corner k to corner k + 1) and corners (bit
 /// `VERTEX_OWNED_BIT << k`) it owns: those no earlier triangle has (so one walk per triangle
@@ -321,14 +352,23 @@ impl SelfContactBuffers {
                 Some(SharpFeatures {
                     list: resources.device(name.clone(), count.max(1)),
                     args: resources.device(format!("{name} dispatch"), 1),
+                    listed: resources.device(format!("{name} flags"), count.max(1)),
+                    from_collider: resources.device(format!("{name}: walks from the collider"), 1),
+                    from_cloth: resources.device(format!("{name}: walks from the cloth"), 1),
                 })
             })
             .collect();
     }
 
     /// At the frame's start, after the cloth's bounds (`frame_start_steps`: the longest edge the
-    /// sharpness is measured for): collider `index`'s possibly sharp triangles.
-    pub fn sharp_feature_steps(&self, collider: &ColliderBuffers, index: usize, steps: &mut Vec<Step>) {
+    /// sharpness is measured for): collider `index`'s possibly sharp triangles, and which side
+    /// the passes walk them from (`walks`; counted in the cloth's `health`).
+    pub fn sharp_feature_steps(
+        &self,
+        (collider, index): (&ColliderBuffers, usize),
+        (walks, health): (FeatureWalks, Handle<Health>),
+        steps: &mut Vec<Step>,
+    ) {
         let (ColliderLeaves::Triangles(mesh), Some((features, count)), Some(Some(sharp))) =
             (&collider.leaves, collider.features, self.sharp.get(index))
         else {
@@ -348,8 +388,27 @@ impl SelfContactBuffers {
                 sharp.list.id(),
                 sharp.args.id(),
                 self.tree_every_pass.id(),
+                sharp.listed.id(),
             ],
             Dispatch::Threads(count),
+        ));
+        let mode = match walks {
+            FeatureWalks::Automatic => WALKS_AUTOMATIC,
+            FeatureWalks::FromCollider => WALKS_FROM_COLLIDER,
+            FeatureWalks::FromCloth => WALKS_FROM_CLOTH,
+        };
+        steps.push(Step::run_with(
+            CHOOSE_FEATURE_WALKS_LABEL,
+            &CHOOSE_FEATURE_WALKS,
+            vec![
+                self.tree.collider.id(),
+                sharp.args.id(),
+                sharp.from_collider.id(),
+                sharp.from_cloth.id(),
+                health.id(),
+            ],
+            bytemuck::cast(DispatchArgs { x: mode, y: 0, z: 0, _pad: 0 }),
+            Dispatch::Threads(1),
         ));
     }
 
@@ -562,22 +621,57 @@ impl SelfContactBuffers {
 
     /// The pass that ends substep `to` of `substeps` and sweeps from the end of substep
     /// `from - 1` (`from` = the substep after the last pass): triangle collider `collider`'s
-    /// vertices and edges against the cloth's faces and edges (`None` for a sphere collider,
-    /// whose spheres are smooth).
-    pub fn collider_feature_step(
+    /// vertices and edges against the cloth's faces and edges, walked from the collider's side
+    /// or from the cloth's, as the frame chose (`sharp_feature_steps`); none for a sphere
+    /// collider, whose spheres are smooth.
+    pub fn collider_feature_steps(
         &self,
         cloth: &SelfContactCloth,
         (collider, index): (&ColliderBuffers, usize),
         (from, to, substeps): (u32, u32, u32),
-    ) -> Option<Step> {
+    ) -> Vec<Step> {
         let (ColliderLeaves::Triangles(mesh), Some((features, _)), Some(Some(sharp))) =
             (&collider.leaves, collider.features, self.sharp.get(index))
         else {
-            return None;
+            return Vec::new();
         };
         let span = substep_span(from, to + 1, substeps);
         let t = &self.tree;
-        Some(Step::run_with(
+        let from_cloth = Step::run_with(
+            COLLIDER_FEATURES_FROM_CLOTH_LABEL,
+            &COLLIDER_FEATURES_FROM_CLOTH,
+            vec![
+                cloth.params.id(),
+                t.collider.id(),
+                mesh.tree.collider.id(),
+                collider.pose.id(),
+                mesh.vertices.id(),
+                mesh.previous.id(),
+                mesh.indices.id(),
+                features.id(),
+                sharp.listed.id(),
+                mesh.tree.nodes.id(),
+                mesh.tree.aabbs.id(),
+                mesh.tree.sorted_bounds.id(),
+                mesh.tree.order.id(),
+                t.nodes.id(),
+                t.aabbs.id(),
+                t.sorted_bounds.id(),
+                self.sorted.id(),
+                self.owned.id(),
+                cloth.x.id(),
+                self.start.id(),
+                cloth.v.id(),
+                self.delta.id(),
+                self.velocity_changes.id(),
+                self.pushes.id(),
+                cloth.health.id(),
+                self.features_found.id(),
+            ],
+            bytemuck::cast(span),
+            Dispatch::Indirect(sharp.from_cloth),
+        );
+        let from_collider = Step::run_with(
             COLLIDER_FEATURES_LABEL,
             &COLLIDER_FEATURE_CONTACT,
             vec![
@@ -606,8 +700,9 @@ impl SelfContactBuffers {
                 self.features_found.id(),
             ],
             bytemuck::cast(span),
-            Dispatch::Indirect(sharp.args),
-        ))
+            Dispatch::Indirect(sharp.from_collider),
+        );
+        vec![from_collider, from_cloth]
     }
 
     /// A pass, after the collider's response of the substep it ends: refit to the triangles

@@ -111,6 +111,12 @@ impl PairWalk {
         PairWalk { next, leaf_count }
     }
 
+    /// A walk that visits leaf `leaf` alone, when its box meets the query: what a walk of the
+    /// whole tree would hand over of that leaf (every box above it holds its box).
+    pub fn one(leaf: u32) -> Self {
+        PairWalk { next: leaf | LEAF_BIT, leaf_count: leaf + 1 }
+    }
+
     /// Whether the walk is over.
     pub fn done(&self) -> bool {
         self.next == NO_NODE

@@ -3,7 +3,7 @@
 //! the SPIR-V evaluate exactly the same arithmetic.
 
 use drape_types::glam::{Vec3, Vec4, Vec4Swizzles};
-use drape_types::{ColliderPose, RigidPose};
+use drape_types::{Aabb, ColliderPose, RigidPose};
 #[cfg(target_arch = "spirv")]
 use spirv_std::num_traits::Float;
 
@@ -31,6 +31,36 @@ pub fn to_local(pose: &RigidPose, p: Vec3) -> Vec3 {
 #[inline]
 pub fn to_world(pose: &RigidPose, p: Vec3) -> Vec3 {
     rotate(pose.rotation, p) + pose.translation.xyz()
+}
+
+/// The rows of the rotation matrix of the unit quaternion `q` (as `rotate` turns a vector),
+/// each entry's magnitude: a box of half-extents `e` turned by `q` lies within `|R| e` of its
+/// turned centre along each axis.
+#[inline]
+pub fn abs_rotation_rows(q: Vec4) -> [Vec3; 3] {
+    let (x, y, z, w) = (q.x, q.y, q.z, q.w);
+    [
+        Vec3::new(1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * z + y * w)).abs(),
+        Vec3::new(2.0 * (x * y + z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - x * w)).abs(),
+        Vec3::new(2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y)).abs(),
+    ]
+}
+
+/// How much wider than the exact turned box `posed_box` makes its box, relative to the size of
+/// its coordinates: the matrix and `to_world`'s quaternion round differently (a few ulps
+/// each), and the box must hold every point `to_world` places from the local box.
+pub const POSED_BOX_SLACK: f32 = 1e-5;
+
+/// A box holding every point of the collider-frame box `b` placed in the world by `pose`
+/// (`abs_rows`: `abs_rotation_rows` of its rotation), as `to_world` computes them.
+#[inline]
+pub fn posed_box(pose: &RigidPose, abs_rows: &[Vec3; 3], b: &Aabb) -> (Vec3, Vec3) {
+    let (lo, hi) = (b.min.xyz(), b.max.xyz());
+    let centre = to_world(pose, (lo + hi) * 0.5);
+    let half = (hi - lo) * 0.5;
+    let turned = Vec3::new(abs_rows[0].dot(half), abs_rows[1].dot(half), abs_rows[2].dot(half));
+    let slack = (centre.abs().max_element() + turned.max_element()) * POSED_BOX_SLACK + 1e-30;
+    (centre - turned - Vec3::splat(slack), centre + turned + Vec3::splat(slack))
 }
 
 /// The pose a fraction `t` of the way through the frame: translation lerped, rotation

@@ -1432,6 +1432,9 @@ fn edge_fold(
 /// ridge keeps the thickness from every cloth triangle and edge, on the side it came from, so
 /// it cannot poke through a cloth cell between particles. Returns whether one of its edges
 /// pushed a cloth edge (`pushes`, which move particles before the pass's pairs).
+/// `cloth_leaf`: `EVERY_CLOTH_LEAF` walks the cloth's tree; a sorted leaf of it tests that
+/// cloth triangle alone, as the walk would have (`feature_walks`, the same pass from the
+/// cloth's side).
 #[allow(clippy::too_many_arguments)]
 pub fn collider_feature_contact_at(
     triangle: u32,
@@ -1439,7 +1442,7 @@ pub fn collider_feature_contact_at(
     (vertices, previous, indices): (&[Vec4], &[Vec4], &[u32]),
     motion: &SubstepMotion,
     self_params: &ColliderParams,
-    (nodes, aabbs, leaf_bounds, sorted): SelfTree<'_>,
+    ((nodes, aabbs, leaf_bounds, sorted), cloth_leaf): (SelfTree<'_>, u32),
     cloth_owned: &[u32],
     (x, x_prev): (&[Vec4], &[Vec4]),
     (out, pushes, health): (PairResponse, &mut [u32], &mut Health),
@@ -1542,7 +1545,8 @@ pub fn collider_feature_contact_at(
         if sharp & walk != 0 && feature_near && meets_cloth(aabbs, leaves, query) {
             (pairs.owned, pairs.edge, pairs.segment) = (walk, (k, m), (segment, segments));
             let tree = (nodes, aabbs, leaf_bounds);
-            walk_overlapping(tree, leaves, query, &mut pairs);
+            let walk = if cloth_leaf == EVERY_CLOTH_LEAF { PairWalk::all(leaves) } else { PairWalk::one(cloth_leaf) };
+            walk_in_batches(walk, tree, query, &mut pairs);
         }
         segment += 1;
         if segment >= segments || sharp & walk == 0 || !feature_near {
@@ -1556,6 +1560,9 @@ pub fn collider_feature_contact_at(
     }
     pairs.edge_pushed
 }
+
+/// `collider_feature_contact_at`'s `cloth_leaf` that walks the whole cloth's tree.
+pub const EVERY_CLOTH_LEAF: u32 = u32::MAX;
 
 /// Whether a collider triangle whose swept box (grown by the thickness) has `extent` spans
 /// many cloth edges (`cloth_edge2`, the longest squared): then its features walk the cloth's
@@ -1658,7 +1665,7 @@ pub fn collider_feature_contact(
         mesh,
         &motion,
         self_params,
-        tree,
+        (tree, EVERY_CLOTH_LEAF),
         owned,
         (x, x_prev),
         (out, pushes, health),

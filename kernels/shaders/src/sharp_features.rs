@@ -118,13 +118,18 @@ pub fn list_sharp_features(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] sharp: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] sharp_args: &mut DispatchArgs,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tree_every_pass: &mut u32,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] listed: &mut [u32],
 ) {
     if id.x as usize >= features.len() {
         return;
     }
     let (longest2, thickness) = frame_threshold(self_params, collider);
     let mesh = (vertices, previous, indices);
-    if may_be_sharp(id.x, tested_features(features[id.x as usize], collider), mesh, longest2, thickness) {
+    let sharp_here = may_be_sharp(id.x, tested_features(features[id.x as usize], collider), mesh, longest2, thickness);
+    if sharp_here {
         list_sharp(id.x, sharp, sharp_args, tree_every_pass);
     }
+    // Every triangle's flag, each frame (the cloth's side of the passes looks them up:
+    // `feature_walks`).
+    listed[id.x as usize] = sharp_here as u32;
 }

@@ -131,6 +131,9 @@ pub struct Health {
     /// `ContactPush::crowded`; counted only where the frame asks): what the host's choice of
     /// handing them to a workgroup each follows (`SimSettings::crowded_contact`).
     pub crowded_contacts: u32,
+    /// Triangle colliders whose sharp features this frame's self-collision passes tested by
+    /// walks from the cloth's side (`drape_kernels::feature_walks`; one a collider a frame).
+    pub feature_walks_from_cloth: u32,
     /// The box around a self-colliding cloth at the frame's start and where its velocities
     /// carry it over the frame, grown by its thickness (the self-collision tree's Morton box,
     /// `ColliderParams::scene_min`/`scene_max`): xyz, with w = 1 where the frame wrote it (0: a
@@ -179,7 +182,7 @@ const _: () = assert!(core::mem::size_of::<Spring>() == 16);
 const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
 const _: () = assert!(core::mem::size_of::<SubstepsPush>() == 16);
-const _: () = assert!(core::mem::size_of::<Health>() == 96);
+const _: () = assert!(core::mem::size_of::<Health>() == 100);
 const _: () = assert!(core::mem::size_of::<FailsafePush>() == 16);
 const _: () = assert!(core::mem::size_of::<CarrierPush>() == 16);
 const _: () = assert!(core::mem::size_of::<ColliderPose>() == 80);
