@@ -239,7 +239,7 @@ pub(crate) struct Args {
     /// With `--self-collision on`, which side walks each pass's collider vertices and edges
     /// against the cloth: each sharp collider triangle walks the cloth's tree, or each cloth
     /// triangle walks the collider's. The same frames, bit for bit (auto: frame by frame, the
-    /// cloth's side when the collider lists more than 8 sharp triangles per cloth triangle, as a
+    /// cloth's side when the collider lists more than 4 sharp triangles per cloth triangle, as a
     /// scanned collider does).
     #[arg(long, value_enum, default_value = "auto")]
     pub(crate) feature_walks: FeatureWalksArg,

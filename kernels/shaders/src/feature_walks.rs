@@ -35,13 +35,13 @@ pub const WALKS_FROM_COLLIDER: u32 = 1;
 pub const WALKS_FROM_CLOTH: u32 = 2;
 
 /// The automatic choice walks from the cloth's side when the collider lists more than this
-/// many sharp triangles per cloth triangle. Measured per pass on lavapipe (64^2 cloth, 7,938
-/// triangles): the dragon lists about 14.5 per cloth triangle, its collider's side took 9.9 ms
-/// and the cloth's 7.2; the bunny lists at most 2, 2.9 ms against 8.1; a 16^2 cloth on the
-/// icosphere (2.8), 0.80 against 0.88. The cloth's side costs about the same whatever the
-/// collider lists (its walks reach the collider's leaves near the cloth), the collider's grows
-/// with the list.
-pub const CLOTH_SIDE_RATIO: u32 = 8;
+/// many sharp triangles per cloth triangle. Measured on lavapipe, per pass, 64^2 cloth (7,938
+/// triangles): the dragon lists over 4 per cloth triangle in every frame, its collider's side
+/// took 9.9 ms and the cloth's 7.2; the bunny at most 2, 2.9 ms against 8.1; a 16^2 cloth on
+/// the icosphere, 2.8, 0.80 ms against 0.88. The cloth's side costs about the same whatever
+/// the collider lists (its walks reach the collider's leaves near the cloth); the collider's
+/// grows with the list.
+pub const CLOTH_SIDE_RATIO: u32 = 4;
 
 /// Writes the pass's two indirect dispatches from the frame's list of sharp triangles
 /// (`listed`, its count in `_pad`) and the cloth's triangles (`cloth_triangles`): one of them
