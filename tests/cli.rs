@@ -82,6 +82,11 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         (&["--scene", "swing", "--wind=1e37,0,0"], usage, "at most 1e6 N"),
         (&["--grid", "8", "--pin-box=-10,-10,-10,10,10,10", "--frames", "1"], runtime, "they pin all 64 particles"),
         (
+            &["--grid", "8", "--pin-vertices", "64", "--frames", "1"],
+            runtime,
+            "`--pin-vertices`: particle 64 does not exist: the cloth has 64 particles, numbered 0 to 63",
+        ),
+        (
             &["--obj-dir", concat!(env!("CARGO_MANIFEST_DIR"), "/Cargo.toml"), "--frames", "1"],
             runtime,
             "it is a file, not a directory",

@@ -360,7 +360,13 @@ impl ClothBuilder {
         let count = cloth.positions.len() as u32;
         for &i in &self.pinned_vertices {
             if i >= count {
-                return bad("pins", format!("particle {i} does not exist: the cloth has {count} particles"));
+                return bad(
+                    "pins",
+                    format!(
+                        "particle {i} does not exist: the cloth has {count} particles, numbered 0 to {}",
+                        count.saturating_sub(1)
+                    ),
+                );
             }
             cloth.positions[i as usize].w = 0.0;
         }

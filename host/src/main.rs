@@ -256,7 +256,14 @@ fn run(args: &Args) -> drape::Result<()> {
     let built = builder
         .stiffness(args.stiffness.x, args.stiffness.y, args.stiffness.z)
         .spring_damping(args.spring_damping)
-        .build()?;
+        .build()
+        .map_err(|e| match e {
+            // The pins the builder found out of range are the flag's.
+            drape::Error::InvalidParameter { name: "pins", problem } => {
+                drape::Error::InvalidParameter { name: "--pin-vertices", problem }
+            }
+            e => e,
+        })?;
     if built.positions.iter().all(|p| p.w == 0.0) {
         return Err(drape::Error::InvalidParameter {
             name: "--pin-vertices / --pin-box",
