@@ -974,12 +974,12 @@ fn a_spinning_star_s_knife_edges_do_not_cut_the_cloth() {
 /// The collider features' pass walked from the cloth's side (each cloth triangle walks the
 /// star's tree: `FeatureWalks::FromCloth`) tests the pairs the collider's side tests, each by
 /// the same function, so the frames are the same bit for bit, under a star that spins about its
-/// own axis (its pose both turns and moves over every pass: the cloth's walk places the star's
-/// boxes by both ends' poses) and lands the cloth on its knife edges; the CPU twin walking from
-/// the cloth's side equals the GPU. (The cloth's walk placing the star's boxes by the start
-/// pose alone parts the two sides' frames.)
-#[test]
-fn collider_features_walked_from_the_cloth_s_side_equal_the_collider_s_side() {
+/// own axis and lands the cloth on its knife edges; the CPU twin walking from the cloth's side
+/// equals the GPU. The star turns by its pose (`deforming` false: the pose both turns and moves
+/// over every pass, and the cloth's walk places the star's boxes by both ends' poses; by the
+/// start pose alone the two sides' frames part) or by its vertices (the star's tree refit to
+/// leaf boxes that hold both ends of the frame's sweep).
+fn both_sides_walk_a_spinning_star_alike(deforming: bool) {
     use drape::{ColliderId, FeatureWalks};
     use glam::Quat;
     let ctx = context();
@@ -992,12 +992,20 @@ fn collider_features_walked_from_the_cloth_s_side_equal_the_collider_s_side() {
     let mut from_collider = Solver::new(&ctx, &model(FeatureWalks::FromCollider)).unwrap();
     let mut from_cloth = Solver::new(&ctx, &model(FeatureWalks::FromCloth)).unwrap();
     let mut cpu = CpuSolver::new(&model(FeatureWalks::FromCloth)).unwrap();
+    let star = ColliderId::new(0);
     for frame in 1..=40 {
         let turn = Quat::from_rotation_y(8.0 * frame as f32 / 60.0);
         let translation = centre - turn * centre;
-        from_collider.set_collider_pose(ColliderId::new(0), turn, translation).unwrap();
-        from_cloth.set_collider_pose(ColliderId::new(0), turn, translation).unwrap();
-        cpu.set_collider_pose(ColliderId::new(0), turn, translation).unwrap();
+        if deforming {
+            let world: Vec<Vec3> = scene.mesh.vertices.iter().map(|v| turn * *v + translation).collect();
+            from_collider.set_collider_vertices(star, &world).unwrap();
+            from_cloth.set_collider_vertices(star, &world).unwrap();
+            cpu.set_collider_vertices(star, &world).unwrap();
+        } else {
+            from_collider.set_collider_pose(star, turn, translation).unwrap();
+            from_cloth.set_collider_pose(star, turn, translation).unwrap();
+            cpu.set_collider_pose(star, turn, translation).unwrap();
+        }
         from_collider.step().unwrap();
         from_cloth.step().unwrap();
         cpu.step().unwrap();
@@ -1010,6 +1018,16 @@ fn collider_features_walked_from_the_cloth_s_side_equal_the_collider_s_side() {
         assert!(x == cpu.positions(CLOTH).unwrap(), "frame {frame}: GPU and CPU positions differ (cloth's side)");
     }
     assert_validation_clean(&ctx);
+}
+
+#[test]
+fn collider_features_walked_from_the_cloth_s_side_equal_the_collider_s_side() {
+    both_sides_walk_a_spinning_star_alike(false);
+}
+
+#[test]
+fn collider_features_walked_from_the_cloth_s_side_equal_the_collider_s_side_on_a_deforming_star() {
+    both_sides_walk_a_spinning_star_alike(true);
 }
 
 /// A collider that spins far from a self-colliding cloth (the spinning star's scene, the star
