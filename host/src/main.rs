@@ -5,7 +5,7 @@ mod cli;
 
 use cli::say;
 
-use clap::{CommandFactory, FromArgMatches};
+use clap::{CommandFactory, FromArgMatches, ValueEnum};
 use cli::args::{Args, ContactArg, HolesArg, IntegratorArg, OnOff, SceneArg, SearchArg, check_flags, check_outputs};
 use cli::colliders::{Motion, SceneCollider, load_mesh, union_at};
 use cli::pictures::Pictures;
@@ -580,7 +580,7 @@ fn run(args: &Args) -> drape::Result<()> {
                 "self-collision collider vertices + edges: walked from the cloth's side in {features_from_cloth} of \
                  {collider_frames} collider-frames (--feature-walks {}: the cloth's side when a collider lists over \
                  {} possibly sharp triangles per cloth triangle)",
-                args.feature_walks.name(),
+                args.feature_walks.to_possible_value().map_or(String::new(), |v| v.get_name().to_owned()),
                 drape_kernels::feature_walks::CLOTH_SIDE_RATIO
             );
         }

@@ -92,15 +92,6 @@ impl FeatureWalksArg {
             FeatureWalksArg::Cloth => drape::FeatureWalks::FromCloth,
         }
     }
-
-    /// The flag's value, as given.
-    pub(crate) fn name(self) -> &'static str {
-        match self {
-            FeatureWalksArg::Auto => "auto",
-            FeatureWalksArg::Collider => "collider",
-            FeatureWalksArg::Cloth => "cloth",
-        }
-    }
 }
 
 #[derive(Copy, Clone, Debug, ValueEnum)]
