@@ -86,7 +86,7 @@ fn frame(c: &mut Criterion) {
         let plain = measure(&mut sim, FRAMES, BUDGET);
         let rows = timed.rows();
         let dispatches: u32 = rows.iter().map(|r| r.1).sum();
-        let stage = rows.iter().find(|r| r.0 == "rk4: k2").map(|r| r.2 / r.1 as f64).unwrap_or(0.0);
+        let stage = timed.median_dispatch_micros("rk4: k2");
         if grid == 64 {
             stage_64 = stage;
             substeps_64 = sim.stability(CLOTH).unwrap().substeps;
@@ -128,7 +128,7 @@ fn frame(c: &mut Criterion) {
          {:.1} µs wall without timestamps, {:.1} µs with; GPU-timed per stage {:.1} µs (2x2) vs {:.1} µs (64^2)",
         overhead.median_wall_ms() * 1e3 / dispatches as f64,
         overhead_timed.median_wall_ms() * 1e3 / dispatches as f64,
-        overhead_timed.rows().iter().find(|r| r.0 == "rk4: k2").map(|r| r.2 / r.1 as f64).unwrap_or(0.0),
+        overhead_timed.median_dispatch_micros("rk4: k2"),
         stage_64,
     );
     let one_workgroup = fixed.with_one_workgroup_substeps(Some(true));

@@ -317,6 +317,7 @@ pub(crate) fn timings_json(report: &TimingReport, timestamps: bool) -> Value {
                 "pass": label,
                 "dispatches": dispatches,
                 "gpu_us_per_frame": micros,
+                "gpu_us_per_dispatch_median": report.median_dispatch_micros(label),
                 "frames_running": report.frames_running(label),
             })
         })
