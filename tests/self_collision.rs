@@ -975,7 +975,9 @@ fn a_spinning_star_s_knife_edges_do_not_cut_the_cloth() {
 /// star's tree: `FeatureWalks::FromCloth`) tests the pairs the collider's side tests, each by
 /// the same function, so the frames are the same bit for bit, under a star that spins about its
 /// own axis and lands the cloth on its knife edges; the CPU twin walking from the cloth's side
-/// equals the GPU. The star turns by its pose (`deforming` false: the pose both turns and moves
+/// equals the GPU, and so does the CPU twin walking from the collider's side, which leaves the
+/// listed triangles its lists put out of the cloth's reach to the cloth's triangles that escape
+/// their regions (`drape_kernels::feature_reach`). The star turns by its pose (`deforming` false: the pose both turns and moves
 /// over every pass, and the cloth's walk places the star's boxes by both ends' poses; by the
 /// start pose alone the two sides' frames part) or by its vertices (the star's tree refit to
 /// leaf boxes that hold both ends of the frame's sweep).
@@ -992,7 +994,10 @@ fn both_sides_walk_a_spinning_star_alike(deforming: bool) {
     let mut from_collider = Solver::new(&ctx, &model(FeatureWalks::FromCollider)).unwrap();
     let mut from_cloth = Solver::new(&ctx, &model(FeatureWalks::FromCloth)).unwrap();
     let mut cpu = CpuSolver::new(&model(FeatureWalks::FromCloth)).unwrap();
+    let mut cpu_collider = CpuSolver::new(&model(FeatureWalks::FromCollider)).unwrap();
     let star = ColliderId::new(0);
+    // Listed star triangles the collider's side left to the cloth's escaped triangles.
+    let mut out_of_reach = 0;
     for frame in 1..=40 {
         let turn = Quat::from_rotation_y(8.0 * frame as f32 / 60.0);
         let translation = centre - turn * centre;
@@ -1001,14 +1006,17 @@ fn both_sides_walk_a_spinning_star_alike(deforming: bool) {
             from_collider.set_collider_vertices(star, &world).unwrap();
             from_cloth.set_collider_vertices(star, &world).unwrap();
             cpu.set_collider_vertices(star, &world).unwrap();
+            cpu_collider.set_collider_vertices(star, &world).unwrap();
         } else {
             from_collider.set_collider_pose(star, turn, translation).unwrap();
             from_cloth.set_collider_pose(star, turn, translation).unwrap();
             cpu.set_collider_pose(star, turn, translation).unwrap();
+            cpu_collider.set_collider_pose(star, turn, translation).unwrap();
         }
-        from_collider.step().unwrap();
+        out_of_reach += from_collider.step_report().unwrap().collider_features_out_of_reach;
         from_cloth.step().unwrap();
         cpu.step().unwrap();
+        cpu_collider.step().unwrap();
         let x = from_cloth.positions(CLOTH).unwrap();
         assert!(x == from_collider.positions(CLOTH).unwrap(), "frame {frame}: the two sides' positions differ");
         assert!(
@@ -1016,7 +1024,97 @@ fn both_sides_walk_a_spinning_star_alike(deforming: bool) {
             "frame {frame}: the two sides' velocities differ"
         );
         assert!(x == cpu.positions(CLOTH).unwrap(), "frame {frame}: GPU and CPU positions differ (cloth's side)");
+        assert!(
+            x == cpu_collider.positions(CLOTH).unwrap(),
+            "frame {frame}: GPU and CPU positions differ (collider's side)"
+        );
     }
+    // The star lies under the cloth: its listed triangles stay within the cloth's reach
+    // (`a_spike_the_cloth_is_thrown_onto_within_a_frame_is_walked_by_its_escaped_triangles`
+    // tests the others).
+    println!("listed star triangles out of the cloth's reach: {out_of_reach} triangle-spans in 40 frames");
+    assert_validation_clean(&ctx);
+}
+
+/// A cone whose tip points down at `tip`, `height` tall over a base of `radius` in 12 sides.
+fn cone_pointing_down(tip: Vec3, (height, radius): (f32, f32)) -> drape::Mesh {
+    let sides = 12;
+    let mut vertices = vec![tip, tip + Vec3::new(0.0, height, 0.0)];
+    vertices.extend((0..sides).map(|i| {
+        let a = std::f32::consts::TAU * i as f32 / sides as f32;
+        tip + Vec3::new(radius * a.cos(), height, radius * a.sin())
+    }));
+    let ring = |i: u32| 2 + i % sides;
+    let triangles = (0..sides).flat_map(|i| [[0, ring(i), ring(i + 1)], [1, ring(i + 1), ring(i)]]).collect();
+    drape::Mesh { vertices, triangles }
+}
+
+/// A square paddle (two triangles) of side `side`, horizontal, centred on the origin.
+fn paddle(side: f32) -> drape::Mesh {
+    let h = 0.5 * side;
+    let vertices = vec![Vec3::new(-h, 0.0, -h), Vec3::new(h, 0.0, -h), Vec3::new(h, 0.0, h), Vec3::new(-h, 0.0, h)];
+    drape::Mesh { vertices, triangles: vec![[0, 2, 1], [0, 3, 2]] }
+}
+
+/// The collider's side of the collider features leaves the listed triangles its lists put out
+/// of the cloth's reach to the cloth's triangles that escape their regions
+/// (`drape_kernels::feature_reach`). Here a cloth resting a frame on a paddle is thrown up by
+/// it (3.6 m/s) within one frame onto a cone's tip 2 cm above, which its predicted path (a
+/// fall) kept out of reach: only its escaped triangles can find the tip. Both sides' frames are
+/// the same bit for bit, the CPU twin of the collider's side equals the GPU, the tip was out of
+/// reach in some span, and the cloth tents over the tip: no collider edge through it.
+#[test]
+fn a_spike_the_cloth_is_thrown_onto_within_a_frame_is_walked_by_its_escaped_triangles() {
+    use drape::{ClothBuilder, ColliderId, FeatureWalks};
+    use glam::Quat;
+    let ctx = context();
+    let thickness = 0.005;
+    let cloth = ClothBuilder::new(12, 12).size(0.3).mass(0.02).self_collision(Some(thickness)).build().unwrap();
+    let (lo, hi) =
+        cloth.positions.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| {
+            (lo.min(p.truncate()), hi.max(p.truncate()))
+        });
+    let centre = 0.5 * (lo + hi);
+    let tip = centre + Vec3::new(0.011, 0.02, 0.007);
+    let colliders = [
+        Collider::mesh(&paddle(0.5), thickness).with_pose(Quat::IDENTITY, centre - Vec3::new(0.0, 0.03, 0.0)),
+        Collider::mesh(&cone_pointing_down(tip, (0.2, 0.05)), thickness),
+    ];
+    let model = |walks: FeatureWalks| {
+        let settings = SimSettings::default().with_timestamps(false).with_feature_walks(walks);
+        Model::single(&cloth, &colliders, settings).unwrap()
+    };
+    let mut from_collider = Solver::new(&ctx, &model(FeatureWalks::FromCollider)).unwrap();
+    let mut from_cloth = Solver::new(&ctx, &model(FeatureWalks::FromCloth)).unwrap();
+    let mut cpu = CpuSolver::new(&model(FeatureWalks::FromCollider)).unwrap();
+    let paddle_id = ColliderId::new(0);
+    let (mut out_of_reach, mut through) = (0, 0);
+    let cone_mesh = cone_pointing_down(tip, (0.2, 0.05));
+    for frame in 1..=8 {
+        // Still for two frames, then up 6 cm in one frame, then still again.
+        let rise = if frame >= 3 { 0.06 } else { 0.0 };
+        let at = centre + Vec3::new(0.0, rise - 0.03, 0.0);
+        from_collider.set_collider_pose(paddle_id, Quat::IDENTITY, at).unwrap();
+        from_cloth.set_collider_pose(paddle_id, Quat::IDENTITY, at).unwrap();
+        cpu.set_collider_pose(paddle_id, Quat::IDENTITY, at).unwrap();
+        out_of_reach += from_collider.step_report().unwrap().collider_features_out_of_reach;
+        from_cloth.step().unwrap();
+        cpu.step().unwrap();
+        let x = from_collider.positions(CLOTH).unwrap();
+        assert!(x == from_cloth.positions(CLOTH).unwrap(), "frame {frame}: the two sides' positions differ");
+        assert!(
+            from_collider.velocities(CLOTH).unwrap() == from_cloth.velocities(CLOTH).unwrap(),
+            "frame {frame}: the two sides' velocities differ"
+        );
+        assert!(x == cpu.positions(CLOTH).unwrap(), "frame {frame}: GPU and CPU positions differ (collider's side)");
+        through += count_intersections(&x, &cloth.triangles, (&cone_mesh.vertices, &cone_mesh.triangles))
+            .collider_edges_through_cloth;
+    }
+    println!(
+        "cone tip: {out_of_reach} listed triangle-spans out of the cloth's reach; {through} cone edges through the cloth"
+    );
+    assert!(out_of_reach > 0, "the cone's tip was never out of the cloth's reach: the split went untested");
+    assert_eq!(through, 0, "the cone's edges went through the cloth in {through} frame-edges");
     assert_validation_clean(&ctx);
 }
 

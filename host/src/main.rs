@@ -434,6 +434,7 @@ fn run(args: &Args) -> drape::Result<()> {
     let (mut ran, mut skipped, mut fallbacks, mut crowded, mut handed_over) = (0, 0, 0u64, 0u64, 0u64);
     let (mut self_walks, mut self_triangle_passes, mut self_unlisted) = (0u64, 0u64, 0u64);
     let mut features_from_cloth = 0u64;
+    let mut features_out_of_reach = 0u64;
     let mut rollbacks = Rollbacks::default();
     let collider_ids: Vec<_> = model.collider_ids().collect();
     let frame_dt = sim.settings().frame_dt;
@@ -476,6 +477,7 @@ fn run(args: &Args) -> drape::Result<()> {
         self_triangle_passes += u64::from(r.self_triangle_passes);
         self_unlisted += u64::from(r.self_passes_without_lists);
         features_from_cloth += u64::from(r.feature_walks_from_cloth);
+        features_out_of_reach += u64::from(r.collider_features_out_of_reach);
         rollbacks.record(&r, frame);
         progress.set(frame);
         // Every n-th frame and the last, as the pictures (a run shorter than n still gets one).
@@ -574,7 +576,11 @@ fn run(args: &Args) -> drape::Result<()> {
             let collider_frames = triangle_colliders as u64 * u64::from(args.frames);
             json.insert(
                 "collider_feature_walks".into(),
-                json!({ "from_the_cloth": features_from_cloth, "collider_frames": collider_frames }),
+                json!({
+                    "from_the_cloth": features_from_cloth,
+                    "collider_frames": collider_frames,
+                    "out_of_reach": features_out_of_reach,
+                }),
             );
             say!(
                 "self-collision collider vertices + edges: walked from the cloth's side in {features_from_cloth} of \
@@ -582,6 +588,10 @@ fn run(args: &Args) -> drape::Result<()> {
                  {} possibly sharp triangles per cloth triangle)",
                 args.feature_walks.to_possible_value().map_or(String::new(), |v| v.get_name().to_owned()),
                 drape_kernels::feature_walks::CLOTH_SIDE_RATIO
+            );
+            say!(
+                "self-collision collider vertices + edges: {features_out_of_reach} listed triangle-spans out of the \
+                 cloth's reach (walked only by the cloth triangles that left their predicted regions)"
             );
         }
         json.insert("self_collision_failsafe".into(), rollbacks.json());

@@ -234,12 +234,21 @@ impl SolverProgram {
     }
 
     /// Each self-colliding cloth's lists built again within a frame (what a frame whose lists
-    /// have windows adds: `FramePlan::self_windows`).
+    /// have windows adds: `FramePlan::self_windows`), and its passes' collider features with
+    /// and without the listed triangles out of the cloth's reach (`reach_filter_pays`: a frame's
+    /// passes and windows choose).
     pub fn self_window_steps(&self) -> Vec<Step> {
         let mut steps = Vec::new();
         for cloth in &self.cloths {
             if let Some(s) = &cloth.self_contact {
-                s.window_start_steps(&cloth.self_contact_cloth(), (1, 1), &mut steps);
+                let own = cloth.self_contact_cloth();
+                s.window_start_steps(&own, (1, 1), &mut steps);
+                for (index, collider) in self.colliders.iter().enumerate() {
+                    steps.extend(s.out_of_reach_steps((collider, index), cloth.health));
+                    for reach in [false, true] {
+                        steps.extend(s.collider_feature_steps(&own, (collider, index), ((0, 0, 1), reach)));
+                    }
+                }
             }
         }
         steps

@@ -64,6 +64,10 @@ pub struct FrameReport {
     /// tested by walks from the cloth's side (`FeatureWalks`), counted once per collider and
     /// self-colliding cloth.
     pub feature_walks_from_cloth: u32,
+    /// Listed collider triangles that the lists of a span of the frame put out of the cloth's
+    /// reach (summed over the spans and colliders): the passes walked the cloth's tree from the
+    /// others, and the cloth's escaped triangles took these (`drape_kernels::feature_reach`).
+    pub collider_features_out_of_reach: u32,
     /// Cloths that slept through the frame (ran nothing).
     pub cloths_asleep: u32,
     /// Tiles of the awake cloths that slept through the frame (`SimSettings::tile_sleep`),
@@ -196,6 +200,7 @@ impl Solver {
                 report.self_rollback_collider_pairs += health.self_rollback_collider_pairs;
                 report.self_rollbacks_carried += health.self_rollbacks_carried;
                 report.feature_walks_from_cloth += health.feature_walks_from_cloth;
+                report.collider_features_out_of_reach += health.collider_features_out_of_reach;
                 let passes = plan.self_passes.clamp(1, plan.substeps.max(1));
                 report.self_triangle_passes += s.tree.leaves * passes;
                 // Without lists every triangle walks; with them, those that escaped and those

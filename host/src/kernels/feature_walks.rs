@@ -3,6 +3,7 @@
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::contact::{CONTACT_THREADS, substep_motion};
+use drape_kernels::feature_reach::{LISTED_FAR, TAKE_EVERY_LISTED};
 use drape_kernels::feature_walks::{choose_feature_walks_at, collider_features_of_cloth_triangle_at};
 use drape_kernels::self_contact::arm_second_refit;
 use drape_types::{Aabb, BvhNode, ColliderParams, ColliderPose, ContactPush, DispatchArgs, Health, SimParams};
@@ -70,6 +71,49 @@ pub static COLLIDER_FEATURES_FROM_CLOTH: Kernel = Kernel {
         workgroup_size: CONTACT_THREADS,
     },
     cpu: from_cloth_cpu,
+};
+
+/// Each cloth triangle that escaped its region in the pass against the listed collider
+/// triangles out of the cloth's reach, while the collider's side walks; push constants:
+/// `ContactPush`.
+pub static COLLIDER_FEATURES_FROM_WALKERS: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "feature_walks::collider_features_from_walkers",
+        bindings: &[
+            read("params"),
+            read("self_params"),
+            read("collider"),
+            read("pose"),
+            read("vertices"),
+            read("previous"),
+            read("indices"),
+            read("features"),
+            read("listed"),
+            read("collider_nodes"),
+            read("collider_aabbs"),
+            read("collider_leaves"),
+            read("order"),
+            read("nodes"),
+            read("aabbs"),
+            read("leaf_bounds"),
+            read("sorted"),
+            read("owned"),
+            read("x"),
+            read("x_prev"),
+            read("v"),
+            read("walkers"),
+            read("walk_args"),
+            read("from_cloth"),
+            write("delta"),
+            write("velocity_changes"),
+            write("pushes"),
+            write("health"),
+            write("features_found"),
+        ],
+        push_constant_size: size_of::<ContactPush>() as u32,
+        workgroup_size: CONTACT_THREADS,
+    },
+    cpu: from_walkers_cpu,
 };
 
 fn choose_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
@@ -144,7 +188,92 @@ fn from_cloth_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let features_found = features_found.first_mut::<DispatchArgs>()?;
     for leaf in 0..threads.min(c.leaf_count) {
         let pushed = collider_features_of_cloth_triangle_at(
-            leaf,
+            (leaf, TAKE_EVERY_LISTED),
+            mesh,
+            collider_tree,
+            &collider,
+            &motion,
+            &c,
+            tree,
+            owned,
+            state,
+            (&mut *delta, &mut *velocity_changes, &mut *pushes, &mut *health),
+        );
+        if pushed {
+            arm_second_refit(&c, features_found);
+        }
+    }
+    Ok(())
+}
+
+fn from_walkers_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: ContactPush = d.push_as();
+    let threads = d.invocations();
+    let [
+        params,
+        self_params,
+        collider,
+        pose,
+        vertices,
+        previous,
+        indices,
+        features,
+        listed,
+        collider_nodes,
+        collider_aabbs,
+        collider_leaves,
+        order,
+        nodes,
+        aabbs,
+        leaf_bounds,
+        sorted,
+        owned,
+        x,
+        x_prev,
+        v,
+        walkers,
+        walk_args,
+        from_cloth,
+        delta,
+        velocity_changes,
+        pushes,
+        health,
+        features_found,
+    ] = d.bindings()?;
+    // As the kernel: nothing when the cloth's side walks every listed triangle already.
+    if from_cloth.first::<DispatchArgs>()?.x != 0 {
+        return Ok(());
+    }
+    let p: SimParams = params.first()?;
+    let c: ColliderParams = self_params.first()?;
+    let collider: ColliderParams = collider.first()?;
+    let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
+    let mesh = (
+        vertices.slice::<Vec4>(),
+        previous.slice::<Vec4>(),
+        indices.slice::<u32>(),
+        features.slice::<UVec4>(),
+        listed.slice::<u32>(),
+    );
+    let collider_tree = (
+        collider_nodes.slice::<BvhNode>(),
+        collider_aabbs.slice::<Aabb>(),
+        collider_leaves.slice::<Aabb>(),
+        order.slice::<u32>(),
+    );
+    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
+    let state = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
+    let owned = owned.slice::<u32>();
+    let walkers = walkers.slice::<u32>();
+    let count = walk_args.first::<DispatchArgs>()?._pad;
+    let (delta, velocity_changes, pushes) =
+        (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>(), pushes.slice_mut::<u32>());
+    let health = health.first_mut::<Health>()?;
+    let features_found = features_found.first_mut::<DispatchArgs>()?;
+    for i in 0..threads.min(count) {
+        let leaf = *walkers.get(i as usize).ok_or("the walkers' count runs past their list")?;
+        let pushed = collider_features_of_cloth_triangle_at(
+            (leaf, LISTED_FAR),
             mesh,
             collider_tree,
             &collider,

@@ -4,6 +4,7 @@
 //! family's file and to `ALL`.
 
 pub mod contact;
+pub mod feature_reach;
 pub mod feature_walks;
 pub mod integrate;
 pub mod lbvh;
@@ -20,7 +21,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 63] = [
+pub const ALL: [&Kernel; 65] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &integrate::INTEGRATE_SUBSTEPS,
@@ -45,6 +46,8 @@ pub const ALL: [&Kernel; 63] = [
     &self_contact::COLLIDER_FEATURE_CONTACT,
     &feature_walks::CHOOSE_FEATURE_WALKS,
     &feature_walks::COLLIDER_FEATURES_FROM_CLOTH,
+    &feature_walks::COLLIDER_FEATURES_FROM_WALKERS,
+    &feature_reach::MARK_OUT_OF_REACH,
     &self_contact::APPLY_SELF_CONTACT,
     &self_contact::APPLY_COLLIDER_PUSHES,
     &self_failsafe::FAILSAFE_BOXES,

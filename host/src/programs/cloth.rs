@@ -4,7 +4,9 @@
 use super::contact::{
     CONTACT_LABEL, ColliderBuffers, ContactBuffers, Crowded, EULER_UPDATE_CONTACT_LABEL, RK4_UPDATE_CONTACT_LABEL,
 };
-use super::self_contact::{FeatureWalks, SelfContactBuffers, SelfContactCloth, pass_due, window_ends};
+use super::self_contact::{
+    FeatureWalks, SelfContactBuffers, SelfContactCloth, pass_due, reach_filter_pays, window_ends,
+};
 use super::tiles::TileBuffers;
 use crate::cloth::{Cloth, ClothTopology};
 use crate::graph::{BufferId, Dispatch, Handle, Kernel, Resources, Step};
@@ -257,11 +259,16 @@ pub fn frame_steps(
     // The substeps whose passes end the self-collision lists' windows (the last: the frame's).
     let window_ends = window_ends(plan.substeps, plan.self_passes, if plan.self_lists { plan.self_windows } else { 1 });
     let mut window = (0, window_ends.first().map_or(plan.substeps, |end| end + 1));
+    // Whether each span of the lists marks the colliders' listed triangles out of the cloth's
+    // reach (never when every cloth triangle walks for every listed one).
+    let passes = plan.self_passes.clamp(1, plan.substeps.max(1));
+    let reach = reach_filter_pays(plan.self_lists, passes, window_ends.len() as u32)
+        && plan.feature_walks != FeatureWalks::FromCloth;
     if let Some(s) = &cloth.self_contact {
         let tree = (plan.self_lists, plan.self_rebuild);
         s.frame_start_steps(&cloth.self_contact_cloth(), (window.1, plan.substeps), tree, &mut steps);
         for (index, (collider, _)) in colliders.iter().enumerate() {
-            s.sharp_feature_steps((collider, index), (plan.feature_walks, cloth.health), &mut steps);
+            s.sharp_feature_steps((collider, index), (plan.feature_walks, cloth.health, reach), &mut steps);
         }
     }
     // The substep after the last self-collision pass: where the next pass's sweep begins.
@@ -312,7 +319,7 @@ pub fn frame_steps(
             let features = colliders
                 .iter()
                 .enumerate()
-                .flat_map(|(index, (collider, _))| s.collider_feature_steps(&own, (collider, index), span))
+                .flat_map(|(index, (collider, _))| s.collider_feature_steps(&own, (collider, index), (span, reach)))
                 .collect();
             s.windowed_substep_steps(&own, (span, window, plan.self_lists), features, &mut steps);
             pass_from = substep + 1;
@@ -321,6 +328,10 @@ pub fn frame_steps(
                 let next_end = window_ends.iter().find(|&&end| end > substep).map_or(plan.substeps, |end| end + 1);
                 window = (substep + 1, next_end - (substep + 1));
                 s.window_start_steps(&own, (window.1, plan.substeps), &mut steps);
+                // The listed collider triangles out of the cloth's reach over the new window.
+                for (index, (collider, _)) in colliders.iter().enumerate().filter(|_| reach) {
+                    steps.extend(s.out_of_reach_steps((collider, index), cloth.health));
+                }
             }
         }
     }

@@ -20,6 +20,7 @@
 //! (`PairWalk::one`): it tests `C` exactly when the collider's walk would have.
 
 use crate::contact::{CONTACT_THREADS, substep_motion};
+use crate::feature_reach::{LISTED_FAR, TAKE_EVERY_LISTED};
 use crate::lbvh::{PairBoxes, PairWalk, WALK_BATCH, box_meets};
 use crate::pose::{SubstepMotion, abs_rotation_rows, posed_box};
 use crate::self_contact::{PairResponse, SelfTree, arm_second_refit, collider_feature_contact_at, tested_features};
@@ -45,7 +46,9 @@ pub const CLOTH_SIDE_RATIO: u32 = 4;
 
 /// Writes the pass's two indirect dispatches from the frame's list of sharp triangles
 /// (`listed`, its count in `_pad`) and the cloth's triangles (`cloth_triangles`): one of them
-/// dispatched, the other over no workgroup. Returns whether the cloth's side walks.
+/// dispatched, the other over no workgroup. Returns whether the cloth's side walks. (A frame
+/// that marks the listed triangles out of the cloth's reach, `feature_reach`, marks nothing when
+/// the cloth's side walks.)
 #[inline]
 pub fn choose_feature_walks_at(
     mode: u32,
@@ -145,12 +148,13 @@ pub type ListedMesh<'a> = (&'a [Vec4], &'a [Vec4], &'a [u32], &'a [UVec4], &'a [
 pub type ColliderTree<'a> = (&'a [BvhNode], &'a [Aabb], &'a [Aabb], &'a [u32]);
 
 /// The cloth's side of a pass's collider features: cloth triangle `leaf` (the pass tree's
-/// sorted leaf) against every listed collider triangle near it, each through
-/// `collider_feature_contact_at` for this leaf alone. Returns whether a collider edge pushed
-/// a cloth edge.
+/// sorted leaf) against every listed collider triangle near it whose flag is in `take`
+/// (`feature_reach::TAKE_EVERY_LISTED`, or `LISTED_FAR` for a triangle that escaped its region
+/// while the collider's side walks), each through `collider_feature_contact_at` for this leaf
+/// alone. Returns whether a collider edge pushed a cloth edge.
 #[allow(clippy::too_many_arguments)]
 pub fn collider_features_of_cloth_triangle_at(
-    leaf: u32,
+    (leaf, take): (u32, u32),
     (vertices, previous, indices, features, listed): ListedMesh<'_>,
     (collider_nodes, collider_aabbs, collider_leaves, order): ColliderTree<'_>,
     collider: &ColliderParams,
@@ -173,7 +177,7 @@ pub fn collider_features_of_cloth_triangle_at(
         let mut k = 0;
         while k < count {
             let triangle = order[found[k] as usize];
-            if listed[triangle as usize] != 0 {
+            if listed[triangle as usize] & take != 0 {
                 let out = PairResponse {
                     thickness: collider.thickness,
                     friction: collider.friction,
@@ -258,7 +262,69 @@ pub fn collider_features_from_cloth(
     }
     let motion = substep_motion(params, pose, push);
     let pushed = collider_features_of_cloth_triangle_at(
-        id.x,
+        (id.x, TAKE_EVERY_LISTED),
+        (vertices, previous, indices, features, listed),
+        (collider_nodes, collider_aabbs, collider_leaves, order),
+        collider,
+        &motion,
+        self_params,
+        (nodes, aabbs, leaf_bounds, sorted),
+        owned,
+        (x, x_prev, v),
+        (delta, velocity_changes, pushes, health),
+    );
+    if pushed {
+        arm_second_refit(self_params, features_found);
+    }
+}
+
+/// One thread per cloth triangle that escaped its region in the pass (the pass's walkers,
+/// `self_pairs::note_escape`: sorted leaves, their count in `walk_args._pad`), when the frame
+/// walks from the collider's side (`from_cloth` dispatches nothing): against the listed collider
+/// triangles the lists marked out of the cloth's reach (`feature_reach::LISTED_FAR`), which the
+/// collider's side leaves to them. Push constants: `ContactPush`.
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn collider_features_from_walkers(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &ContactPush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] params: &SimParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] collider: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] pose: &ColliderPose,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] vertices: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] previous: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] features: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] listed: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] collider_nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] collider_aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] collider_leaves: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] order: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 17)] owned: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 18)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 19)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 20)] v: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 21)] walkers: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 22)] walk_args: &DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 23)] from_cloth: &DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 24)] delta: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 25)] velocity_changes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 26)] pushes: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 27)] health: &mut drape_types::Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 28)] features_found: &mut DispatchArgs,
+) {
+    if id.x >= walk_args._pad || from_cloth.x != 0 {
+        return;
+    }
+    let leaf = walkers[id.x as usize];
+    let motion = substep_motion(params, pose, push);
+    let pushed = collider_features_of_cloth_triangle_at(
+        (leaf, LISTED_FAR),
         (vertices, previous, indices, features, listed),
         (collider_nodes, collider_aabbs, collider_leaves, order),
         collider,

@@ -13,6 +13,7 @@ pub mod candidates;
 pub mod cloth;
 pub mod contact;
 pub mod crowded;
+pub mod feature_reach;
 pub mod feature_walks;
 pub mod health;
 pub mod integrate;

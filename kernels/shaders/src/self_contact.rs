@@ -1641,7 +1641,8 @@ pub fn collider_feature_contact(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 21)] health: &mut Health,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 22)] features_found: &mut DispatchArgs,
 ) {
-    // One thread per triangle the frame listed as possibly sharp (`sharp_features`).
+    // One thread per triangle the frame listed as possibly sharp (`sharp_features`), or, with
+    // the frame's pair lists, per listed triangle within the cloth's reach (`feature_reach`).
     if id.x >= sharp_args._pad {
         return;
     }

@@ -67,6 +67,9 @@ const REACH_ABSOLUTE: f32 = 1e-5;
 pub const ANCHOR_WORDS: u32 = 4;
 /// The anchors' word holding where the particle started the frame (xyz).
 pub const FRAME_START_WORD: u32 = 3;
+/// The anchors' word holding gravity's share of the predicted path over the span (xyz; the same
+/// for every particle).
+pub const FALL_WORD: u32 = 2;
 
 /// Particle `i`'s anchor for a frame of `frame_time` seconds (words `ANCHOR_WORDS * i..` of
 /// `anchors`): its position and slop, its velocity's motion over the frame and gravity's: its
@@ -85,7 +88,7 @@ pub fn anchor_window_at(i: u32, (x, v): (&[Vec4], &[Vec4]), window: (f32, Vec3, 
     let base = (ANCHOR_WORDS * i) as usize;
     anchors[base] = anchor.start.extend(anchor.slop);
     anchors[base + 1] = anchor.motion.extend(0.0);
-    anchors[base + 2] = anchor.fall.extend(0.0);
+    anchors[base + FALL_WORD as usize] = anchor.fall.extend(0.0);
 }
 
 /// Anchors of particles `lane, lane + stride, ...` over `window` (`anchor_at`), and their
@@ -662,6 +665,34 @@ pub fn list_self_pairs_at(
     }
     counts[leaf as usize] = if full { LIST_OVERFLOWED } else { count };
     fastest
+}
+
+/// Whether a cloth triangle that keeps to its predicted region over the lists' span (its
+/// corners within their slops of their predicted paths, gravity's share left out) may come
+/// within `thickness` of a point of the box `(lo, hi)`: one walk of the span's tree (its start
+/// boxes and motion boxes, as `list_self_pairs_at` walks it), over every leaf, stopping at the
+/// first that may. The box stands still over the span; the caller grows it by gravity's share
+/// of the cloth's predicted paths (`ANCHOR_WORDS` word 2 of any particle: the same for all),
+/// which parts a cloth from a collider as it parts no two of its triangles. Run between the
+/// lists and the span's first pass, whose refits overwrite the start boxes.
+pub fn lists_tree_reaches(
+    (lo, hi): (Vec3, Vec3),
+    thickness: f32,
+    leaf_count: u32,
+    (nodes, aabbs, leaf_bounds): (&[BvhNode], &[Aabb], &[Aabb]),
+    (motion_aabbs, leaf_motions): (&[Aabb], &[Aabb]),
+    walk_nodes: &[WalkNode],
+) -> bool {
+    let frames = (Quantizer::over(&aabbs[0]), Quantizer::over(&motion_aabbs[0]));
+    let query = ((lo, hi), (Vec3::ZERO, Vec3::ZERO));
+    let boxes = RelativeMotion { walk_nodes, frames, leaf_bounds, leaf_motions, query, thickness };
+    let mut walk = PairWalk::all(leaf_count);
+    let mut found = [0u32; WALK_BATCH];
+    let mut reaches = false;
+    while !walk.done() && !reaches {
+        reaches = walk.next_batch_in(nodes, boxes, &mut found) > 0;
+    }
+    reaches
 }
 
 /// Records a list's largest motion and approach (`list_self_pairs_at`) in the frame's health

@@ -141,6 +141,10 @@ pub struct Health {
     /// cloth.
     pub self_scene_low: [f32; 4],
     pub self_scene_high: [f32; 4],
+    /// A triangle collider's possibly sharp triangles that no cloth triangle keeping to its
+    /// predicted region could reach over a span of the frame's self-collision lists, summed over
+    /// the spans (`drape_kernels::feature_reach`): the passes walk the cloth's tree from the others.
+    pub collider_features_out_of_reach: u32,
 }
 
 /// One spring of a spring-list cloth (a cloth built from a triangle mesh), as seen from one of
@@ -182,7 +186,7 @@ const _: () = assert!(core::mem::size_of::<Spring>() == 16);
 const _: () = assert!(core::mem::size_of::<ParticleSprings>() == 16);
 const _: () = assert!(core::mem::size_of::<StagePush>() == 16);
 const _: () = assert!(core::mem::size_of::<SubstepsPush>() == 16);
-const _: () = assert!(core::mem::size_of::<Health>() == 100);
+const _: () = assert!(core::mem::size_of::<Health>() == 104);
 const _: () = assert!(core::mem::size_of::<FailsafePush>() == 16);
 const _: () = assert!(core::mem::size_of::<CarrierPush>() == 16);
 const _: () = assert!(core::mem::size_of::<ColliderPose>() == 80);
