@@ -1,7 +1,7 @@
 //! A pass's collider features from the cloth's side (`drape_kernels::feature_walks`): the
 //! frame's choice of side, and each cloth triangle's walk of the collider's tree.
 
-use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use crate::graph::{BindingSpec, HostBuffer, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::contact::{CONTACT_THREADS, substep_motion};
 use drape_kernels::feature_reach::{LISTED_FAR, TAKE_EVERY_LISTED};
 use drape_kernels::feature_walks::{choose_feature_walks_at, collider_features_of_cloth_triangle_at};
@@ -134,76 +134,10 @@ fn choose_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 fn from_cloth_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let push: ContactPush = d.push_as();
     let threads = d.invocations();
-    let [
-        params,
-        self_params,
-        collider,
-        pose,
-        vertices,
-        previous,
-        indices,
-        features,
-        listed,
-        collider_nodes,
-        collider_aabbs,
-        collider_leaves,
-        order,
-        nodes,
-        aabbs,
-        leaf_bounds,
-        sorted,
-        owned,
-        x,
-        x_prev,
-        v,
-        delta,
-        velocity_changes,
-        pushes,
-        health,
-        features_found,
-    ] = d.bindings()?;
-    let p: SimParams = params.first()?;
-    let c: ColliderParams = self_params.first()?;
-    let collider: ColliderParams = collider.first()?;
-    let motion = substep_motion(&p, &pose.first::<ColliderPose>()?, &push);
-    let mesh = (
-        vertices.slice::<Vec4>(),
-        previous.slice::<Vec4>(),
-        indices.slice::<u32>(),
-        features.slice::<UVec4>(),
-        listed.slice::<u32>(),
-    );
-    let collider_tree = (
-        collider_nodes.slice::<BvhNode>(),
-        collider_aabbs.slice::<Aabb>(),
-        collider_leaves.slice::<Aabb>(),
-        order.slice::<u32>(),
-    );
-    let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
-    let state = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
-    let owned = owned.slice::<u32>();
-    let (delta, velocity_changes, pushes) =
-        (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>(), pushes.slice_mut::<u32>());
-    let health = health.first_mut::<Health>()?;
-    let features_found = features_found.first_mut::<DispatchArgs>()?;
-    for leaf in 0..threads.min(c.leaf_count) {
-        let pushed = collider_features_of_cloth_triangle_at(
-            (leaf, TAKE_EVERY_LISTED),
-            mesh,
-            collider_tree,
-            &collider,
-            &motion,
-            &c,
-            tree,
-            owned,
-            state,
-            (&mut *delta, &mut *velocity_changes, &mut *pushes, &mut *health),
-        );
-        if pushed {
-            arm_second_refit(&c, features_found);
-        }
-    }
-    Ok(())
+    let buffers: [&mut HostBuffer; 26] = d.bindings()?;
+    let cloth_triangles = buffers[1].first::<ColliderParams>()?.leaf_count;
+    let leaves: Vec<u32> = (0..threads.min(cloth_triangles)).collect();
+    walks_from_cloth_cpu(push, buffers, &leaves, TAKE_EVERY_LISTED)
 }
 
 fn from_walkers_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
@@ -244,6 +178,78 @@ fn from_walkers_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     if from_cloth.first::<DispatchArgs>()?.x != 0 {
         return Ok(());
     }
+    let count = walk_args.first::<DispatchArgs>()?._pad;
+    let walkers = walkers.slice::<u32>();
+    let leaves = walkers.get(..threads.min(count) as usize).ok_or("the walkers' count runs past their list")?;
+    let buffers = [
+        params,
+        self_params,
+        collider,
+        pose,
+        vertices,
+        previous,
+        indices,
+        features,
+        listed,
+        collider_nodes,
+        collider_aabbs,
+        collider_leaves,
+        order,
+        nodes,
+        aabbs,
+        leaf_bounds,
+        sorted,
+        owned,
+        x,
+        x_prev,
+        v,
+        delta,
+        velocity_changes,
+        pushes,
+        health,
+        features_found,
+    ];
+    walks_from_cloth_cpu(push, buffers, leaves, LISTED_FAR)
+}
+
+/// Both kernels' walks from the cloth's side on the CPU: each of `leaves` (the pass tree's
+/// sorted leaves) against the listed collider triangles whose flags are in `take`
+/// (`collider_features_of_cloth_triangle_at`); `buffers` are `collider_features_from_cloth`'s
+/// bindings, in its order.
+fn walks_from_cloth_cpu(
+    push: ContactPush,
+    buffers: [&mut HostBuffer; 26],
+    leaves: &[u32],
+    take: u32,
+) -> Result<(), String> {
+    let [
+        params,
+        self_params,
+        collider,
+        pose,
+        vertices,
+        previous,
+        indices,
+        features,
+        listed,
+        collider_nodes,
+        collider_aabbs,
+        collider_leaves,
+        order,
+        nodes,
+        aabbs,
+        leaf_bounds,
+        sorted,
+        owned,
+        x,
+        x_prev,
+        v,
+        delta,
+        velocity_changes,
+        pushes,
+        health,
+        features_found,
+    ] = buffers;
     let p: SimParams = params.first()?;
     let c: ColliderParams = self_params.first()?;
     let collider: ColliderParams = collider.first()?;
@@ -264,16 +270,13 @@ fn from_walkers_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let state = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), v.slice::<Vec4>());
     let owned = owned.slice::<u32>();
-    let walkers = walkers.slice::<u32>();
-    let count = walk_args.first::<DispatchArgs>()?._pad;
     let (delta, velocity_changes, pushes) =
         (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>(), pushes.slice_mut::<u32>());
     let health = health.first_mut::<Health>()?;
     let features_found = features_found.first_mut::<DispatchArgs>()?;
-    for i in 0..threads.min(count) {
-        let leaf = *walkers.get(i as usize).ok_or("the walkers' count runs past their list")?;
+    for &leaf in leaves {
         let pushed = collider_features_of_cloth_triangle_at(
-            (leaf, LISTED_FAR),
+            (leaf, take),
             mesh,
             collider_tree,
             &collider,

@@ -717,10 +717,10 @@ impl SelfContactBuffers {
         };
         let span = substep_span(from, to + 1, substeps);
         let t = &self.tree;
-        let from_cloth = Step::run_with(
-            COLLIDER_FEATURES_FROM_CLOTH_LABEL,
-            &COLLIDER_FEATURES_FROM_CLOTH,
-            vec![
+        // What a walk from the cloth's side binds: the pass, the collider's mesh, flags and tree,
+        // the cloth's pass tree and sweep, then `pick` (which cloth triangles walk), then the sums.
+        let cloth_side = |pick: &[BufferId]| {
+            let walks = [
                 cloth.params.id(),
                 t.collider.id(),
                 mesh.tree.collider.id(),
@@ -742,12 +742,20 @@ impl SelfContactBuffers {
                 cloth.x.id(),
                 self.start.id(),
                 cloth.v.id(),
+            ];
+            let sums = [
                 self.delta.id(),
                 self.velocity_changes.id(),
                 self.pushes.id(),
                 cloth.health.id(),
                 self.features_found.id(),
-            ],
+            ];
+            [&walks[..], pick, &sums].concat()
+        };
+        let from_cloth = Step::run_with(
+            COLLIDER_FEATURES_FROM_CLOTH_LABEL,
+            &COLLIDER_FEATURES_FROM_CLOTH,
+            cloth_side(&[]),
             bytemuck::cast(span),
             Dispatch::Indirect(sharp.from_cloth),
         );
@@ -798,37 +806,7 @@ impl SelfContactBuffers {
         let from_walkers = Step::run_with(
             COLLIDER_FEATURES_FROM_WALKERS_LABEL,
             &COLLIDER_FEATURES_FROM_WALKERS,
-            vec![
-                cloth.params.id(),
-                t.collider.id(),
-                mesh.tree.collider.id(),
-                collider.pose.id(),
-                mesh.vertices.id(),
-                mesh.previous.id(),
-                mesh.indices.id(),
-                features.id(),
-                sharp.listed.id(),
-                mesh.tree.nodes.id(),
-                mesh.tree.aabbs.id(),
-                mesh.tree.sorted_bounds.id(),
-                mesh.tree.order.id(),
-                t.nodes.id(),
-                t.aabbs.id(),
-                t.sorted_bounds.id(),
-                self.sorted.id(),
-                self.owned.id(),
-                cloth.x.id(),
-                self.start.id(),
-                cloth.v.id(),
-                self.walkers.id(),
-                self.walk_args.id(),
-                sharp.from_cloth.id(),
-                self.delta.id(),
-                self.velocity_changes.id(),
-                self.pushes.id(),
-                cloth.health.id(),
-                self.features_found.id(),
-            ],
+            cloth_side(&[self.walkers.id(), self.walk_args.id(), sharp.from_cloth.id()]),
             bytemuck::cast(span),
             Dispatch::Indirect(self.walk_args),
         );
