@@ -27,7 +27,6 @@ pub static MARK_OUT_OF_REACH: Kernel = Kernel {
             read("indices"),
             read("sharp"),
             read("sharp_args"),
-            read("from_cloth"),
             read("nodes"),
             read("aabbs"),
             read("leaf_bounds"),
@@ -56,7 +55,6 @@ fn mark_out_of_reach_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         indices,
         sharp,
         sharp_args,
-        from_cloth,
         nodes,
         aabbs,
         leaf_bounds,
@@ -74,7 +72,6 @@ fn mark_out_of_reach_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let pose: ColliderPose = pose.first()?;
     let mesh = (vertices.slice::<Vec4>(), previous.slice::<Vec4>(), indices.slice::<u32>());
     let sharp_args: DispatchArgs = sharp_args.first()?;
-    let from_cloth: DispatchArgs = from_cloth.first()?;
     let sharp = sharp.slice::<u32>();
     if (sharp_args._pad as usize) > sharp.len() {
         return Err("the sharp features' count runs past their list".into());
@@ -88,7 +85,7 @@ fn mark_out_of_reach_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     for id in 0..threads {
         mark_out_of_reach_at(
             id,
-            (sharp, &sharp_args, &from_cloth),
+            (sharp, &sharp_args),
             mesh,
             (&collider, &pose),
             &c,

@@ -143,37 +143,9 @@ fn from_cloth_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 fn from_walkers_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let push: ContactPush = d.push_as();
     let threads = d.invocations();
-    let [
-        params,
-        self_params,
-        collider,
-        pose,
-        vertices,
-        previous,
-        indices,
-        features,
-        listed,
-        collider_nodes,
-        collider_aabbs,
-        collider_leaves,
-        order,
-        nodes,
-        aabbs,
-        leaf_bounds,
-        sorted,
-        owned,
-        x,
-        x_prev,
-        v,
-        walkers,
-        walk_args,
-        from_cloth,
-        delta,
-        velocity_changes,
-        pushes,
-        health,
-        features_found,
-    ] = d.bindings()?;
+    // The cloth's side's bindings with the walkers' three before its sums.
+    let [walks @ .., walkers, walk_args, from_cloth, delta, velocity_changes, pushes, health, features_found]: [&mut HostBuffer; 29] =
+        d.bindings()?;
     // As the kernel: nothing when the cloth's side walks every listed triangle already.
     if from_cloth.first::<DispatchArgs>()?.x != 0 {
         return Ok(());
@@ -181,34 +153,13 @@ fn from_walkers_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let count = walk_args.first::<DispatchArgs>()?._pad;
     let walkers = walkers.slice::<u32>();
     let leaves = walkers.get(..threads.min(count) as usize).ok_or("the walkers' count runs past their list")?;
-    let buffers = [
-        params,
-        self_params,
-        collider,
-        pose,
-        vertices,
-        previous,
-        indices,
-        features,
-        listed,
-        collider_nodes,
-        collider_aabbs,
-        collider_leaves,
-        order,
-        nodes,
-        aabbs,
-        leaf_bounds,
-        sorted,
-        owned,
-        x,
-        x_prev,
-        v,
-        delta,
-        velocity_changes,
-        pushes,
-        health,
-        features_found,
-    ];
+    let sums = [delta, velocity_changes, pushes, health, features_found];
+    let buffers: [&mut HostBuffer; 26] = walks
+        .into_iter()
+        .chain(sums)
+        .collect::<Vec<_>>()
+        .try_into()
+        .map_err(|_| "the cloth's side binds 26 buffers")?;
     walks_from_cloth_cpu(push, buffers, leaves, LISTED_FAR)
 }
 

@@ -473,7 +473,6 @@ impl SelfContactBuffers {
                 mesh.indices.id(),
                 sharp.list.id(),
                 sharp.args.id(),
-                sharp.from_cloth.id(),
                 t.nodes.id(),
                 t.aabbs.id(),
                 t.sorted_bounds.id(),

@@ -81,13 +81,13 @@ pub fn frame_swept_box(
 /// span can come within the collider's thickness of it (the span's tree: `tree`, `motions`,
 /// `walk_nodes`; the cloth's `anchors`), counted in `health`; else appended to `near`, whose
 /// indirect dispatch (`near_args`, emptied by the host before) the collider's side of the
-/// span's passes runs over. Nothing is marked or appended when the frame walks from the cloth's
-/// side (`from_cloth` dispatches workgroups).
+/// span's passes runs over. Dispatched over the collider's side's own dispatch, which the
+/// frame's choice empties when the cloth's side walks: then nothing is marked.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn mark_out_of_reach_at(
     id: u32,
-    (sharp, sharp_args, from_cloth): (&[u32], &DispatchArgs, &DispatchArgs),
+    (sharp, sharp_args): (&[u32], &DispatchArgs),
     mesh: (&[Vec4], &[Vec4], &[u32]),
     (collider, pose): (&ColliderParams, &ColliderPose),
     self_params: &ColliderParams,
@@ -98,7 +98,7 @@ pub fn mark_out_of_reach_at(
     (listed, near, near_args): (&mut [u32], &mut [u32], &mut DispatchArgs),
     health: &mut Health,
 ) {
-    if id >= sharp_args._pad || from_cloth.x != 0 {
+    if id >= sharp_args._pad {
         return;
     }
     let triangle = sharp[id as usize];
@@ -116,7 +116,7 @@ pub fn mark_out_of_reach_at(
 }
 
 /// One thread per listed sharp triangle (`mark_out_of_reach_at`), after the lists of each span
-/// and the frame's choice of side.
+/// and the frame's choice of side, over the collider's side's dispatch.
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
 pub fn mark_out_of_reach(
@@ -129,22 +129,21 @@ pub fn mark_out_of_reach(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] indices: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] sharp: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] sharp_args: &DispatchArgs,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] from_cloth: &DispatchArgs,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] nodes: &[BvhNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] leaf_bounds: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] motion_aabbs: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] leaf_motions: &[Aabb],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] walk_nodes: &[WalkNode],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] anchors: &[Vec4],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] listed: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 17)] near: &mut [u32],
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 18)] near_args: &mut DispatchArgs,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 19)] health: &mut Health,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] motion_aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] leaf_motions: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] walk_nodes: &[WalkNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] anchors: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] listed: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] near: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 17)] near_args: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 18)] health: &mut Health,
 ) {
     mark_out_of_reach_at(
         id.x,
-        (sharp, sharp_args, from_cloth),
+        (sharp, sharp_args),
         (vertices, previous, indices),
         (collider, pose),
         self_params,
