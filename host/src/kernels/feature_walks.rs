@@ -146,8 +146,9 @@ fn from_walkers_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     // The cloth's side's bindings with the walkers' three before its sums.
     let [walks @ .., walkers, walk_args, from_cloth, delta, velocity_changes, pushes, health, features_found]: [&mut HostBuffer; 29] =
         d.bindings()?;
-    // As the kernel: nothing when the cloth's side walks every listed triangle already.
-    if from_cloth.first::<DispatchArgs>()?.x != 0 {
+    // As the kernel: nothing when the cloth's side walks every listed triangle already, or
+    // when the frame has marked none out of reach.
+    if from_cloth.first::<DispatchArgs>()?.x != 0 || health.first::<Health>()?.collider_features_out_of_reach == 0 {
         return Ok(());
     }
     let count = walk_args.first::<DispatchArgs>()?._pad;

@@ -282,7 +282,10 @@ pub fn collider_features_from_cloth(
 /// `self_pairs::note_escape`: sorted leaves, their count in `walk_args._pad`), when the frame
 /// walks from the collider's side (`from_cloth` dispatches nothing): against the listed collider
 /// triangles the lists marked out of the cloth's reach (`feature_reach::LISTED_FAR`), which the
-/// collider's side leaves to them. Push constants: `ContactPush`.
+/// collider's side leaves to them. Nothing when the frame has marked none so far
+/// (`Health::collider_features_out_of_reach`, zeroed at the frame's start): a smooth collider
+/// lists none, and a walk of its whole tree finding no marked triangle cost each escaped
+/// triangle as much as its contact walk. Push constants: `ContactPush`.
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
 pub fn collider_features_from_walkers(
@@ -318,7 +321,7 @@ pub fn collider_features_from_walkers(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 27)] health: &mut drape_types::Health,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 28)] features_found: &mut DispatchArgs,
 ) {
-    if id.x >= walk_args._pad || from_cloth.x != 0 {
+    if id.x >= walk_args._pad || from_cloth.x != 0 || health.collider_features_out_of_reach == 0 {
         return;
     }
     let leaf = walkers[id.x as usize];
