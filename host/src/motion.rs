@@ -12,7 +12,9 @@
 //!   particle, plus the fastest surface point this frame of the colliders that may meet the
 //!   cloth (`ClothMotion::may_meet`: a self-colliding cloth reports its box every frame; a
 //!   collider moving elsewhere changes nothing), moves at most `CONTACT_REACH` thicknesses per
-//!   substep. Raised at once, lowered only after `LOWER_AFTER` frames that need fewer.
+//!   substep. Raised at once; the motion's need comes down to the most of the last
+//!   `MOTION_HOLD` frames', a collider vertex's push only after `LOWER_AFTER` frames that need
+//!   fewer.
 //! - **Self-collision passes.** While a cloth does not touch itself, its passes follow the same
 //!   need of its pairs and the collider features, from the last frame alone
 //!   (`ClothMotion::self_passes`); while it does, it runs one every substep.
@@ -30,7 +32,17 @@ use glam::{Vec3, Vec4};
 
 /// Thicknesses a particle may move per substep, relative to the contact it is in.
 pub const CONTACT_REACH: f32 = 1.0;
-/// Frames the motion must need fewer substeps before the count comes down.
+/// The frames whose motion the substeps follow: the most any of the last `MOTION_HOLD` frames'
+/// motion needs (the particles', the self-collision pairs', a moving collider's). The need is
+/// measured, not scaled by the substeps run, so it does not swing with the count: a short
+/// hold only spans the frames of one slap of a fold. Held for 30 frames (as a push still is),
+/// the icosphere's 64^2 cloth ran 38 of its 120 frames at 20 substeps where its pairs asked
+/// for 10 after 10 of them.
+pub const MOTION_HOLD: usize = 4;
+/// Frames a collider vertex's pushes must need fewer substeps before their count comes down.
+/// A push is measured at the substeps run (it shrinks with the substep's square), and a cloth
+/// resting on a spike's tip pushes only where a substep let it sag: lowered at once, the next
+/// frame would sag through again.
 pub const LOWER_AFTER: u32 = 30;
 /// The fewest self-collision passes a frame runs (fewer when it has fewer substeps). Each pass
 /// is also one Jacobi iteration of the contacts it finds: a settled pile of 32 x 8 particles
@@ -107,16 +119,23 @@ pub struct ClothMotion {
     /// frame ran.
     feature_push: f32,
     substeps_run: u32,
-    /// Substeps the motion needs now, and frames it has needed fewer.
+    /// Substeps the frame runs for its contact: the most of `motion_needs` and `push_substeps`.
     pub(crate) contact_substeps: u32,
+    /// The substeps each of the last `MOTION_HOLD` frames' motion needed, oldest overwritten
+    /// first (`motion_slot` is the next to write).
+    motion_needs: [u32; MOTION_HOLD],
+    motion_slot: usize,
+    /// Substeps the collider vertices' pushes need now, and frames they have needed fewer.
+    push_substeps: u32,
     /// Self-collision passes the last frame's motion asks of the next while the cloth does not
     /// touch itself: its pairs' and the collider features' need (as `contact_substeps`, without
     /// the sphere colliders', which the passes do not test), from the last frame alone. The
-    /// substeps come down only after `LOWER_AFTER` calm frames (a changed count re-plans the
-    /// frame and moves the stability margin); the passes need no such hold: over the 64^2
+    /// substeps keep the most of the last `MOTION_HOLD` frames' needs (a changed count re-plans
+    /// the frame and moves the stability margin); the passes need no such hold: over the 64^2
     /// swing's 60 frames the held count ran a pass every substep (14) where its pairs' approach
     /// asked for 4-10.
     pub(crate) self_passes: u32,
+    /// Frames the pushes have needed fewer than `push_substeps`.
     frames_needing_fewer: u32,
     still_frames: u32,
     pub(crate) asleep: bool,
@@ -226,7 +245,7 @@ pub(crate) struct Change {
 
 impl ClothMotion {
     pub(crate) fn new() -> Self {
-        ClothMotion { contact_substeps: 1, self_passes: 1, self_contact: true, ..Default::default() }
+        ClothMotion { contact_substeps: 1, self_passes: 1, push_substeps: 1, self_contact: true, ..Default::default() }
     }
 
     /// After a frame of `substeps` substeps of `substep` s: its health check's speed and motion,
@@ -371,28 +390,33 @@ impl ClothMotion {
         // a collider moves, its motion against the cloth's (its edges find the cloth's by
         // proximity alone: a star prism spinning at 6 rad/s, its knife edges at 2.8 m/s, cut
         // the falling 32^2 cloth at its 11 substeps and held it at 15).
-        let features = proximity.collider_features.and_then(|f| {
+        let features = proximity.collider_features.map(|f| {
             let pushed = substeps_for_push(self.feature_push, self.substeps_run).map(|n| n.min(f.most.0.max(1)));
             let motion = (self.last_speed + f.speed) * frame_dt;
             let moving = if f.speed > 0.0 { substeps_for(motion, f.thickness) } else { None };
-            pushed.max(moving.map(|n| n.min(f.most.1.max(1))))
+            (pushed, moving.map(|n| n.min(f.most.1.max(1))))
         });
+        let (pushed, moving) = features.unwrap_or((None, None));
         // The passes test the cloth's pairs and the collider features, not the sphere colliders.
-        let passes = self_collision.max(features);
+        let passes = self_collision.max(pushed).max(moving);
         self.self_passes = passes.unwrap_or(1);
-        let needed = collider.max(passes).unwrap_or(1);
-        if needed > self.contact_substeps {
-            (self.contact_substeps, self.frames_needing_fewer) = (needed, 0);
-            change.substeps = true;
-        } else if needed < self.contact_substeps {
+        // The motion's need, held as the most of the last frames'.
+        self.motion_needs[self.motion_slot] = collider.max(self_collision).max(moving).unwrap_or(1);
+        self.motion_slot = (self.motion_slot + 1) % MOTION_HOLD;
+        let motion = self.motion_needs.iter().copied().max().unwrap_or(1);
+        // The pushes' need: raised at once, lowered after `LOWER_AFTER` frames that need fewer.
+        let push = pushed.unwrap_or(1);
+        if push >= self.push_substeps {
+            (self.push_substeps, self.frames_needing_fewer) = (push, 0);
+        } else {
             self.frames_needing_fewer += 1;
             if self.frames_needing_fewer >= LOWER_AFTER {
-                (self.contact_substeps, self.frames_needing_fewer) = (needed, 0);
-                change.substeps = true;
+                (self.push_substeps, self.frames_needing_fewer) = (push, 0);
             }
-        } else {
-            self.frames_needing_fewer = 0;
         }
+        let needed = motion.max(self.push_substeps).max(1);
+        change.substeps = needed != self.contact_substeps;
+        self.contact_substeps = needed;
         change
     }
 }
@@ -445,7 +469,7 @@ mod tests {
     }
 
     #[test]
-    fn fast_motion_raises_substeps_at_once_and_lowers_them_slowly() {
+    fn fast_motion_raises_substeps_at_once_and_keeps_the_last_frames_peak() {
         let mut m = ClothMotion::new();
         m.observe(&health(2.9), (H, 10), None, (false, None, 10));
         // 2.9 m/s over 1/60 s is 48 mm: ten 5 mm substeps.
@@ -454,10 +478,17 @@ mod tests {
             Change { substeps: true, sleep: false }
         );
         assert_eq!(m.contact_substeps, 10);
+        // Then 1.44 m/s (24 mm, five substeps) and 0.1 m/s (one): the peak stays for
+        // `MOTION_HOLD` frames, then the highest need after it.
+        m.observe(&health(1.44), (H, 10), None, (false, None, 10));
+        assert!(!m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None).substeps);
         m.observe(&health(0.1), (H, 10), None, (false, None, 10));
-        for _ in 1..LOWER_AFTER {
+        for _ in 2..MOTION_HOLD {
             assert!(!m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None).substeps);
         }
+        assert_eq!(m.contact_substeps, 10);
+        assert!(m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None).substeps);
+        assert_eq!(m.contact_substeps, 5);
         assert!(m.plan_frame(collider(0.005), (0.0, false), 1.0 / 60.0, None).substeps);
         assert_eq!(m.contact_substeps, 1);
         // Without contact, motion needs nothing.
@@ -495,9 +526,9 @@ mod tests {
         assert_eq!(m.contact_substeps, 67);
     }
 
-    /// The passes follow the last frame's need alone, while the substeps come down only after
-    /// `LOWER_AFTER` frames that need fewer (`Controls` re-plans the frame when the passes a plan
-    /// makes of the need change).
+    /// The passes follow the last frame's need alone, while the substeps keep the most of the
+    /// last `MOTION_HOLD` frames' (`Controls` re-plans the frame when the passes a plan makes of
+    /// the need change).
     #[test]
     fn self_passes_follow_the_last_frame_while_the_substeps_are_held() {
         let self_only = Proximity { self_collision: Some((0.005, 20)), ..Default::default() };
