@@ -1118,6 +1118,75 @@ fn a_spike_the_cloth_is_thrown_onto_within_a_frame_is_walked_by_its_escaped_tria
     assert_validation_clean(&ctx);
 }
 
+/// A square plate of side `side`, horizontal, centred on the origin, in `cells` x `cells` quads
+/// (two triangles each), its vertices row by row; `cells` even, so one vertex lies at the centre
+/// (index `cells / 2 * (cells + 2)`).
+fn plate(side: f32, cells: u32) -> drape::Mesh {
+    let step = side / cells as f32;
+    let at = |i: u32, j: u32| Vec3::new(-0.5 * side + step * i as f32, 0.0, -0.5 * side + step * j as f32);
+    let vertices = (0..=cells).flat_map(|j| (0..=cells).map(move |i| at(i, j))).collect();
+    let index = |i: u32, j: u32| j * (cells + 1) + i;
+    let triangles = (0..cells)
+        .flat_map(|j| (0..cells).map(move |i| (i, j)))
+        .flat_map(|(i, j)| {
+            let (a, b, c, d) = (index(i, j), index(i + 1, j), index(i + 1, j + 1), index(i, j + 1));
+            [[a, c, b], [a, d, c]]
+        })
+        .collect();
+    drape::Mesh { vertices, triangles }
+}
+
+/// A self-colliding cloth lying on a flat plate whose centre vertex then rises 4 cm under it
+/// (`set_collider_vertices`, 4 mm a frame, inside one of the cloth's cells): the list of the
+/// plate's possibly sharp triangles reads their cached folds while the plate keeps its shape
+/// and measures them anew in the frames that write its vertices
+/// (`drape_kernels::sharp_features::may_be_sharp_cached`), so the peak's vertex and edges are
+/// tested against the cloth's faces and the cloth tents over them: no plate edge through the
+/// cloth in any frame, and the CPU twin equals the GPU. With the folds kept from the flat plate,
+/// the peak was never listed.
+#[test]
+fn a_collider_that_grows_a_peak_under_the_cloth_has_its_folds_measured_again() {
+    use drape::{ClothBuilder, ColliderId};
+    use glam::Quat;
+    let ctx = context();
+    let thickness = 0.005;
+    let cloth = ClothBuilder::new(12, 12).size(0.3).mass(0.02).self_collision(Some(thickness)).build().unwrap();
+    let (lo, hi) =
+        cloth.positions.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| {
+            (lo.min(p.truncate()), hi.max(p.truncate()))
+        });
+    // The plate 1 cm under the cloth, its centre off the cloth's particles.
+    let origin = 0.5 * (lo + hi) + Vec3::new(0.011, -0.01, 0.007);
+    let cells = 4;
+    let flat = plate(0.5, cells);
+    let peak = (cells / 2 * (cells + 2)) as usize;
+    let collider = Collider::mesh(&flat, thickness).with_pose(Quat::IDENTITY, origin);
+    let settings = SimSettings::default().with_timestamps(false);
+    let model = Model::single(&cloth, std::slice::from_ref(&collider), settings).unwrap();
+    let mut gpu = Solver::new(&ctx, &model).unwrap();
+    let mut cpu = CpuSolver::new(&model).unwrap();
+    let id = ColliderId::new(0);
+    let mut through = 0;
+    for frame in 1..=20u32 {
+        // Flat for 4 frames, then up 4 mm a frame for 10, then held.
+        let mut shape = flat.clone();
+        shape.vertices[peak].y = 0.004 * frame.saturating_sub(4).min(10) as f32;
+        if (5..=14).contains(&frame) {
+            gpu.set_collider_vertices(id, &shape.vertices).unwrap();
+            cpu.set_collider_vertices(id, &shape.vertices).unwrap();
+        }
+        gpu.step().unwrap();
+        cpu.step().unwrap();
+        let x = gpu.positions(CLOTH).unwrap();
+        assert!(x == cpu.positions(CLOTH).unwrap(), "frame {frame}: GPU and CPU positions differ");
+        let world: Vec<Vec3> = shape.vertices.iter().map(|v| *v + origin).collect();
+        let crossed = count_intersections(&x, &cloth.triangles, (&world, &shape.triangles));
+        through += crossed.collider_edges_through_cloth;
+    }
+    assert_eq!(through, 0, "the plate's edges went through the cloth in {through} frame-edges");
+    assert_validation_clean(&ctx);
+}
+
 #[test]
 fn collider_features_walked_from_the_cloth_s_side_equal_the_collider_s_side() {
     both_sides_walk_a_spinning_star_alike(false);

@@ -742,7 +742,9 @@ impl Controls {
             if std::mem::take(&mut c.params_dirty) {
                 steps.push(Step::write(buffers.tree().collider, 0, &[c.params]));
             }
-            let sweep = glam::Vec4::new(c.frame_sweep(), 0.0, 0.0, 0.0);
+            // The vertices are written below when it deforms or stops deforming.
+            let reshaped = c.deformed.is_some() || c.sweeping;
+            let sweep = glam::Vec4::new(c.frame_sweep(), if reshaped { 1.0 } else { 0.0 }, 0.0, 0.0);
             let pose = ColliderPose { previous: c.end_of_last_frame, current: c.target, sweep };
             if pose != c.written {
                 steps.push(Step::write(buffers.pose, 0, &[pose]));

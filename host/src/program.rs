@@ -164,6 +164,10 @@ impl SolverProgram {
         for (i, cloth) in cloths.iter_mut().enumerate() {
             if let Some(s) = &mut cloth.self_contact {
                 s.declare_sharp_features(&mut resources, &numbered("cloth", i), &colliders);
+                // No fold measured yet (w 0): the first frame measures them all.
+                for sharp in s.sharp.iter().flatten() {
+                    initial.push((sharp.folds.id(), vec![0u8; sharp.folds.len() as usize * size_of::<glam::Vec4>()]));
+                }
             }
         }
         let contacts = cloths

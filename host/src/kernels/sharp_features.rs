@@ -5,8 +5,8 @@
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::self_contact::tested_features;
-use drape_kernels::sharp_features::{frame_threshold, list_sharp, may_be_sharp};
-use drape_types::{ColliderParams, DispatchArgs};
+use drape_kernels::sharp_features::{frame_threshold, list_sharp, may_be_sharp_cached, reshaped};
+use drape_types::{ColliderParams, ColliderPose, DispatchArgs};
 use glam::{UVec4, Vec4};
 
 pub static LIST_SHARP_FEATURES: Kernel = Kernel {
@@ -23,6 +23,8 @@ pub static LIST_SHARP_FEATURES: Kernel = Kernel {
             BindingSpec::write("sharp_args"),
             BindingSpec::write("tree_every_pass"),
             BindingSpec::write("listed"),
+            BindingSpec::read("pose"),
+            BindingSpec::write("folds"),
         ],
         WORKGROUP_SIZE,
     ),
@@ -31,8 +33,20 @@ pub static LIST_SHARP_FEATURES: Kernel = Kernel {
 
 fn list_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, collider, vertices, previous, indices, features, sharp, sharp_args, tree_every_pass, listed] =
-        d.bindings()?;
+    let [
+        self_params,
+        collider,
+        vertices,
+        previous,
+        indices,
+        features,
+        sharp,
+        sharp_args,
+        tree_every_pass,
+        listed,
+        pose,
+        folds,
+    ] = d.bindings()?;
     let self_params = self_params.first::<ColliderParams>()?;
     let collider = collider.first::<ColliderParams>()?;
     let (longest2, thickness) = frame_threshold(&self_params, &collider);
@@ -41,8 +55,10 @@ fn list_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (list, args) = (sharp.slice_mut::<u32>(), sharp_args.first_mut::<DispatchArgs>()?);
     let tree_every_pass = tree_every_pass.first_mut::<u32>()?;
     let flags = listed.slice_mut::<u32>();
+    let cache = (folds.slice_mut::<Vec4>(), reshaped(&pose.first::<ColliderPose>()?));
     for t in 0..threads.min(features.len() as u32) {
-        let sharp = may_be_sharp(t, tested_features(features[t as usize], &collider), mesh, longest2, thickness);
+        let feature = tested_features(features[t as usize], &collider);
+        let sharp = may_be_sharp_cached(t, feature, mesh, (longest2, thickness), (&mut *cache.0, cache.1));
         if sharp {
             list_sharp(t, list, args, tree_every_pass);
         }
@@ -58,6 +74,7 @@ mod tests {
     use crate::programs::self_contact::collider_features;
     use drape_kernels::pose::to_world;
     use drape_kernels::self_contact::{NO_NEIGHBOUR, fold, sharp_features};
+    use drape_kernels::sharp_features::may_be_sharp;
     use drape_types::RigidPose;
     use glam::{Quat, Vec3};
 
@@ -125,6 +142,47 @@ mod tests {
         // Neither everything nor nothing: the test tells a list from a full dispatch.
         assert!(sharp_total > 0 && listed_total < triangles_total / 2, "{listed_total} of {triangles_total} listed");
         println!("listed {listed_total}, sharp in a pass {sharp_total}, of {triangles_total} triangle-thresholds");
+    }
+
+    /// The list through the cached folds (`may_be_sharp_cached`) answers as `may_be_sharp`
+    /// measuring every frame: on the first frame (nothing cached), on still frames (the cache
+    /// read), on a frame whose start wrote new vertices (the torus pressed nearly flat: measured
+    /// and cached anew, and every triangle whose vertices moved listed) and on the still frames
+    /// after it; without the write's flag it would have kept the round torus's folds.
+    #[test]
+    fn cached_folds_list_what_measured_folds_list_until_the_vertices_are_written() {
+        let mesh = Mesh::torus(0.4, 0.1, 48, 16);
+        let features = collider_features(&mesh.triangles);
+        let indices: Vec<u32> = mesh.triangles.iter().flatten().copied().collect();
+        let round: Vec<Vec4> = mesh.vertices.iter().map(|v| v.extend(0.0)).collect();
+        let flat: Vec<Vec4> = round.iter().map(|v| Vec4::new(v.x, v.y * 0.05, v.z, 0.0)).collect();
+        let threshold = (0.03f32 * 0.03, 0.005);
+        let mut folds = vec![Vec4::ZERO; features.len()];
+        let list = |folds: &mut [Vec4], (now, before): (&[Vec4], &[Vec4]), reshaped: bool| -> Vec<bool> {
+            (0..features.len())
+                .map(|t| {
+                    let mesh = (now, before, &indices[..]);
+                    may_be_sharp_cached(t as u32, features[t], mesh, threshold, (&mut *folds, reshaped))
+                })
+                .collect()
+        };
+        let measured = |(now, before): (&[Vec4], &[Vec4])| -> Vec<bool> {
+            (0..features.len())
+                .map(|t| may_be_sharp(t as u32, features[t], (now, before, &indices), threshold.0, threshold.1))
+                .collect()
+        };
+        let (round_list, flat_list) = (measured((&round, &round)), measured((&flat, &flat)));
+        assert_ne!(round_list, flat_list, "pressing the torus flat changes which triangles may be sharp");
+        assert_eq!(list(&mut folds, (&round, &round), false), round_list, "first frame: nothing cached");
+        assert!(folds.iter().all(|f| f.w == 1.0), "every triangle's folds cached");
+        assert_eq!(list(&mut folds, (&round, &round), false), round_list, "a still frame: the cache");
+        let pressed = list(&mut folds, (&flat, &round), true);
+        assert_eq!(pressed, measured((&flat, &round)), "the frame that deforms it");
+        assert!(pressed.iter().filter(|&&l| l).count() > round_list.iter().filter(|&&l| l).count());
+        assert_eq!(list(&mut folds, (&flat, &flat), false), flat_list, "still again: the new shape's folds");
+        let mut stale = vec![Vec4::ZERO; features.len()];
+        list(&mut stale, (&round, &round), false);
+        assert_eq!(list(&mut stale, (&flat, &flat), false), round_list, "unflagged, the cache keeps the old folds");
     }
 
     /// A smooth sphere (radius 0.5 m, 5120 triangles): its features, vertices (w = 0) and

@@ -128,6 +128,10 @@ pub struct SharpFeatures {
     /// runs over (`drape_kernels::feature_reach`).
     pub near: Handle<u32>,
     pub near_args: Handle<DispatchArgs>,
+    /// Per collider triangle, its edges' folds as last measured (w 1 once measured; zeros
+    /// before the first frame), which the list reads while the collider's vertices stay
+    /// unwritten (`drape_kernels::sharp_features::may_be_sharp_cached`).
+    pub folds: Handle<Vec4>,
 }
 
 /// The timing table's line of the frame's list of a collider's possibly sharp triangles.
@@ -386,6 +390,7 @@ impl SelfContactBuffers {
                     from_cloth: resources.device(format!("{name}: walks from the cloth"), 1),
                     near: resources.device(format!("{name} within the cloth's reach"), count.max(1)),
                     near_args: resources.device(format!("{name} within the cloth's reach: dispatch"), 1),
+                    folds: resources.device(format!("{name}: folds"), count.max(1)),
                 })
             })
             .collect();
@@ -421,6 +426,8 @@ impl SelfContactBuffers {
                 sharp.args.id(),
                 self.tree_every_pass.id(),
                 sharp.listed.id(),
+                collider.pose.id(),
+                sharp.folds.id(),
             ],
             Dispatch::Threads(count),
         ));

@@ -297,8 +297,11 @@ pub struct ColliderPose {
     pub previous: RigidPose,
     pub current: RigidPose,
     /// x: how far any point of the collider's surface moves over the frame at most (m), by its
-    /// pose and its leaves' own motion together; 0 when it stands still (yzw: 0). What
-    /// self-collision's fail-safe reaches by for the particles the collider may carry.
+    /// pose and its leaves' own motion together; 0 when it stands still. What self-collision's
+    /// fail-safe reaches by for the particles the collider may carry. y: 1 when the frame's
+    /// start wrote the collider's vertices (it deforms, stopped deforming or was given a new
+    /// shape), else 0: what its cached folds are measured anew by
+    /// (`drape_kernels::sharp_features`). zw: 0.
     pub sweep: Vec4,
 }
 
