@@ -3,8 +3,8 @@
 //! with self-collision on and off, the two solvers stepped in turn frame by frame so the
 //! machine's noise falls on both alike. Per scene: the medians and fastest of the GPU span per
 //! frame (timestamps: the first pass's start to the last one's end) and of the wall time, the
-//! ratio on / off, the substeps; the whole run's totals (the ratio of the mean frames); then the
-//! self-collision solver's passes at 64^2. On a CPU driver it also gives the process's CPU time
+//! ratio on / off, the substeps; the whole run's totals (the ratio of the mean frames); the
+//! median frame of each third of the run; then the self-collision solver's passes at 64^2. On a CPU driver it also gives the process's CPU time
 //! per frame (every thread's, the driver's workers included: the frame's work, which another
 //! tenant's load on the machine moves less than the wall time, the same code's wall ratio
 //! having ranged 2.27x-2.70x at 64^2 on this VM).
@@ -129,7 +129,7 @@ fn main() {
         "wall on/off"
     );
     let mut passes_64 = None;
-    let (mut cpu_rows, mut run_rows) = (Vec::new(), Vec::new());
+    let (mut cpu_rows, mut run_rows, mut third_rows) = (Vec::new(), Vec::new(), Vec::new());
     for case in &cases {
         let (mut off, mut on) =
             (solver(&ctx, &case.scene, false, timestamps), solver(&ctx, &case.scene, true, timestamps));
@@ -180,6 +180,27 @@ fn main() {
             format!("{:.2}x", cpu_on / cpu_off),
             format!("{:.2}x", least_on / least_off),
         ));
+        // Each third of the run's frames apart: where in the run self-collision costs what.
+        let third = |r: &Run, k: usize| {
+            let walls = r.report.wall_ms_per_frame();
+            let n = walls.len();
+            median(&walls[k * n / 3..(k + 1) * n / 3])
+        };
+        third_rows.push(format!(
+            "{:<16} {}",
+            case.name,
+            (0..3)
+                .map(|k| format!(
+                    "{:>26}",
+                    format!(
+                        "{:.2}x ({:.1} / {:.1})",
+                        third(&runs_on, k) / third(&runs_off, k),
+                        third(&runs_on, k),
+                        third(&runs_off, k)
+                    )
+                ))
+                .collect::<String>()
+        ));
         let total = |r: &Run| r.report.wall_ms_per_frame().iter().sum::<f64>();
         let cpu_total = |r: &Run| r.cpu_ms.iter().sum::<f64>();
         run_rows.push(format!(
@@ -219,6 +240,14 @@ fn main() {
         "scene", "wall off", "wall on", "on/off", "cpu off", "cpu on", "on/off"
     );
     for row in &run_rows {
+        println!("{row}");
+    }
+    println!(
+        "\nThe run in thirds of its frames (the first holds a falling cloth's impact, the last a settling one): \
+         the median frame's wall time on / off, on and off in ms:"
+    );
+    println!("{:<16} {:>26}{:>26}{:>26}", "scene", "first third", "second third", "last third");
+    for row in &third_rows {
         println!("{row}");
     }
     if let Some((off, on)) = passes_64 {
