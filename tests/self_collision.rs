@@ -1049,6 +1049,16 @@ fn cone_pointing_down(tip: Vec3, (height, radius): (f32, f32)) -> drape::Mesh {
     drape::Mesh { vertices, triangles }
 }
 
+/// A 12 x 12 cloth of 0.3 m, self-colliding at `thickness`, and its centre.
+fn small_self_colliding_cloth(thickness: f32) -> (drape::cloth::Cloth, Vec3) {
+    let cloth = drape::ClothBuilder::new(12, 12).size(0.3).mass(0.02).self_collision(Some(thickness)).build().unwrap();
+    let (lo, hi) =
+        cloth.positions.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| {
+            (lo.min(p.truncate()), hi.max(p.truncate()))
+        });
+    (cloth, 0.5 * (lo + hi))
+}
+
 /// A square paddle (two triangles) of side `side`, horizontal, centred on the origin.
 fn paddle(side: f32) -> drape::Mesh {
     let h = 0.5 * side;
@@ -1065,16 +1075,11 @@ fn paddle(side: f32) -> drape::Mesh {
 /// reach in some span, and the cloth tents over the tip: no collider edge through it.
 #[test]
 fn a_spike_the_cloth_is_thrown_onto_within_a_frame_is_walked_by_its_escaped_triangles() {
-    use drape::{ClothBuilder, ColliderId, FeatureWalks};
+    use drape::{ColliderId, FeatureWalks};
     use glam::Quat;
     let ctx = context();
     let thickness = 0.005;
-    let cloth = ClothBuilder::new(12, 12).size(0.3).mass(0.02).self_collision(Some(thickness)).build().unwrap();
-    let (lo, hi) =
-        cloth.positions.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| {
-            (lo.min(p.truncate()), hi.max(p.truncate()))
-        });
-    let centre = 0.5 * (lo + hi);
+    let (cloth, centre) = small_self_colliding_cloth(thickness);
     let tip = centre + Vec3::new(0.011, 0.02, 0.007);
     let colliders = [
         Collider::mesh(&paddle(0.5), thickness).with_pose(Quat::IDENTITY, centre - Vec3::new(0.0, 0.03, 0.0)),
@@ -1146,17 +1151,13 @@ fn plate(side: f32, cells: u32) -> drape::Mesh {
 /// the peak was never listed.
 #[test]
 fn a_collider_that_grows_a_peak_under_the_cloth_has_its_folds_measured_again() {
-    use drape::{ClothBuilder, ColliderId};
+    use drape::ColliderId;
     use glam::Quat;
     let ctx = context();
     let thickness = 0.005;
-    let cloth = ClothBuilder::new(12, 12).size(0.3).mass(0.02).self_collision(Some(thickness)).build().unwrap();
-    let (lo, hi) =
-        cloth.positions.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| {
-            (lo.min(p.truncate()), hi.max(p.truncate()))
-        });
+    let (cloth, centre) = small_self_colliding_cloth(thickness);
     // The plate 1 cm under the cloth, its centre off the cloth's particles.
-    let origin = 0.5 * (lo + hi) + Vec3::new(0.011, -0.01, 0.007);
+    let origin = centre + Vec3::new(0.011, -0.01, 0.007);
     let cells = 4;
     let flat = plate(0.5, cells);
     let peak = (cells / 2 * (cells + 2)) as usize;
