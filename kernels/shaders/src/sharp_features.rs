@@ -56,18 +56,24 @@ pub fn may_be_sharp(
     longest2: f32,
     thickness: f32,
 ) -> bool {
+    let folds = triangle_folds(triangle, feature, (vertices, indices));
+    let deforming = deforms_around(triangle, feature, (vertices, previous, indices));
+    listed_with(feature, folds, deforming, (longest2, thickness))
+}
+
+/// The list's answer for a triangle of `feature` folded by `folds` (`may_be_sharp`): none
+/// owned, no; curled round or deforming in the frame, yes; else whether a feature is sharp
+/// from `SHARP_MARGIN` of the threshold.
+#[inline]
+fn listed_with(feature: UVec4, folds: Vec3, deforming: bool, threshold: (f32, f32)) -> bool {
     let owned = feature.w & OWNED_FEATURE_BITS;
     if owned == 0 {
         return false;
     }
-    if feature.w & CURLED_BIT != 0 {
+    if feature.w & CURLED_BIT != 0 || deforming {
         return true;
     }
-    if deforms_around(triangle, feature, (vertices, previous, indices)) {
-        return true;
-    }
-    let folds = triangle_folds(triangle, feature, (vertices, indices));
-    sharp_features(owned, folds, (longest2, thickness), SHARP_MARGIN) != 0
+    sharp_features(owned, folds, threshold, SHARP_MARGIN) != 0
 }
 
 /// `may_be_sharp` through the triangle's cached folds (`folds[triangle]`: its edges' folds in
@@ -90,18 +96,9 @@ pub fn may_be_sharp_cached(
     if fresh {
         folds[triangle as usize] = measured.extend(1.0);
     }
-    let owned = feature.w & OWNED_FEATURE_BITS;
-    if owned == 0 {
-        return false;
-    }
-    if feature.w & CURLED_BIT != 0 {
-        return true;
-    }
     // Without a write of the vertices nothing deforms in the frame.
-    if fresh && deforms_around(triangle, feature, (vertices, previous, indices)) {
-        return true;
-    }
-    sharp_features(owned, measured, (longest2, thickness), SHARP_MARGIN) != 0
+    let deforming = fresh && deforms_around(triangle, feature, (vertices, previous, indices));
+    listed_with(feature, measured, deforming, (longest2, thickness))
 }
 
 /// Whether any vertex of collider triangle `triangle`, or any of its neighbours' apexes,
