@@ -29,8 +29,16 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
     let runtime = 1;
     let cases: &[(&[&str], i32, &str)] = &[
         (&["--scene", "swing", "--mesh", "bunny"], usage, "--mesh does nothing in the swing scene"),
-        (&["--scene", "swing", "--friction", "0.1"], usage, "--friction does nothing in the swing scene"),
-        (&["--scene", "swing", "--thickness", "0.002"], usage, "--thickness does nothing in the swing scene"),
+        (
+            &["--scene", "swing", "--self-collision", "off", "--friction", "0.1"],
+            usage,
+            "--friction does nothing in the swing scene",
+        ),
+        (
+            &["--scene", "swing", "--self-collision", "off", "--thickness", "0.002"],
+            usage,
+            "--thickness does nothing in the swing scene",
+        ),
         (&["--wind", "1,0,0"], usage, "--wind only applies to the swing scene"),
         (&["--scene", "pile", "--holes", "keep"], usage, "--holes does nothing in the pile scene"),
         (&["--voxels", "8"], usage, "--voxels only applies with --contact spheres"),
@@ -68,16 +76,32 @@ fn bad_input_gets_a_clear_message_and_the_right_exit_code() {
         (&["--png-dir", "/tmp/drape-unused", "--no-normals"], usage, "--no-normals"),
         (&["--png-dir", "/proc/drape-cannot-write-here", "--frames", "1"], runtime, "--png-dir"),
         // Flags that would do nothing with the others given.
-        (&["--self-failsafe", "off"], usage, "--self-failsafe only applies with --self-collision on"),
-        (&["--self-list-windows", "off"], usage, "--self-list-windows only applies with --self-collision on"),
-        (&["--feature-walks", "cloth"], usage, "--feature-walks only applies with --self-collision on"),
+        (
+            &["--self-collision", "off", "--self-failsafe", "off"],
+            usage,
+            "--self-failsafe only applies with --self-collision on",
+        ),
+        (
+            &["--self-collision", "off", "--self-list-windows", "off"],
+            usage,
+            "--self-list-windows only applies with --self-collision on",
+        ),
+        (
+            &["--self-collision", "off", "--feature-walks", "cloth"],
+            usage,
+            "--feature-walks only applies with --self-collision on",
+        ),
         (&["--scene", "swing", "--crowded-contact", "on"], usage, "--crowded-contact does nothing in the swing scene"),
         (
             &["--one-workgroup-substeps", "on"],
             usage,
             "--one-workgroup-substeps only applies to a cloth with no collider",
         ),
-        (&["--substeps", "3", "--contact-substeps", "off"], usage, "--contact-substeps does nothing with --substeps"),
+        (
+            &["--self-collision", "off", "--substeps", "3", "--contact-substeps", "off"],
+            usage,
+            "--contact-substeps does nothing with --substeps",
+        ),
         (&["--scene", "pile", "--grid", "4"], usage, "--grid 4 is too few particles along the pile scene's strip"),
         (&["--scene", "swing", "--wind=1e37,0,0"], usage, "at most 1e6 N"),
         (&["--grid", "8", "--pin-box=-10,-10,-10,10,10,10", "--frames", "1"], runtime, "they pin all 64 particles"),
@@ -234,10 +258,14 @@ fn json_report_and_quiet() {
 
 /// `--json` gives each awake frame's wall time and GPU span and the substeps it ran, in order,
 /// with the frame numbers: one entry per frame of a swing that never sleeps, their median the
-/// report's median, every frame at the bound's substeps (nothing raises them).
+/// report's median, every frame at the bound's substeps (nothing raises them: no collider, no
+/// self-collision).
 #[test]
 fn json_report_gives_every_frame_s_times_and_substeps() {
-    let report = json_report("per-frame", &["--scene", "swing", "--grid", "16", "--frames", "6", "--sleep", "0"]);
+    let report = json_report(
+        "per-frame",
+        &["--scene", "swing", "--grid", "16", "--frames", "6", "--sleep", "0", "--self-collision", "off"],
+    );
     let numbers = |v: &serde_json::Value| -> Vec<f64> {
         v.as_array().unwrap_or_else(|| panic!("an array, got {v}")).iter().map(|x| x.as_f64().unwrap()).collect()
     };
@@ -422,6 +450,28 @@ fn a_cloth_landing_flat_on_a_cube_is_not_put_back() {
     assert_eq!(failsafe["collider_pairs_found"].as_u64(), Some(0), "{failsafe}");
     assert_eq!(report["intersections_every_frame"]["frames_with_any"].as_u64(), Some(0), "{report}");
     assert!(report["lowest_particle_y_m"].as_f64().unwrap() < 0.9, "the cloth must have landed and draped");
+}
+
+/// Self-collision is on without `--self-collision`, in the swing scene too: a 16^2 cloth
+/// flapping in `scenes/swing-wind.toml`'s wind ends no frame through itself, where with
+/// `--self-collision off` it does (from frame 78: 23 of 100 frames crossed, up to 96 pairs).
+#[test]
+fn self_collision_is_on_by_default_and_keeps_the_flapping_cloth_from_itself() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/swing-wind.toml");
+    let run = |flags: &[&str]| {
+        let args = ["--scene-file", scene, "--grid", "16", "--frames", "100", "--check-every-frame", "--no-timestamps"];
+        let report = json_report(&format!("flapping{}", flags.len()), &[&args[..], flags].concat());
+        (
+            report["cloth"]["description"].as_str().unwrap_or_default().to_owned(),
+            report["intersections_every_frame"].clone(),
+        )
+    };
+    let (cloth, every) = run(&[]);
+    assert!(cloth.contains("self-collision on"), "{cloth}");
+    assert_eq!(every["frames_with_any"].as_u64(), Some(0), "{every}");
+    let (cloth, every) = run(&["--self-collision", "off"]);
+    assert!(cloth.contains("self-collision off"), "{cloth}");
+    assert!(every["frames_with_any"].as_u64().is_some_and(|n| n > 0), "off must show what on prevents: {every}");
 }
 
 /// Every example scene in scenes/ runs (2 frames here; flags override the file) and its report
@@ -865,13 +915,25 @@ fn cli_crowded_contact_hands_crowded_particles_over_with_the_same_result() {
 }
 
 /// `--one-workgroup-substeps`: `on` runs the swinging cloth's substeps as one dispatch a frame
-/// (the timing table's "substeps in one workgroup", no RK4 stage of its own), `off` and `auto`
+/// (self-collision off, whose passes run between the stages; the timing table's "substeps in
+/// one workgroup", no RK4 stage of its own), `off` and `auto`
 /// (on lavapipe, a CPU driver) a dispatch a stage; the cloth ends bit for bit the same.
 #[test]
 fn cli_one_workgroup_substeps_runs_the_frame_as_one_dispatch_with_the_same_result() {
     let dir = std::env::temp_dir().join(format!("drape-one-workgroup-{}", std::process::id()));
     let run = |choice: &str| {
-        let args = ["--scene", "swing", "--grid", "20", "--frames", "12", "--one-workgroup-substeps", choice];
+        let args = [
+            "--scene",
+            "swing",
+            "--self-collision",
+            "off",
+            "--grid",
+            "20",
+            "--frames",
+            "12",
+            "--one-workgroup-substeps",
+            choice,
+        ];
         let (report, obj) = report_and_final_obj(&dir, choice, &args, 12);
         let passes = report["timings"]["passes"].as_array().unwrap_or_else(|| panic!("{choice}: no passes"));
         let ran = |label: &str| passes.iter().any(|p| p["pass"] == label);
@@ -1096,7 +1158,10 @@ fn outputs_inputs_and_degenerate_values_are_answered() {
     // Two triangles split along their shared edge: file vertices 3 and 4 repeat 1 and 2.
     let split = file("split.obj", "v 0 0 0\nv 1 0 0\nv 0 0 1\nv 1 0 0\nv 0 0 1\nv 1 0 1\nf 1 2 3\nf 4 6 5\n");
     let frames = dir.join("frames");
-    let args = ["--cloth-mesh", &split, "--weld", "--pin-vertices", "3", "--obj-dir", frames.to_str().unwrap()];
+    // Self-collision off: the two triangles share their vertices (nothing to collide), and its
+    // passes would raise the substeps near the sphere, slowing the 10 frames' fall measured here.
+    let args = ["--cloth-mesh", &split, "--weld", "--pin-vertices", "3", "--self-collision", "off"];
+    let args = [&args[..], &["--obj-dir", frames.to_str().unwrap()]].concat();
     let output = drape(&[&args[..], &shear0[..], &["--frames", "10", "--no-timestamps", "--quiet"][..]].concat());
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     let last = std::fs::read_to_string(frames.join("frame_00010.obj")).unwrap();

@@ -183,7 +183,8 @@ pub(crate) struct Args {
     pub(crate) pin_box: Option<(Vec3, Vec3)>,
     /// Self-collision: the cloth keeps `--thickness` from itself (vertex against triangle, edge
     /// against edge), and from a triangle collider's vertices and edges (so no spike or ridge
-    /// cuts a cell between particles). Default: on in the pile, garment and layers scenes, off elsewhere.
+    /// cuts a cell between particles). Default: on in every scene (off: the cloth passes through
+    /// itself where it folds, as the paper's cloth does, at a fraction of the cost).
     #[arg(long, value_enum)]
     pub(crate) self_collision: Option<OnOff>,
     /// Build the grid with listed springs (the kernels of mesh cloths) instead of its fast path:
@@ -451,13 +452,13 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
     let collider_flags = ["mesh", "contact", "holes", "voxels", "thickness", "friction", "search", "brute_force"];
     let flag = format!("--{}", id.replace('_', "-"));
     // The thickness and friction are also what a self-colliding cloth keeps from itself.
-    let self_thickness = ["thickness", "friction"].contains(&id) && args.self_collision == Some(OnOff::On);
+    let self_thickness = ["thickness", "friction"].contains(&id) && self_collision_on(args);
     if args.scene == SceneArg::Swing && args.colliders.is_empty() && collider_flags.contains(&id) && !self_thickness {
         return Some(format!(
             "{flag} does nothing in the swing scene, which has no collider: drop it, use --scene drape or pile, \
              or add colliders with [[collider]] tables in a --scene-file{}",
             if ["thickness", "friction"].contains(&id) {
-                " (or keep the cloth from itself: --self-collision on)"
+                " (or keep the cloth from itself: drop --self-collision off)"
             } else {
                 ""
             }
@@ -523,11 +524,12 @@ pub(crate) fn unused(args: &Args, id: &str) -> Option<String> {
     None
 }
 
-/// Whether the cloth collides with itself: `--self-collision`, or the scene's default (on in
-/// the pile, garment and layers scenes).
+/// Whether the cloth collides with itself: `--self-collision`, on by default in every scene,
+/// since every built-in scene folds its cloth onto itself somewhere (the drape scene over the
+/// collider, the swing scene in its swing) and without it such frames end with the cloth through
+/// itself.
 pub(crate) fn self_collision_on(args: &Args) -> bool {
-    let on_by_default = matches!(args.scene, SceneArg::Pile | SceneArg::Garment | SceneArg::Layers);
-    args.self_collision.unwrap_or(if on_by_default { OnOff::On } else { OnOff::Off }) == OnOff::On
+    args.self_collision != Some(OnOff::Off)
 }
 
 /// A finite number in `lo..=hi` (`lo` excluded when `open_low`), or a message with the range.
