@@ -438,17 +438,17 @@ fn assert_lists_equal_brute_force(
             continue;
         }
         let base = (LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf) as usize;
-        let mut listed: Vec<(u32, u32, u32)> = (0..counts[leaf as usize] as usize)
+        let mut listed: Vec<(u32, u32, u32, u32)> = (0..counts[leaf as usize] as usize)
             .map(|j| {
                 let e = base + LIST_ENTRY_WORDS as usize * j;
-                (lists[e], lists[e + 1], lists[e + 2])
+                (lists[e], lists[e + 1], lists[e + 2], lists[e + 3])
             })
             .collect();
         listed.sort_unstable();
-        let brute: Vec<(u32, u32, u32)> = (leaf + 1..t)
+        let brute: Vec<(u32, u32, u32, u32)> = (leaf + 1..t)
             .filter_map(|other| {
-                let (kept, gap) = listed_pair_bound((leaf, other), thickness, (&sorted, owned, &anchors));
-                (kept != 0).then_some((other, kept, gap.to_bits()))
+                let (kept, (gap, distance)) = listed_pair_bound((leaf, other), thickness, (&sorted, owned, &anchors));
+                (kept != 0).then_some((other, kept, gap.to_bits(), distance.to_bits()))
             })
             .collect();
         assert_eq!(listed, brute, "frame {frame}, leaf {leaf}: the list against every later leaf");

@@ -186,7 +186,7 @@ pub static LISTED_SELF_PAIRS: Kernel = Kernel {
             write("velocity_changes"),
             read("rest_shape"),
         ],
-        push_constant_size: 0,
+        push_constant_size: size_of::<SelfPassPush>() as u32,
         workgroup_size: CONTACT_THREADS,
     },
     cpu: listed_cpu,
@@ -396,6 +396,7 @@ fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 
 fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
+    let span: SelfPassPush = d.push_as();
     let [
         self_params,
         nodes,
@@ -423,7 +424,7 @@ fn listed_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let (delta, velocity_changes) = (delta.slice_mut::<u32>(), velocity_changes.slice_mut::<u32>());
     for leaf in 0..threads.min(c.leaf_count) {
         let out = PairResponse::of_cloth(&c, (v, rest), (&mut *delta, &mut *velocity_changes));
-        listed_self_pairs_at(leaf, &c, tree, owned, (x, x_prev), escaped, lists, out);
+        listed_self_pairs_at(leaf, &c, tree, owned, (x, x_prev), escaped, lists, &span, out);
     }
     Ok(())
 }

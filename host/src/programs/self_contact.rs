@@ -885,7 +885,7 @@ impl SelfContactBuffers {
             steps.extend(t.refit_sorted_again_steps(self.features_found));
         }
         if lists {
-            self.listed_and_walked(cloth, steps);
+            self.listed_and_walked(cloth, span, steps);
         } else {
             // One walk per triangle (a cloth too fine for lists at its thickness: `lists_pay`).
             steps.push(Step::run(
@@ -898,17 +898,19 @@ impl SelfContactBuffers {
         self.apply(cloth, steps);
     }
 
-    /// The pairs of a pass from the frame's lists, and the walks of the triangles that left
-    /// their regions.
-    fn listed_and_walked(&self, cloth: &SelfContactCloth, steps: &mut Vec<Step>) {
+    /// The pairs of a pass spanning `span` of the lists' span, from the lists, and the walks of
+    /// the triangles that left their regions.
+    fn listed_and_walked(&self, cloth: &SelfContactCloth, span: ContactPush, steps: &mut Vec<Step>) {
         let t = &self.tree;
         // Per triangle, its owned corners against the triangles of its list, its owned edges
         // against their owned edges; then the walkers' (a pass of their own: on lockstep lanes a
         // walk beside list tests would hold its neighbours).
-        steps.push(Step::run(
+        let push = SelfPassPush { from: span.from, to: span.to, find_walkers: 0, _pad: 0 };
+        steps.push(Step::run_with(
             SELF_PAIRS_LABEL,
             &LISTED_SELF_PAIRS,
             self.pair_bindings(cloth, &[self.escaped.id(), self.strays.id(), self.lists.id(), self.counts.id()], &[]),
+            bytemuck::cast(push),
             Dispatch::Threads(t.leaves),
         ));
         steps.push(Step::run(

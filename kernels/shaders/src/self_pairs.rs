@@ -46,9 +46,10 @@ use spirv_std::spirv;
 
 /// Pairs of triangles one triangle's list holds at most (`LIST_ENTRY_WORDS` each).
 pub const SELF_LIST_CAPACITY: u32 = 24;
-/// Words of a list's entry: the later leaf, the primitive pairs' bits (`self_contact::pair_mask`)
-/// and the smallest gap of those pairs (f32 bits, `pairs_that_may_touch`).
-pub const LIST_ENTRY_WORDS: u32 = 3;
+/// Words of a list's entry: the later leaf, the primitive pairs' bits (`self_contact::pair_mask`),
+/// the smallest gap of those pairs and their smallest distance at the list's start (f32 bits,
+/// `pairs_that_may_touch`; a pass bounds the pairs' distance by them, `gap_by`).
+pub const LIST_ENTRY_WORDS: u32 = 4;
 /// A list's count when its pairs did not fit (the triangle walks the tree at every pass).
 pub const LIST_OVERFLOWED: u32 = u32::MAX;
 /// A particle's slop: this share of the thickness, plus `SLOP_MOTION` of its velocity's motion
@@ -415,11 +416,26 @@ pub(crate) fn may_touch(gap: f32, strays: f32, thickness: f32) -> bool {
 #[derive(Copy, Clone)]
 struct KeptPair {
     gap: f32,
+    /// Its distance at the frame's start.
+    distance: f32,
     motion: PairMotion,
 }
 
 /// A primitive pair the bound leaves out.
-const LEFT_OUT: KeptPair = KeptPair { gap: f32::INFINITY, motion: PairMotion { motion: 0.0, approach: 0.0 } };
+const LEFT_OUT: KeptPair =
+    KeptPair { gap: f32::INFINITY, distance: f32::INFINITY, motion: PairMotion { motion: 0.0, approach: 0.0 } };
+
+/// The gap of a list entry's pairs by fraction `to` of the list's span (their distance less their
+/// relative predicted motion up to then), from their smallest gap over the span (`gap`, at its
+/// end) and their smallest distance at its start: each pair's predicted distance falls at most
+/// linearly (its ends' relative predicted paths are straight: gravity's share is every
+/// particle's), so the smallest of them, a minimum of falling lines, stays above the chord
+/// between its ends. A pass ending at `to` tests only the pairs this lets come within the
+/// thickness; at the span's end it is the gap itself.
+#[inline]
+pub fn gap_by(to: f32, gap: f32, distance: f32) -> f32 {
+    gap + (1.0 - to) * (distance - gap)
+}
 
 /// The largest of the relative motions `moves` (a pair's points move by weighted means of them).
 #[inline]
@@ -442,7 +458,7 @@ fn kept_pair(offset: Vec3, moves: [Vec3; 4], (slops, thickness): (f32, f32)) -> 
     if !may_touch(gap, slops, thickness) {
         return LEFT_OUT;
     }
-    KeptPair { gap, motion: PairMotion { motion, approach: approach(offset, (distance, motion), moves) } }
+    KeptPair { gap, distance, motion: PairMotion { motion, approach: approach(offset, (distance, motion), moves) } }
 }
 
 /// How far a pair apart by `offset` (`distance` long) at the frame's start closes along that
@@ -493,7 +509,8 @@ fn vertex_face_pair(vertex: &AnchoredTriangle, k: usize, face: &AnchoredTriangle
     if collapsed(area2, side2) {
         // No closest point to measure from a collapsed face: kept.
         let motion = longest(moves);
-        return KeptPair { gap: f32::NEG_INFINITY, motion: PairMotion { motion, approach: motion } };
+        let gap = f32::NEG_INFINITY;
+        return KeptPair { gap, distance: gap, motion: PairMotion { motion, approach: motion } };
     }
     let (q, _) = closest_with_weights(p.start, a.start, b.start, c.start);
     kept_pair(p.start - q, moves, (p.slop + face.largest_slop(), thickness))
@@ -541,18 +558,19 @@ impl PairMotion {
 }
 
 /// The primitive pairs of `mask` (`self_contact::pair_mask`) between triangles `a` (the
-/// earlier) and `b` that may touch within the frame, the smallest of their gaps (what a pass
-/// compares with the strays it measures: `listed_self_pairs_at`) and their largest motion and
-/// approach (`PairMotion`).
+/// earlier) and `b` that may touch within the frame, the smallest of their gaps and of their
+/// distances at the frame's start (what a pass compares with the strays it measures:
+/// `listed_self_pairs_at`, `gap_by`) and their largest motion and approach (`PairMotion`).
 #[inline]
 fn pairs_that_may_touch(
     a: &AnchoredTriangle,
     b: &AnchoredTriangle,
     mask: u32,
     thickness: f32,
-) -> (u32, f32, PairMotion) {
+) -> (u32, (f32, f32), PairMotion) {
     let mut kept = 0;
     let mut smallest = f32::INFINITY;
+    let mut closest = f32::INFINITY;
     let mut fastest = PairMotion::default();
     // Written out pair by pair, so every corner index is a constant: one indexed by a loop's
     // counter keeps both triangles in memory, and llvmpipe loads from there lane by lane.
@@ -563,6 +581,7 @@ fn pairs_that_may_touch(
                 if pair.gap < f32::INFINITY {
                     kept |= 1 << $bit;
                     smallest = smallest.min(pair.gap);
+                    closest = closest.min(pair.distance);
                     fastest = fastest.max(pair.motion);
                 }
             }
@@ -585,22 +604,23 @@ fn pairs_that_may_touch(
     pair!(12, edges_pair(a, 2, b, 0, thickness));
     pair!(13, edges_pair(a, 2, b, 1, thickness));
     pair!(14, edges_pair(a, 2, b, 2, thickness));
-    (kept, smallest, fastest)
+    (kept, (smallest, closest), fastest)
 }
 
 /// What a list keeps of sorted leaves `leaf` and `other` (`leaf` < `other`): the primitive pairs
-/// that may touch within the frame and their smallest gap (`pairs_that_may_touch`; no mask
-/// bits: none), without the tree. The baseline a list's walk must equal.
+/// that may touch within the frame, their smallest gap and their smallest distance at the
+/// frame's start (`pairs_that_may_touch`; no mask bits: none), without the tree. The baseline a
+/// list's walk must equal.
 pub fn listed_pair_bound(
     (leaf, other): (u32, u32),
     thickness: f32,
     (sorted, owned, anchors): (&[UVec4], &[u32], &[Vec4]),
-) -> (u32, f32) {
+) -> (u32, (f32, f32)) {
     let (mine, theirs) = (sorted[leaf as usize], sorted[other as usize]);
     let mask = pair_mask(owned[mine.w as usize], owned[theirs.w as usize]);
     let (a, b) = (AnchoredTriangle::load(mine, anchors), AnchoredTriangle::load(theirs, anchors));
-    let (kept, gap, _) = pairs_that_may_touch(&a, &b, mask, thickness);
-    (kept, gap)
+    let (kept, gaps, _) = pairs_that_may_touch(&a, &b, mask, thickness);
+    (kept, gaps)
 }
 
 /// Sorted leaf `leaf`'s list for the frame (`lists[LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * leaf..]`, count in
@@ -646,7 +666,7 @@ pub fn list_self_pairs_at(
             let other = found[j];
             let theirs = sorted[other as usize];
             let mask = pair_mask(mine_owned, owned[theirs.w as usize]);
-            let (kept, gap, motion) =
+            let (kept, (gap, distance), motion) =
                 pairs_that_may_touch(&mine, &AnchoredTriangle::load(theirs, anchors), mask, thickness);
             fastest = fastest.max(motion);
             if kept != 0 {
@@ -657,6 +677,7 @@ pub fn list_self_pairs_at(
                     lists[entry] = other;
                     lists[entry + 1] = kept;
                     lists[entry + 2] = gap.to_bits();
+                    lists[entry + 3] = distance.to_bits();
                     count += 1;
                 }
             }
@@ -928,6 +949,7 @@ pub fn listed_self_pairs_at(
     (x, x_prev): (&[Vec4], &[Vec4]),
     (escaped, strays): (&[u32], &[f32]),
     (lists, counts): (&[u32], &[u32]),
+    span: &SelfPassPush,
     out: PairResponse,
 ) {
     let count = counts[leaf as usize];
@@ -945,10 +967,11 @@ pub fn listed_self_pairs_at(
     while j < count as usize {
         let entry = base + LIST_ENTRY_WORDS as usize * j;
         let ids = sorted[lists[entry] as usize];
-        // The pair's gap less how far both strayed in this pass: still apart by the thickness
-        // in all of the pass (the list's bound with the strays for the slops), nothing to test.
-        let near =
-            may_touch(f32::from_bits(lists[entry + 2]), my_stray + strays[ids.w as usize], self_params.thickness);
+        // The pair's gap by the pass's end less how far both strayed in this pass: still apart
+        // by the thickness in all of the pass (the list's bound with the strays for the slops),
+        // nothing to test.
+        let (gap, distance) = (f32::from_bits(lists[entry + 2]), f32::from_bits(lists[entry + 3]));
+        let near = may_touch(gap_by(span.to, gap, distance), my_stray + strays[ids.w as usize], self_params.thickness);
         if escaped[ids.w as usize] == 0 && near {
             let theirs = Corners::load(ids, (x, x_prev));
             triangle_pair(&pairs.mine, &theirs, lists[entry + 1], &mut pairs.out);
@@ -1124,6 +1147,7 @@ pub fn list_self_pairs(
 #[spirv(compute(threads(64)))]
 pub fn listed_self_pairs(
     #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] span: &SelfPassPush,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] nodes: &[BvhNode],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
@@ -1146,7 +1170,8 @@ pub fn listed_self_pairs(
     }
     let tree = (nodes, aabbs, leaf_bounds, sorted);
     let out = PairResponse::of_cloth(self_params, (v, rest_shape), (delta, velocity_changes));
-    listed_self_pairs_at(id.x, self_params, tree, owned, (x, x_prev), (escaped, strays), (lists, counts), out);
+    let (escaped, lists) = ((escaped, strays), (lists, counts));
+    listed_self_pairs_at(id.x, self_params, tree, owned, (x, x_prev), escaped, lists, span, out);
 }
 
 /// Every triangle's pairs through the tree (a cloth too fine for lists at its thickness).
@@ -1322,6 +1347,44 @@ mod tests {
         assert!((fall.motion.approach - 0.03).abs() < 1e-6, "{}", fall.motion.approach);
         let (vertex, face) = vertex_over_face(over, Vec3::new(0.1, 0.03, 0.0));
         assert_eq!(vertex_face_pair(&vertex, 0, &face, 0.005).motion.approach.to_bits(), 0);
+    }
+
+    /// A vertex 3 cm over a face falls 6 cm through it over the frame: its list entry's gap by a
+    /// pass's end (`gap_by`) never exceeds the vertex's distance from the face at any time of
+    /// the pass, so in 10 passes the first ones (the vertex still over 5 mm away) skip the pair
+    /// and those around its crossing test it; at the frame's end it is the list's gap itself.
+    #[test]
+    fn a_pass_tests_a_listed_pair_only_when_it_may_have_come_near() {
+        let (vertex, face) = vertex_over_face(Vec3::new(0.02, 0.03, 0.02), Vec3::new(0.0, -0.06, 0.0));
+        let (kept, (gap, distance), _) = pairs_that_may_touch(&vertex, &face, 1, 0.005);
+        assert_eq!(kept, 1);
+        assert!((distance - 0.03).abs() < 1e-6 && (gap + 0.03).abs() < 1e-6, "{distance} {gap}");
+        let tested: Vec<bool> = (1..=10)
+            .map(|pass| {
+                let to = pass as f32 / 10.0;
+                let bound = gap_by(to, gap, distance);
+                for k in 0..=100 {
+                    let s = to * k as f32 / 100.0;
+                    let height = (0.03 - 0.06 * s).abs();
+                    assert!(bound <= height + 1e-6, "pass {pass}: {bound} over the distance {height} at {s}");
+                }
+                may_touch(bound, 0.0, 0.005)
+            })
+            .collect();
+        assert_eq!(tested, [false, false, false, false, true, true, true, true, true, true]);
+        assert_eq!(gap_by(1.0, gap, distance).to_bits(), gap.to_bits());
+        // Whatever the pairs (each distance falling linearly at its own motion), the smallest
+        // distance at any time stays at or above the chord of the smallest at both ends.
+        let mut next = crate::test_random::unit_floats(0x2545_F491_4F6C_DD1D);
+        for case in 0..2000 {
+            let pairs: Vec<(f32, f32)> = (0..1 + case % 15).map(|_| (0.1 * next(), 0.2 * next())).collect();
+            let smallest_at = |s: f32| pairs.iter().map(|&(d, m)| d - m * s).fold(f32::INFINITY, f32::min);
+            let (start, end) = (smallest_at(0.0), smallest_at(1.0));
+            for k in 0..=20 {
+                let s = k as f32 / 20.0;
+                assert!(gap_by(s, end, start) <= smallest_at(s) + 1e-6, "case {case} at {s}: {pairs:?}");
+            }
+        }
     }
 
     /// A still vertex over a face one of whose corners (the third) rises 2 cm toward it: the
