@@ -521,7 +521,7 @@ impl SelfContactBuffers {
         steps: &mut Vec<Step>,
     ) {
         let t = &self.tree;
-        let push = SelfPassPush { from: span.from, to: span.to, find_walkers, _pad: 0 };
+        let push = pass_push(span, find_walkers);
         steps.push(Step::run_with(
             "self: triangle boxes",
             &CLOTH_TRIANGLE_BOUNDS,
@@ -905,7 +905,7 @@ impl SelfContactBuffers {
         // Per triangle, its owned corners against the triangles of its list, its owned edges
         // against their owned edges; then the walkers' (a pass of their own: on lockstep lanes a
         // walk beside list tests would hold its neighbours).
-        let push = SelfPassPush { from: span.from, to: span.to, find_walkers: 0, _pad: 0 };
+        let push = pass_push(span, 0);
         steps.push(Step::run_with(
             SELF_PAIRS_LABEL,
             &LISTED_SELF_PAIRS,
@@ -976,6 +976,12 @@ impl SelfContactBuffers {
             Dispatch::Threads(self.particles),
         ));
     }
+}
+
+/// A pass's push constants (`SelfPassPush`): its span of the lists' span, and whether the run
+/// finds the pass's walkers (`drape_kernels::self_pairs::FIND_WALKERS`, or 0).
+fn pass_push(span: ContactPush, find_walkers: u32) -> SelfPassPush {
+    SelfPassPush { from: span.from, to: span.to, find_walkers, _pad: 0 }
 }
 
 #[cfg(test)]
