@@ -4,10 +4,11 @@
 //! machine's noise falls on both alike. Per scene: the medians and fastest of the GPU span per
 //! frame (timestamps: the first pass's start to the last one's end) and of the wall time, the
 //! ratio on / off, the substeps; the whole run's totals (the ratio of the mean frames); the
-//! median frame of each third of the run; then the self-collision solver's passes at 64^2. On a CPU driver it also gives the process's CPU time
-//! per frame (every thread's, the driver's workers included: the frame's work, which another
-//! tenant's load on the machine moves less than the wall time, the same code's wall ratio
-//! having ranged 2.27x-2.70x at 64^2 on this VM).
+//! median frame of each third of the run; then the self-collision solver's passes at 64^2, over
+//! the whole run and in each third of it (with the triangles that walked the tree). On a CPU
+//! driver it also gives the process's CPU time per frame (every thread's, the driver's workers
+//! included: the frame's work, which another tenant's load on the machine moves less than the
+//! wall time, the same code's wall ratio having ranged 2.27x-2.70x at 64^2 on this VM).
 //!
 //! `cargo bench --bench self_collision` runs every scene; `-- 64 pile` only those named; add
 //! `no-timestamps` to run the solvers without timestamp queries (wall times only: on lavapipe a
@@ -70,20 +71,65 @@ struct Run {
     substeps: Vec<f64>,
     /// The process's CPU time per frame (ms).
     cpu_ms: Vec<f64>,
+    /// Per frame: each pass label's GPU µs (with timestamps), and the self-collision triangles
+    /// that walked the tree over the frame's passes (`FrameReport::self_walks`).
+    passes: Vec<Vec<(&'static str, f64)>>,
+    walks: Vec<f64>,
 }
 
 impl Run {
     fn new() -> Self {
-        Run { report: TimingReport::default(), substeps: Vec::new(), cpu_ms: Vec::new() }
+        Run {
+            report: TimingReport::default(),
+            substeps: Vec::new(),
+            cpu_ms: Vec::new(),
+            passes: Vec::new(),
+            walks: Vec::new(),
+        }
     }
 
     fn step(&mut self, sim: &mut Solver) {
         let (start, cpu_start) = (Instant::now(), process_cpu_time());
-        let timings = sim.step().expect("stable");
+        let frame = sim.step_report().expect("stable");
         let (wall, cpu) = (start.elapsed(), process_cpu_time() - cpu_start);
-        self.report.add(&timings, wall);
+        self.report.add(&frame.timings, wall);
         self.cpu_ms.push(cpu.as_secs_f64() * 1e3);
         self.substeps.push(f64::from(sim.stability(CLOTH).expect("the cloth").substeps));
+        self.passes.push(frame.timings.by_label().into_iter().map(|(label, _, micros)| (label, micros)).collect());
+        self.walks.push(f64::from(frame.self_walks));
+    }
+
+    /// Per pass label (in first-seen order): its mean GPU µs per frame in each third of the
+    /// run (a frame that did not run it counts 0), then the span's and the walks' medians.
+    fn thirds_table(&self) -> String {
+        let mut labels: Vec<&'static str> = Vec::new();
+        for frame in &self.passes {
+            for (label, _) in frame {
+                if !labels.contains(label) {
+                    labels.push(label);
+                }
+            }
+        }
+        let n = self.passes.len();
+        let thirds: Vec<std::ops::Range<usize>> = (0..3).map(|k| k * n / 3..(k + 1) * n / 3).collect();
+        let mut out = format!("{:<52} {:>12} {:>12} {:>12}\n", "pass (mean GPU µs a frame)", "first", "second", "last");
+        for label in labels {
+            let mean = |range: &std::ops::Range<usize>| {
+                let frames = &self.passes[range.clone()];
+                let sum: f64 = frames.iter().flat_map(|f| f.iter().filter(|(l, _)| *l == label).map(|(_, m)| m)).sum();
+                // (+ 0.0: an empty sum is -0.0.)
+                sum / frames.len().max(1) as f64 + 0.0
+            };
+            let cells: String = thirds.iter().map(|r| format!(" {:>12.1}", mean(r))).collect();
+            out += &format!("{label:<52}{cells}\n");
+        }
+        let spans = self.report.span_micros_per_frame();
+        let cells: String =
+            thirds.iter().map(|r| format!(" {:>12.1}", median(spans.get(r.clone()).unwrap_or(&[])))).collect();
+        out += &format!("{:<52}{cells}\n", "GPU span, median (µs)");
+        let cells: String = thirds.iter().map(|r| format!(" {:>12.0}", median(&self.walks[r.clone()]))).collect();
+        out += &format!("{:<52}{cells}", "triangle-passes that walked, median a frame");
+        out
     }
 
     /// The median and the least CPU time per frame (ms).
@@ -214,7 +260,7 @@ fn main() {
             format!("{:.2}x", cpu_total(&runs_on) / cpu_total(&runs_off)),
         ));
         if timestamps && case.name == "icosphere 64^2" {
-            passes_64 = Some((a.table(), b.table()));
+            passes_64 = Some((a.table(), b.table(), runs_on.thirds_table()));
         }
     }
     if cpu_driver {
@@ -250,10 +296,12 @@ fn main() {
     for row in &third_rows {
         println!("{row}");
     }
-    if let Some((off, on)) = passes_64 {
+    if let Some((off, on, thirds)) = passes_64 {
         // Both in the same run, so the passes they share (the integrator, the collider's
         // contact) compare without the machine's drift between runs.
         println!("\nThe icosphere 64^2 frame without self-collision, per pass:\n{off}");
         println!("\nThe icosphere 64^2 frame with self-collision, per pass:\n{on}");
+        // Where in the run each pass costs: the impact's frames, the settling ones, the calm.
+        println!("\nThe icosphere 64^2 with self-collision, per pass in each third of the run:\n{thirds}");
     }
 }
