@@ -7,7 +7,7 @@ use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::self_failsafe::{
     CHECK_THREADS, CarrierOut, Carriers, Found, WITH_LISTS, Walkers, check_collider_triangle_at, check_frame_at,
-    frame_box_at, note_everything, roll_back_at, sphere_carrier_at, triangle_carrier_at,
+    failsafe_box_at, note_everything, roll_back_at, sphere_carrier_at, triangle_carrier_at,
 };
 use drape_types::{
     Aabb, BvhNode, CarrierPush, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health, Triangle,
@@ -34,6 +34,8 @@ pub static FAILSAFE_BOXES: Kernel = Kernel {
             write("escaped"),
             write("strays"),
             write("refit_flags"),
+            read("tree_every_pass"),
+            write("refit"),
         ],
         CHECK_THREADS,
     ),
@@ -166,13 +168,17 @@ pub static FAILSAFE_ROLL_BACK: Kernel = Kernel {
 
 fn boxes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, sorted, x, anchors, indices, leaf_bounds, escaped, strays, refit_flags] = d.bindings()?;
+    let [self_params, sorted, x, anchors, indices, leaf_bounds, escaped, strays, refit_flags, tree_every_pass, refit] =
+        d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let (sorted, x, anchors) = (sorted.slice::<UVec4>(), x.slice::<Vec4>(), anchors.slice::<Vec4>());
     let (indices, leaf_bounds) = (indices.slice::<u32>(), leaf_bounds.slice_mut::<Aabb>());
     let (escaped, strays) = (escaped.slice_mut::<u32>(), strays.slice_mut::<f32>());
+    let tree_every_pass: u32 = tree_every_pass.first()?;
+    let refit = refit.first_mut::<DispatchArgs>()?;
     for s in 0..threads.min(c.leaf_count) {
-        leaf_bounds[s as usize] = frame_box_at(s, sorted, (x, anchors), indices, (&mut *escaped, &mut *strays));
+        let out = (&mut *leaf_bounds, &mut *escaped, &mut *strays);
+        failsafe_box_at(s, &c, (sorted, x, anchors, indices), out, (tree_every_pass, &mut *refit));
     }
     let refit_flags = refit_flags.slice_mut::<u32>();
     for node in 0..threads.min(c.leaf_count.saturating_sub(1)) {

@@ -350,7 +350,7 @@ fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         if !find_walkers {
             continue;
         }
-        let escape = escaped_at(t, (x, x_prev), anchors, indices, &span);
+        let escape = escaped_at(t, (x, x_prev), anchors, indices, (&span, 0.0));
         let first_walker =
             note_escape((t, leaf), escape, (&mut *escaped, &mut *strays), (&mut *walkers, &mut *walk_args));
         note_pass_tree((t, first_walker), tree_every_pass, c.leaf_count, pass_refit);

@@ -110,8 +110,19 @@ impl LbvhBuffers {
     /// internal node) of the leaves' `leaf_bounds` (tree order), e.g. what the leaves' points
     /// move by beside where they are.
     pub fn refit_other_steps(&self, label: &'static str, leaf_bounds: Handle<Aabb>, aabbs: Handle<Aabb>) -> Vec<Step> {
+        self.refit_other_steps_over(label, (leaf_bounds, aabbs), Dispatch::Threads(self.leaves))
+    }
+
+    /// `refit_other_steps` dispatched as `dispatch` (an indirect one of none leaves the boxes
+    /// as the fill leaves them: their readers must not run).
+    pub fn refit_other_steps_over(
+        &self,
+        label: &'static str,
+        boxes: (Handle<Aabb>, Handle<Aabb>),
+        dispatch: Dispatch,
+    ) -> Vec<Step> {
         let mut steps = Vec::new();
-        self.push_refit_of(label, (leaf_bounds, aabbs), Dispatch::Threads(self.leaves), &mut steps);
+        self.push_refit_of(label, boxes, dispatch, &mut steps);
         steps
     }
 

@@ -53,6 +53,9 @@ pub struct FailsafeBuffers {
     /// The check's and the roll-back's dispatches of rounds 1, 2, ... (the roll-back of the round
     /// before writes them); the last pair is the last round's spare (it dispatches nothing).
     pub rounds: Vec<(Handle<DispatchArgs>, Handle<DispatchArgs>)>,
+    /// The first round's refit of the tree, with the frame's lists: raised by the boxes where a
+    /// triangle walks in the check (`drape_kernels::self_failsafe::failsafe_box_at`), else none.
+    pub refit: Handle<DispatchArgs>,
 }
 
 impl FailsafeBuffers {
@@ -74,6 +77,7 @@ impl FailsafeBuffers {
             carrier_choice: resources.device(format!("{name}: fail-safe carrier choice"), 1),
             counters: resources.device(format!("{name}: fail-safe counters"), FAILSAFE_COUNTER_WORDS),
             rounds,
+            refit: resources.device(format!("{name}: fail-safe refit dispatch"), 1),
         }
     }
 
@@ -98,6 +102,7 @@ impl FailsafeBuffers {
             steps.push(empty_dispatch(check));
             steps.push(empty_dispatch(roll_back));
         }
+        steps.push(empty_dispatch(self.refit));
         for (slot, collider) in colliders.iter().enumerate() {
             steps.push(self.carriers_step((own, cloth), collider, slot as u32));
         }
@@ -115,12 +120,16 @@ impl FailsafeBuffers {
                     own.escaped.id(),
                     own.strays.id(),
                     t.refit_flags(),
+                    own.tree_every_pass.id(),
+                    self.refit.id(),
                 ],
                 dispatch,
             )
         };
         steps.push(boxes(Dispatch::Threads(t.leaves)));
-        steps.extend(t.refit_other_steps("self: fail-safe refit", t.sorted_bounds, t.aabbs));
+        // With lists, only where a triangle walks in the check (`LIST_CHECK_BEYOND`).
+        let refit = if lists { Dispatch::Indirect(self.refit) } else { Dispatch::Threads(t.leaves) };
+        steps.extend(t.refit_other_steps_over("self: fail-safe refit", (t.sorted_bounds, t.aabbs), refit));
         let particles = own.particles();
         for round in 0..ROLLBACK_ROUNDS {
             let last = if round + 1 == ROLLBACK_ROUNDS { LAST_ROUND } else { 0 };

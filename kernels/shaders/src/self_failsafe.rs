@@ -8,7 +8,8 @@
 //! layers on it), those corrections disagree, the mean leaves a pair closer each pass, and two
 //! layers can pass through each other (the pile scene: 2 of 600 frames). So, as Bridson et al.
 //! (2002) follow their repulsions with a collision check, every frame ends with one:
-//! - each triangle's box over the frame (start to end) refits the self-collision tree;
+//! - each triangle's box over the frame (start to end) refits the self-collision tree (with the
+//!   frame's lists, only where a triangle walks in the check: `failsafe_box_at`);
 //! - every pair of triangles that share no particle and whose boxes at the frame's end meet is
 //!   tested for intersection there (an edge of one through the other: `triangles_cross`), and a
 //!   pair that crosses at the end but did not at the start is found;
@@ -59,7 +60,7 @@
 
 use crate::atomics;
 use crate::contact::{LeafKind, traverse};
-use crate::lbvh::PairWalk;
+use crate::lbvh::{PairWalk, REFIT_THREADS};
 use crate::pose::{to_local, to_world};
 use crate::self_contact::{
     FIXED_SCALE, LeafVisitor, accumulate, collapsed, longest_side2, mean_of, walk_in_batches, walk_overlapping, within,
@@ -532,24 +533,59 @@ pub fn check_triangle_pair(
     }
 }
 
+/// How far beyond its slops (a share of the thickness) each corner of a triangle may end the
+/// frame for the check to take its list alone (`frame_box_at`). A pair the lists leave out
+/// has a gap (its predicted distance over the frame, at least) of the thickness and its
+/// corners' slops; its ends, each within its slop and under half the thickness more of its
+/// predicted end, stay apart, and one pair of triangles crosses another only where some of its
+/// vertex-face or edge-edge pairs meet: neither predicted nor ended paths can take them through
+/// each other (`a_pair_left_out_cannot_cross_within_half_a_thickness_beyond_the_slops`, where
+/// they do from a whole thickness beyond). A triangle the passes' contact pushed a little off
+/// its prediction (the settling standard scene: hundreds a frame) is checked by its list, not
+/// by a walk of the whole tree, and where none ends farther the tree is not refit.
+pub const LIST_CHECK_BEYOND: f32 = 0.5;
+
 /// Sorted leaf `s`'s box over the frame (its corners at the frame's start and now); with the
-/// frame's lists, also whether its triangle ended the frame outside its predicted region and
-/// how far its corners strayed from their predicted ends (into `escaped` and `strays`, free
-/// after the frame's last pass; `self_pairs::escaped_at` at the frame's end).
+/// frame's lists, also whether its triangle ended the frame beyond its predicted region (a
+/// corner over `LIST_CHECK_BEYOND` of the `thickness` beyond its slop: it walks in the
+/// check) and how far its corners strayed from their predicted ends (into `escaped` and
+/// `strays`, free after the frame's last pass; `self_pairs::escaped_at` at the frame's end).
+/// Returns the box and whether it walks.
 pub fn frame_box_at(
     s: u32,
     sorted: &[UVec4],
     (x, anchors): (&[Vec4], &[Vec4]),
-    indices: &[u32],
+    (indices, thickness): (&[u32], f32),
     (escaped, strays): (&mut [u32], &mut [f32]),
-) -> Aabb {
+) -> (Aabb, bool) {
     let ids = sorted[s as usize];
     let end = SelfPassPush { from: 1.0, to: 1.0, find_walkers: 0, _pad: 0 };
-    let (out, stray) = escaped_at(ids.w, (x, x), anchors, indices, &end);
+    let (out, stray) = escaped_at(ids.w, (x, x), anchors, indices, (&end, LIST_CHECK_BEYOND * thickness));
     escaped[ids.w as usize] = out as u32;
     strays[ids.w as usize] = stray;
     let (lo, hi) = EndTriangle::load(ids, x).frame_box(anchors);
-    Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }
+    (Aabb { min: lo.extend(0.0), max: hi.extend(0.0) }, out)
+}
+
+/// `failsafe_boxes`' thread for sorted leaf `s` (of `self_params.leaf_count`): its box over the
+/// frame and whether it walks (`frame_box_at`), and the check's refit of the tree raised to
+/// every leaf (`refit`, emptied by the host before) by each leaf that walks and, when the
+/// frame's passes walk the tree whoever escapes (`tree_every_pass`: a list overflowed, a
+/// collider listed sharp triangles, whose check walks it too), by the first leaf. Without
+/// lists the host refits the tree every frame.
+#[inline]
+pub fn failsafe_box_at(
+    s: u32,
+    self_params: &ColliderParams,
+    (sorted, x, anchors, indices): (&[UVec4], &[Vec4], &[Vec4], &[u32]),
+    (leaf_bounds, escaped, strays): (&mut [Aabb], &mut [u32], &mut [f32]),
+    (tree_every_pass, refit): (u32, &mut DispatchArgs),
+) {
+    let (bounds, walks) = frame_box_at(s, sorted, (x, anchors), (indices, self_params.thickness), (escaped, strays));
+    leaf_bounds[s as usize] = bounds;
+    if walks || (s == 0 && tree_every_pass != 0) {
+        atomics::max(&mut refit.x, self_params.leaf_count.div_ceil(REFIT_THREADS));
+    }
 }
 
 /// A leaf's pairs with the leaves its walk reaches: the later ones, and with `take_earlier` (it
@@ -568,8 +604,9 @@ struct FramePairs<'a> {
     found: Found<'a>,
 }
 
-/// Which leaves walk in the check: those that ended the frame outside their predicted region
-/// (`escaped`, per triangle) and those whose list was full (`counts`).
+/// Which leaves walk in the check: those that ended the frame beyond their predicted region by
+/// over `LIST_CHECK_BEYOND` of the thickness (`escaped`, per triangle: `frame_box_at`) and
+/// those whose list was full (`counts`).
 #[derive(Copy, Clone)]
 pub struct Walkers<'a> {
     pub escaped: &'a [u32],
@@ -607,12 +644,12 @@ impl LeafVisitor for FramePairs<'_> {
 /// lists (`with_lists` false), with every later leaf whose box meets its box at the end, through
 /// the tree (refit to the boxes over the frame, which hold the boxes at the end in every round).
 /// With them, as a pass takes them (`self_pairs::listed_self_pairs_at`, `walk_self_pairs_at`): a
-/// leaf that ended the frame inside its predicted region tests its list, but for partners that
-/// did not, and the entries whose gap less both triangles' strays keeps them a thickness apart
-/// (a pair a list leaves out stays a thickness apart while its corners stay within their slops
-/// of their predicted paths, so at the frame's end too); one whose list was full walks for the
-/// later leaves; one that ended outside walks for the later leaves and the earlier ones that do
-/// not walk.
+/// leaf that ended the frame within `LIST_CHECK_BEYOND` of the thickness beyond its predicted
+/// region tests its list, but for partners that did not, and the entries whose gap less both
+/// triangles' strays keeps them a thickness apart (a pair a list leaves out cannot cross at the
+/// frame's end while its corners end that near their predicted ends: `LIST_CHECK_BEYOND`); one
+/// whose list was full walks for the later leaves; one that ended farther walks for the later
+/// leaves and the earlier ones that do not walk.
 #[allow(clippy::too_many_arguments)]
 pub fn check_frame_at(
     leaf: u32,
@@ -895,9 +932,13 @@ pub fn failsafe_boxes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] escaped: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] strays: &mut [f32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] refit_flags: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] tree_every_pass: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] refit: &mut DispatchArgs,
 ) {
     if id.x < self_params.leaf_count {
-        leaf_bounds[id.x as usize] = frame_box_at(id.x, sorted, (x, anchors), indices, (escaped, strays));
+        let frame = (sorted, x, anchors, indices);
+        let out = (leaf_bounds, escaped, strays);
+        failsafe_box_at(id.x, self_params, frame, out, (tree_every_pass[0], refit));
     }
     if id.x + 1 < self_params.leaf_count {
         refit_flags[id.x as usize] = 0;
