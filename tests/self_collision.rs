@@ -2005,7 +2005,7 @@ fn failsafe_on_shaken_frames(carrier: Option<Vec3>) -> ShakenTally {
     let start_steps = steps;
     let mut steps = vec![];
     let colliders: Vec<&ColliderBuffers> = ground.iter().collect();
-    s.failsafe.frame_end_steps((&s, &own), (true, substeps), &colliders, &mut steps);
+    s.failsafe.frame_end_steps((&s, &own), ((true, false), substeps), &colliders, &mut steps);
     let failsafe_steps = steps;
     let mut engine = Engine::new(&ctx).unwrap();
     engine.allocate(&resources).unwrap();

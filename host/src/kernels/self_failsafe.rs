@@ -22,9 +22,9 @@ const fn write(name: &'static str) -> BindingSpec {
 }
 
 pub static FAILSAFE_BOXES: Kernel = Kernel {
-    spec: KernelSpec::new(
-        "self_failsafe::failsafe_boxes",
-        &[
+    spec: KernelSpec {
+        entry: "self_failsafe::failsafe_boxes",
+        bindings: &[
             read("self_params"),
             read("sorted"),
             read("x"),
@@ -37,8 +37,9 @@ pub static FAILSAFE_BOXES: Kernel = Kernel {
             read("tree_every_pass"),
             write("refit"),
         ],
-        CHECK_THREADS,
-    ),
+        push_constant_size: size_of::<FailsafePush>() as u32,
+        workgroup_size: CHECK_THREADS,
+    },
     cpu: boxes_cpu,
 };
 
@@ -167,6 +168,7 @@ pub static FAILSAFE_ROLL_BACK: Kernel = Kernel {
 };
 
 fn boxes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: FailsafePush = d.push_as();
     let threads = d.invocations();
     let [self_params, sorted, x, anchors, indices, leaf_bounds, escaped, strays, refit_flags, tree_every_pass, refit] =
         d.bindings()?;
@@ -178,7 +180,7 @@ fn boxes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let refit = refit.first_mut::<DispatchArgs>()?;
     for s in 0..threads.min(c.leaf_count) {
         let out = (&mut *leaf_bounds, &mut *escaped, &mut *strays);
-        failsafe_box_at(s, &c, (sorted, x, anchors, indices), out, (tree_every_pass, &mut *refit));
+        failsafe_box_at((s, &push), &c, (sorted, x, anchors, indices), out, (tree_every_pass, &mut *refit));
     }
     let refit_flags = refit_flags.slice_mut::<u32>();
     for node in 0..threads.min(c.leaf_count.saturating_sub(1)) {

@@ -341,7 +341,7 @@ pub fn frame_steps(
     }
     if let Some(s) = cloth.self_contact.as_ref().filter(|_| plan.self_failsafe) {
         let collider_buffers: Vec<_> = colliders.iter().map(|(collider, _)| *collider).collect();
-        let frame = (plan.self_lists, plan.substeps);
+        let frame = ((plan.self_lists, window_ends.len() > 1), plan.substeps);
         s.failsafe.frame_end_steps((s, &cloth.self_contact_cloth()), frame, &collider_buffers, &mut steps);
     }
     if !plan.normals {

@@ -15,7 +15,7 @@ use crate::kernels::self_failsafe::{FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_COL
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::self_failsafe::CARRIER_FRAME_WORDS;
 use drape_kernels::self_failsafe::{
-    CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, SUBSTEPS_SHIFT, WITH_LISTS,
+    CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, SUBSTEPS_SHIFT, WINDOWED, WITH_LISTS,
 };
 use drape_types::{CarrierPush, DispatchArgs, FailsafePush};
 use glam::Vec4;
@@ -82,13 +82,14 @@ impl FailsafeBuffers {
     }
 
     /// The frame's fail-safe, after its last self-collision pass and before anything reads the
-    /// frame's end; `lists`: the frame built pair lists (the check takes them); `substeps`: the
-    /// frame's; `colliders`: the model's, in its order (each may carry particles, and each
-    /// triangle collider's sharp triangles are checked too).
+    /// frame's end; `lists`: the frame built pair lists (the check takes them), `windowed`: more
+    /// than once (`drape_kernels::self_failsafe::WINDOWED`); `substeps`: the frame's;
+    /// `colliders`: the model's, in its order (each may carry particles, and each triangle
+    /// collider's sharp triangles are checked too).
     pub fn frame_end_steps(
         &self,
         (own, cloth): (&SelfContactBuffers, &SelfContactCloth),
-        (lists, substeps): (bool, u32),
+        ((lists, windowed), substeps): ((bool, bool), u32),
         colliders: &[&ColliderBuffers],
         steps: &mut Vec<Step>,
     ) {
@@ -106,8 +107,9 @@ impl FailsafeBuffers {
         for (slot, collider) in colliders.iter().enumerate() {
             steps.push(self.carriers_step((own, cloth), collider, slot as u32));
         }
+        let boxes_push = FailsafePush { flags: if windowed { WINDOWED } else { 0 }, ..Default::default() };
         let boxes = |dispatch| {
-            Step::run(
+            Step::run_with(
                 "self: fail-safe boxes",
                 &FAILSAFE_BOXES,
                 vec![
@@ -123,6 +125,7 @@ impl FailsafeBuffers {
                     own.tree_every_pass.id(),
                     self.refit.id(),
                 ],
+                bytemuck::cast(boxes_push),
                 dispatch,
             )
         };

@@ -66,7 +66,8 @@ use crate::self_contact::{
     FIXED_SCALE, LeafVisitor, accumulate, collapsed, longest_side2, mean_of, walk_in_batches, walk_overlapping, within,
 };
 use crate::self_pairs::{
-    ANCHOR_WORDS, FRAME_START_WORD, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, escaped_at, may_touch,
+    ANCHOR_WORDS, FRAME_START_WORD, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, SLOP_THICKNESS, escaped_at,
+    may_touch,
 };
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
@@ -90,6 +91,13 @@ pub const ROLLBACK_ROUNDS: u32 = 6;
 /// Words of the fail-safe's counters: per round, the pairs found and the particles that went
 /// back.
 pub const FAILSAFE_COUNTER_WORDS: u32 = 2 * ROLLBACK_ROUNDS;
+
+/// Where particle `i` was when the lists in force were built (its anchor's start: the frame's,
+/// or its last window's).
+#[inline]
+fn listed_start(anchors: &[Vec4], i: u32) -> Vec3 {
+    anchors[(ANCHOR_WORDS * i) as usize].xyz()
+}
 
 /// Where particle `i` started the frame (its anchor's `FRAME_START_WORD`).
 #[inline]
@@ -545,22 +553,45 @@ pub fn check_triangle_pair(
 /// by a walk of the whole tree, and where none ends farther the tree is not refit.
 pub const LIST_CHECK_BEYOND: f32 = 0.5;
 
+/// Whether a triangle with corners `corners` is wide enough at `thickness` for another's edge to
+/// pierce it far from every one of its vertices and edges: its inradius (twice its area over its
+/// perimeter) reaches the thickness and two slops. A pair of triangles crossed that deep has no
+/// vertex-face or edge-edge pair within a list's reach, so lists built where it already crossed
+/// leave it out (`a_wide_triangle_pierced_deep_has_no_pair_listed`); a narrower triangle's
+/// crossing always has an edge pair within its inradius. The standard 64^2 cloth's triangles
+/// (6.7 mm) are not at 5 mm; a 32^2 cloth of the same size (14 mm) is.
+#[inline]
+pub fn pierceable_deep(corners: [Vec3; 3], thickness: f32) -> bool {
+    let [a, b, c] = corners;
+    let twice_area = (b - a).cross(c - a).length();
+    let perimeter = (b - a).length() + (c - b).length() + (a - c).length();
+    twice_area >= (1.0 + 2.0 * SLOP_THICKNESS) * thickness * perimeter
+}
+
+/// `FailsafePush::flags` of the boxes: the frame built its lists again within it (windows), so
+/// the last lists start where a pair may already have crossed since the frame's start.
+pub const WINDOWED: u32 = 4;
+
 /// Sorted leaf `s`'s box over the frame (its corners at the frame's start and now); with the
 /// frame's lists, also whether its triangle ended the frame beyond its predicted region (a
 /// corner over `LIST_CHECK_BEYOND` of the `thickness` beyond its slop: it walks in the
 /// check) and how far its corners strayed from their predicted ends (into `escaped` and
 /// `strays`, free after the frame's last pass; `self_pairs::escaped_at` at the frame's end).
+/// In a `windowed` frame a triangle that the last lists' start found `pierceable_deep` walks
+/// too: a pair that crossed within the frame before those lists, deep, is not in them.
 /// Returns the box and whether it walks.
 pub fn frame_box_at(
     s: u32,
     sorted: &[UVec4],
     (x, anchors): (&[Vec4], &[Vec4]),
-    (indices, thickness): (&[u32], f32),
+    (indices, thickness, windowed): (&[u32], f32, bool),
     (escaped, strays): (&mut [u32], &mut [f32]),
 ) -> (Aabb, bool) {
     let ids = sorted[s as usize];
     let end = SelfPassPush { from: 1.0, to: 1.0, find_walkers: 0, _pad: 0 };
     let (out, stray) = escaped_at(ids.w, (x, x), anchors, indices, (&end, LIST_CHECK_BEYOND * thickness));
+    let listed = [listed_start(anchors, ids.x), listed_start(anchors, ids.y), listed_start(anchors, ids.z)];
+    let out = out || (windowed && pierceable_deep(listed, thickness));
     escaped[ids.w as usize] = out as u32;
     strays[ids.w as usize] = stray;
     let (lo, hi) = EndTriangle::load(ids, x).frame_box(anchors);
@@ -575,13 +606,14 @@ pub fn frame_box_at(
 /// lists the host refits the tree every frame.
 #[inline]
 pub fn failsafe_box_at(
-    s: u32,
+    (s, push): (u32, &FailsafePush),
     self_params: &ColliderParams,
     (sorted, x, anchors, indices): (&[UVec4], &[Vec4], &[Vec4], &[u32]),
     (leaf_bounds, escaped, strays): (&mut [Aabb], &mut [u32], &mut [f32]),
     (tree_every_pass, refit): (u32, &mut DispatchArgs),
 ) {
-    let (bounds, walks) = frame_box_at(s, sorted, (x, anchors), (indices, self_params.thickness), (escaped, strays));
+    let frame = (indices, self_params.thickness, push.flags & WINDOWED != 0);
+    let (bounds, walks) = frame_box_at(s, sorted, (x, anchors), frame, (escaped, strays));
     leaf_bounds[s as usize] = bounds;
     if walks || (s == 0 && tree_every_pass != 0) {
         atomics::max(&mut refit.x, self_params.leaf_count.div_ceil(REFIT_THREADS));
@@ -915,14 +947,16 @@ pub fn note_everything(push: &FailsafePush, counters: &[u32], health: &mut Healt
 /// check's dispatch, after a roll-back).
 pub const CHECK_THREADS: u32 = 64;
 
-/// One thread per sorted leaf: the leaf's box over the frame, and where it ended against its
-/// predicted region (`frame_box_at`), and the tree's refit flags cleared (each round's boxes
+/// One thread per sorted leaf (push constants: `FailsafePush`, its flags `WINDOWED` or 0): the
+/// leaf's box over the frame, and where it ended against its predicted region
+/// (`failsafe_box_at`), and the tree's refit flags cleared (each round's boxes
 /// then refit the tree: a particle carried back lies where neither its start nor its end
 /// was, outside the box the round before gave its triangle, where a walk would miss it).
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
 pub fn failsafe_boxes(
     #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &FailsafePush,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
     #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] sorted: &[UVec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] x: &[Vec4],
@@ -938,7 +972,7 @@ pub fn failsafe_boxes(
     if id.x < self_params.leaf_count {
         let frame = (sorted, x, anchors, indices);
         let out = (leaf_bounds, escaped, strays);
-        failsafe_box_at(id.x, self_params, frame, out, (tree_every_pass[0], refit));
+        failsafe_box_at((id.x, push), self_params, frame, out, (tree_every_pass[0], refit));
     }
     if id.x + 1 < self_params.leaf_count {
         refit_flags[id.x as usize] = 0;

@@ -1267,7 +1267,7 @@ pub fn test_queued_pairs(
 mod tests {
     use super::*;
     use crate::self_contact::OWNED_FEATURE_BITS;
-    use crate::self_failsafe::{LIST_CHECK_BEYOND, triangles_cross};
+    use crate::self_failsafe::{LIST_CHECK_BEYOND, pierceable_deep, triangles_cross};
     use drape_types::LEAF_BIT;
 
     /// A packed node's boxes read back hold the boxes written, near the origin and far from it,
@@ -1485,6 +1485,39 @@ mod tests {
         assert_eq!(crossed, 0, "of {left_out} pairs left out, {crossed} crossed within half a thickness beyond");
         let (left_out, crossed) = crossings_left_out(2.0 * thickness, 0x9E37_79B9_7F4A_7C15);
         assert!(crossed > 0, "of {left_out} pairs left out, none crossed two thicknesses beyond");
+    }
+
+    /// A triangle 10 cm across pierced by two edges of another (standing across it, 4-8 cm out
+    /// on both sides), each through a point about 2 cm or more from its edges, both at rest:
+    /// every vertex-face and edge-edge pair lies beyond a list's reach (the thickness and two
+    /// slops, 1 cm), so lists built there leave the crossed pair out. Such a triangle is `pierceable_deep` (the
+    /// fail-safe walks it in a frame whose lists were built again within it); the standard
+    /// 64^2 cloth's triangles (2.3 cm legs) are not at 5 mm, a 32^2 cloth's (4.7 cm) are.
+    #[test]
+    fn a_wide_triangle_pierced_deep_has_no_pair_listed() {
+        let thickness = 0.005;
+        let x = [
+            Vec4::new(0.0, 0.0, 0.0, 1.0),
+            Vec4::new(0.1, 0.0, 0.0, 1.0),
+            Vec4::new(0.0, 0.0, 0.1, 1.0),
+            Vec4::new(0.03, -0.04, 0.03, 1.0),
+            Vec4::new(0.03, 0.04, 0.03, 1.0),
+            Vec4::new(0.03, 0.08, 0.07, 1.0),
+        ];
+        let v = [Vec4::ZERO; 6];
+        let mut anchors = [Vec4::ZERO; 6 * ANCHOR_WORDS as usize];
+        for i in 0..6 {
+            anchor_at(i, (&x, &v), (1.0 / 60.0, Vec3::ZERO, thickness), &mut anchors);
+        }
+        let sorted = [UVec4::new(0, 1, 2, 0), UVec4::new(3, 4, 5, 1)];
+        let owned = [OWNED_FEATURE_BITS, OWNED_FEATURE_BITS];
+        let (kept, _) = listed_pair_bound((0, 1), thickness, (&sorted, &owned, &anchors));
+        let corners = |k: usize| [x[3 * k].xyz(), x[3 * k + 1].xyz(), x[3 * k + 2].xyz()];
+        assert!(triangles_cross(corners(0), corners(1)), "the edge must pierce the face");
+        assert_eq!(kept, 0, "no pair of the crossed triangles is within a list's reach");
+        assert!(pierceable_deep(corners(0), thickness));
+        let leg = |l: f32| [Vec3::ZERO, Vec3::new(l, 0.0, 0.0), Vec3::new(0.0, 0.0, l)];
+        assert!(!pierceable_deep(leg(1.5 / 64.0), thickness) && pierceable_deep(leg(1.5 / 32.0), thickness));
     }
 
     /// A still vertex over a face one of whose corners (the third) rises 2 cm toward it: the

@@ -347,7 +347,8 @@ pub struct SelfListPush {
 }
 
 /// Push constants of a round of self-collision's fail-safe (`drape_kernels::self_failsafe`):
-/// which round, its flags (`drape_kernels::self_failsafe::LAST_ROUND`, `WITH_LISTS`), and the
+/// which round, its flags (`drape_kernels::self_failsafe::LAST_ROUND`, `WITH_LISTS`; for the
+/// boxes, `WINDOWED`), and the
 /// workgroups of the next round's boxes and check, and of its roll-back (dispatched only when
 /// this round put a particle back).
 #[repr(C)]
