@@ -65,6 +65,11 @@ fn process_cpu_time() -> Duration {
     Duration::new(now.tv_sec as u64, now.tv_nsec as u32)
 }
 
+/// The frames of third `k` (0, 1, 2) of a run of `n`.
+fn third_of(n: usize, k: usize) -> std::ops::Range<usize> {
+    k * n / 3..(k + 1) * n / 3
+}
+
 /// What one solver's frames measured.
 struct Run {
     report: TimingReport,
@@ -111,7 +116,7 @@ impl Run {
             }
         }
         let n = self.passes.len();
-        let thirds: Vec<std::ops::Range<usize>> = (0..3).map(|k| k * n / 3..(k + 1) * n / 3).collect();
+        let thirds: Vec<std::ops::Range<usize>> = (0..3).map(|k| third_of(n, k)).collect();
         let mut out = format!("{:<52} {:>12} {:>12} {:>12}\n", "pass (mean GPU µs a frame)", "first", "second", "last");
         for label in labels {
             let mean = |range: &std::ops::Range<usize>| {
@@ -230,7 +235,7 @@ fn main() {
         let third = |r: &Run, k: usize| {
             let walls = r.report.wall_ms_per_frame();
             let n = walls.len();
-            median(&walls[k * n / 3..(k + 1) * n / 3])
+            median(&walls[third_of(n, k)])
         };
         third_rows.push(format!(
             "{:<16} {}",

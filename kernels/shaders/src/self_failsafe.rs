@@ -66,7 +66,7 @@ use crate::self_contact::{
     FIXED_SCALE, LeafVisitor, accumulate, collapsed, longest_side2, mean_of, walk_in_batches, walk_overlapping, within,
 };
 use crate::self_pairs::{
-    ANCHOR_WORDS, FRAME_START_WORD, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, SLOP_THICKNESS, escaped_at,
+    ANCHOR_WORDS, FRAME_START_WORD, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, escaped_at, list_reach,
     may_touch,
 };
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
@@ -565,7 +565,7 @@ pub fn pierceable_deep(corners: [Vec3; 3], thickness: f32) -> bool {
     let [a, b, c] = corners;
     let twice_area = (b - a).cross(c - a).length();
     let perimeter = (b - a).length() + (c - b).length() + (a - c).length();
-    twice_area >= (1.0 + 2.0 * SLOP_THICKNESS) * thickness * perimeter
+    twice_area >= list_reach(thickness) * perimeter
 }
 
 /// `FailsafePush::flags` of the boxes: the frame built its lists again within it (windows), so

@@ -165,6 +165,13 @@ impl Anchor {
     }
 }
 
+/// How far apart a list takes two still primitives to be near: the thickness and both ends'
+/// slops at rest (`SLOP_THICKNESS` each).
+#[inline]
+pub fn list_reach(thickness: f32) -> f32 {
+    thickness * (1.0 + 2.0 * SLOP_THICKNESS)
+}
+
 /// A triangle's corners' particles and anchors.
 #[derive(Copy, Clone)]
 struct AnchoredTriangle {
@@ -213,7 +220,7 @@ impl AnchoredTriangle {
     fn too_small_for(&self, thickness: f32) -> bool {
         let [a, b, c] = self.corners;
         let area2 = (b.start - a.start).cross(c.start - a.start).length_squared(); // (2 area)^2
-        let reach = thickness * (1.0 + 2.0 * SLOP_THICKNESS);
+        let reach = list_reach(thickness);
         // height = 2 area / longest side, compared squared and without a division.
         area2 < reach * reach * longest_side2(a.start, b.start, c.start)
     }
