@@ -13,7 +13,9 @@
 //! `cargo bench --bench self_collision` runs every scene; `-- 64 pile` only those named; add
 //! `no-timestamps` to run the solvers without timestamp queries (wall times only: on lavapipe a
 //! timestamp pair costs each dispatch tens of µs, and a frame with self-collision has twice the
-//! dispatches).
+//! dispatches). `DRAPE_BENCH_DUMP=FILE` writes the 64^2 solver's passes frame by frame (frame,
+//! pass, GPU µs, the frame's walking triangle-passes; tab-separated), to find where a stretch of
+//! the run spends its time.
 
 use drape::cloth::ClothBuilder;
 use drape::scenes::{DrapeScene, SETTLE_FRAMES, default_mesh, pile};
@@ -266,6 +268,15 @@ fn main() {
         ));
         if timestamps && case.name == "icosphere 64^2" {
             passes_64 = Some((a.table(), b.table(), runs_on.thirds_table()));
+            if let Ok(path) = std::env::var("DRAPE_BENCH_DUMP") {
+                let mut out = String::new();
+                for (f, (frame, walks)) in runs_on.passes.iter().zip(&runs_on.walks).enumerate() {
+                    for (label, micros) in frame {
+                        out += &format!("{f}\t{label}\t{micros}\t{walks}\n");
+                    }
+                }
+                std::fs::write(&path, out).unwrap_or_else(|e| panic!("writing {path}: {e}"));
+            }
         }
     }
     if cpu_driver {

@@ -12,6 +12,7 @@ pub mod normals;
 pub mod self_contact;
 pub mod self_failsafe;
 pub mod self_pairs;
+pub mod self_pass_tree;
 pub mod sharp_features;
 pub mod sort;
 pub mod spheres;
@@ -21,7 +22,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 65] = [
+pub const ALL: [&Kernel; 67] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &integrate::INTEGRATE_SUBSTEPS,
@@ -42,6 +43,8 @@ pub const ALL: [&Kernel; 65] = [
     &self_pairs::SELF_TRIANGLE_CONTACT,
     &self_pairs::WALK_SELF_PAIRS,
     &self_pairs::TEST_QUEUED_PAIRS,
+    &self_pass_tree::DERIVE_PASS_TREE,
+    &self_pass_tree::WIDEN_PASS_TREE,
     &sharp_features::LIST_SHARP_FEATURES,
     &self_contact::COLLIDER_FEATURE_CONTACT,
     &feature_walks::CHOOSE_FEATURE_WALKS,

@@ -113,11 +113,19 @@ pub static CLOTH_TRIANGLE_BOUNDS: Kernel = Kernel {
 };
 
 /// The frame's tree's internal nodes packed for the lists' walk (`WalkNode`): 16-bit boxes
-/// and the links, after the motion boxes' refit.
+/// and the links, after the motion boxes' refit; and their start boxes kept for the passes'
+/// trees (`drape_kernels::self_pass_tree`).
 pub static PACK_WALK_NODES: Kernel = Kernel {
     spec: KernelSpec {
         entry: "self_pairs::pack_walk_nodes",
-        bindings: &[read("self_params"), read("nodes"), read("aabbs"), read("motion_aabbs"), write("walk_nodes")],
+        bindings: &[
+            read("self_params"),
+            read("nodes"),
+            read("aabbs"),
+            read("motion_aabbs"),
+            write("walk_nodes"),
+            write("span_aabbs"),
+        ],
         push_constant_size: 0,
         workgroup_size: 256,
     },
@@ -126,12 +134,13 @@ pub static PACK_WALK_NODES: Kernel = Kernel {
 
 fn pack_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, nodes, aabbs, motion_aabbs, walk_nodes] = d.bindings()?;
+    let [self_params, nodes, aabbs, motion_aabbs, walk_nodes, span_aabbs] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
     let (nodes, boxes) = (nodes.slice::<BvhNode>(), (aabbs.slice::<Aabb>(), motion_aabbs.slice::<Aabb>()));
-    let walk_nodes = walk_nodes.slice_mut::<WalkNode>();
+    let (walk_nodes, span_aabbs) = (walk_nodes.slice_mut::<WalkNode>(), span_aabbs.slice_mut::<Aabb>());
     for i in 0..threads.min(c.leaf_count.saturating_sub(1)) {
         pack_walk_node_at(i, nodes, boxes, walk_nodes);
+        span_aabbs[i as usize] = boxes.0[i as usize];
     }
     Ok(())
 }

@@ -90,14 +90,6 @@ impl LbvhBuffers {
         steps
     }
 
-    /// `refit_sorted_steps` over the workgroups `dispatch` holds (none leaves the tree's boxes
-    /// as the fill leaves them: its readers must not run).
-    pub fn refit_sorted_steps_over(&self, dispatch: Handle<DispatchArgs>) -> Vec<Step> {
-        let mut steps = Vec::new();
-        self.push_refit_of("refit", (self.sorted_bounds, self.aabbs), Dispatch::Indirect(dispatch), &mut steps);
-        steps
-    }
-
     /// A second refit to the sorted leaves' boxes after `refit_sorted_steps`, over the
     /// workgroups `dispatch` holds (none leaves the first refit's boxes): its xyz words are
     /// written anew, the w words stay the zeros the first left.

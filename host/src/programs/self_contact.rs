@@ -25,6 +25,7 @@ use crate::kernels::self_pairs::{
     ANCHOR_WINDOW, CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, PACK_WALK_NODES,
     REGATHER_CLOTH_TRIANGLES, SELF_TRIANGLE_CONTACT, TEST_QUEUED_PAIRS, WALK_SELF_PAIRS,
 };
+use crate::kernels::self_pass_tree::{DERIVE_PASS_TREE, WIDEN_PASS_TREE};
 use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
 use drape_kernels::feature_walks::{WALKS_AUTOMATIC, WALKS_FROM_CLOTH, WALKS_FROM_COLLIDER};
 use drape_kernels::self_contact::{CORRECTION_WORDS, NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
@@ -77,6 +78,9 @@ pub struct SelfContactBuffers {
     pub motion_aabbs: Handle<Aabb>,
     /// The frame's tree's internal nodes packed for the lists' walk.
     pub walk_nodes: Handle<WalkNode>,
+    /// The lists' tree's internal start boxes, kept for the passes' trees after the passes
+    /// overwrite the tree's boxes (`drape_kernels::self_pass_tree`).
+    pub span_aabbs: Handle<Aabb>,
     /// Per sorted leaf: the frame's list of later leaves it may touch, `SELF_LIST_CAPACITY`
     /// entries of `LIST_ENTRY_WORDS` (leaf, primitive pairs, their smallest gap), and its count.
     pub lists: Handle<u32>,
@@ -356,6 +360,7 @@ impl SelfContactBuffers {
             leaf_motions: resources.device(format!("{name}: leaf motions"), triangles),
             motion_aabbs: resources.device(format!("{name}: node motions"), triangles.saturating_sub(1).max(1)),
             walk_nodes: resources.device(format!("{name}: packed nodes"), triangles.saturating_sub(1).max(1)),
+            span_aabbs: resources.device(format!("{name}: lists' node boxes"), triangles.saturating_sub(1).max(1)),
             lists: resources.device(format!("{name}: pair lists"), LIST_ENTRY_WORDS * SELF_LIST_CAPACITY * triangles),
             counts: resources.device(format!("{name}: pair list counts"), triangles),
             leaf_of: resources.device(format!("{name}: leaf of each triangle"), triangles),
@@ -677,7 +682,14 @@ impl SelfContactBuffers {
         steps.push(Step::run(
             "self: pack nodes",
             &PACK_WALK_NODES,
-            vec![t.collider.id(), t.nodes.id(), t.aabbs.id(), self.motion_aabbs.id(), self.walk_nodes.id()],
+            vec![
+                t.collider.id(),
+                t.nodes.id(),
+                t.aabbs.id(),
+                self.motion_aabbs.id(),
+                self.walk_nodes.id(),
+                self.span_aabbs.id(),
+            ],
             Dispatch::Threads(t.leaves),
         ));
         let to_frame = substeps as f32 / horizon.max(1) as f32;
@@ -859,7 +871,7 @@ impl SelfContactBuffers {
         self.triangle_bounds(cloth, (span, find), Dispatch::Threads(t.leaves), steps);
         if lists {
             // Only where something walks the tree in the pass (`note_pass_tree`).
-            steps.extend(t.refit_sorted_steps_over(self.pass_refit));
+            self.pass_tree(pass_push(span, 0), self.pass_refit, steps);
         } else {
             steps.extend(t.refit_sorted_steps());
         }
@@ -882,7 +894,11 @@ impl SelfContactBuffers {
                 Dispatch::Indirect(self.features_found),
             ));
             self.triangle_bounds(cloth, (span, find), Dispatch::Indirect(self.features_found), steps);
-            steps.extend(t.refit_sorted_again_steps(self.features_found));
+            if lists {
+                self.pass_tree(pass_push(span, 0), self.features_found, steps);
+            } else {
+                steps.extend(t.refit_sorted_again_steps(self.features_found));
+            }
         }
         if lists {
             self.listed_and_walked(cloth, span, steps);
@@ -896,6 +912,35 @@ impl SelfContactBuffers {
             ));
         }
         self.apply(cloth, steps);
+    }
+
+    /// The tree's boxes for a pass spanning `span` of the lists' span, over the internal nodes
+    /// `dispatch` covers (none leaves the boxes as they were: nothing walks the tree in the
+    /// pass): each node's bound over the pass from the lists' tree, then the pass's walkers'
+    /// climbs (`drape_kernels::self_pass_tree`). It stands for a refit (the walks find the same
+    /// leaves) at a fraction of its climbs.
+    fn pass_tree(&self, span: SelfPassPush, dispatch: Handle<DispatchArgs>, steps: &mut Vec<Step>) {
+        let t = &self.tree;
+        steps.push(Step::run_with(
+            "refit",
+            &DERIVE_PASS_TREE,
+            vec![t.collider.id(), self.span_aabbs.id(), self.motion_aabbs.id(), self.anchors.id(), t.aabbs.id()],
+            bytemuck::cast(span),
+            Dispatch::Indirect(dispatch),
+        ));
+        steps.push(Step::run(
+            "refit",
+            &WIDEN_PASS_TREE,
+            vec![
+                t.collider.id(),
+                t.parents.id(),
+                t.sorted_bounds.id(),
+                self.walkers.id(),
+                self.walk_args.id(),
+                t.aabbs.id(),
+            ],
+            Dispatch::Indirect(self.walk_args),
+        ));
     }
 
     /// The pairs of a pass spanning `span` of the lists' span, from the lists, and the walks of

@@ -113,3 +113,59 @@ pub fn store(target: &mut u32, value: u32) {
         *target = value;
     }
 }
+
+/// `*target = min(*target, value)` on an f32 stored as its bits, by compare-and-swap: the
+/// smallest value any invocation brings ends there whatever their order. Writes nothing where
+/// the word already holds `value` or less.
+#[inline]
+pub fn min_f32(target: &mut u32, value: f32) {
+    #[cfg(target_arch = "spirv")]
+    unsafe {
+        let mut old = load(target);
+        while value < f32::from_bits(old) {
+            let seen = spirv_std::arch::atomic_compare_exchange::<
+                u32,
+                { Scope::Device as u32 },
+                { Semantics::NONE.bits() },
+                { Semantics::NONE.bits() },
+            >(target, value.to_bits(), old);
+            if seen == old {
+                break;
+            }
+            old = seen;
+        }
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        if value < f32::from_bits(*target) {
+            *target = value.to_bits();
+        }
+    }
+}
+
+/// `*target = max(*target, value)` on an f32 stored as its bits (`min_f32`'s mirror).
+#[inline]
+pub fn max_f32(target: &mut u32, value: f32) {
+    #[cfg(target_arch = "spirv")]
+    unsafe {
+        let mut old = load(target);
+        while value > f32::from_bits(old) {
+            let seen = spirv_std::arch::atomic_compare_exchange::<
+                u32,
+                { Scope::Device as u32 },
+                { Semantics::NONE.bits() },
+                { Semantics::NONE.bits() },
+            >(target, value.to_bits(), old);
+            if seen == old {
+                break;
+            }
+            old = seen;
+        }
+    }
+    #[cfg(not(target_arch = "spirv"))]
+    {
+        if value > f32::from_bits(*target) {
+            *target = value.to_bits();
+        }
+    }
+}

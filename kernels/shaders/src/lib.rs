@@ -24,6 +24,7 @@ pub mod render;
 pub mod self_contact;
 pub mod self_failsafe;
 pub mod self_pairs;
+pub mod self_pass_tree;
 pub mod sharp_features;
 pub mod sort;
 pub mod spheres;

@@ -1107,7 +1107,9 @@ pub fn add_walker(leaf: u32, walkers: &mut [u32], walk_args: &mut DispatchArgs) 
     atomics::append_for_dispatch(leaf, walkers, walk_args, WALK_THREADS)
 }
 
-/// One thread per internal node of the frame's tree: the node packed for the lists' walk.
+/// One thread per internal node of the frame's tree: the node packed for the lists' walk, and
+/// its start box kept apart (`span_aabbs`) for the passes' trees, whose boxes overwrite
+/// `aabbs` (`self_pass_tree`).
 #[spirv(compute(threads(256)))]
 pub fn pack_walk_nodes(
     #[spirv(global_invocation_id)] id: UVec3,
@@ -1116,9 +1118,11 @@ pub fn pack_walk_nodes(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] aabbs: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] motion_aabbs: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] walk_nodes: &mut [WalkNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] span_aabbs: &mut [Aabb],
 ) {
     if id.x + 1 < self_params.leaf_count {
         pack_walk_node_at(id.x, nodes, (aabbs, motion_aabbs), walk_nodes);
+        span_aabbs[id.x as usize] = aabbs[id.x as usize];
     }
 }
 

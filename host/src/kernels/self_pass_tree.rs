@@ -1,0 +1,73 @@
+//! A self-collision pass's tree from the lists' tree (`drape_kernels::self_pass_tree`): each
+//! internal node's bound over the pass, then the walkers' climbs widening it to their boxes.
+
+use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use drape_kernels::self_pairs::WALK_THREADS;
+use drape_kernels::self_pass_tree::{pass_node_box_at, widen_to_leaf_at};
+use drape_types::{Aabb, ColliderParams, DispatchArgs, SelfPassPush};
+use glam::Vec4;
+
+const fn read(name: &'static str) -> BindingSpec {
+    BindingSpec::read(name)
+}
+const fn write(name: &'static str) -> BindingSpec {
+    BindingSpec::write(name)
+}
+
+/// Each internal node's box over the pass from the lists' tree (push constants:
+/// `SelfPassPush`, the pass's span).
+pub static DERIVE_PASS_TREE: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pass_tree::derive_pass_tree",
+        bindings: &[read("self_params"), read("span_aabbs"), read("motion_aabbs"), read("anchors"), write("aabbs")],
+        push_constant_size: size_of::<SelfPassPush>() as u32,
+        workgroup_size: 256,
+    },
+    cpu: derive_cpu,
+};
+
+fn derive_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let span: SelfPassPush = d.push_as();
+    let threads = d.invocations();
+    let [self_params, span_aabbs, motion_aabbs, anchors, aabbs] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let boxes = (span_aabbs.slice::<Aabb>(), motion_aabbs.slice::<Aabb>());
+    let (anchors, aabbs) = (anchors.slice::<Vec4>(), aabbs.slice_mut::<Aabb>());
+    for i in 0..threads.min(c.leaf_count.saturating_sub(1)) {
+        pass_node_box_at(i, &span, boxes, anchors, aabbs);
+    }
+    Ok(())
+}
+
+/// Each walker's climb to the root, widening the nodes above it to its box (over the walks'
+/// indirect dispatch).
+pub static WIDEN_PASS_TREE: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_pass_tree::widen_pass_tree",
+        bindings: &[
+            read("self_params"),
+            read("parents"),
+            read("leaf_bounds"),
+            read("walkers"),
+            read("walk_args"),
+            write("aabbs"),
+        ],
+        push_constant_size: 0,
+        workgroup_size: WALK_THREADS,
+    },
+    cpu: widen_cpu,
+};
+
+fn widen_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, parents, leaf_bounds, walkers, walk_args, aabbs] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let walking = walk_args.first::<DispatchArgs>()?._pad;
+    let (parents, leaf_bounds, walkers) = (parents.slice::<u32>(), leaf_bounds.slice::<Aabb>(), walkers.slice::<u32>());
+    let words = aabbs.slice_mut::<u32>();
+    for k in 0..threads.min(walking) {
+        let leaf = *walkers.get(k as usize).ok_or("a walker past the walkers' list")?;
+        widen_to_leaf_at(leaf, c.leaf_count, parents, leaf_bounds, words);
+    }
+    Ok(())
+}
