@@ -40,7 +40,7 @@ fn derive_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 }
 
 /// Each walker's climb to the root, widening the nodes above it to its box (over the walks'
-/// indirect dispatch).
+/// indirect dispatch; nothing where the boxes were not derived before it, `derived`).
 pub static WIDEN_PASS_TREE: Kernel = Kernel {
     spec: KernelSpec {
         entry: "self_pass_tree::widen_pass_tree",
@@ -50,6 +50,7 @@ pub static WIDEN_PASS_TREE: Kernel = Kernel {
             read("leaf_bounds"),
             read("walkers"),
             read("walk_args"),
+            read("derived"),
             write("aabbs"),
         ],
         push_constant_size: 0,
@@ -60,8 +61,11 @@ pub static WIDEN_PASS_TREE: Kernel = Kernel {
 
 fn widen_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
-    let [self_params, parents, leaf_bounds, walkers, walk_args, aabbs] = d.bindings()?;
+    let [self_params, parents, leaf_bounds, walkers, walk_args, derived, aabbs] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
+    if derived.first::<DispatchArgs>()?.x == 0 {
+        return Ok(());
+    }
     let walking = walk_args.first::<DispatchArgs>()?._pad;
     let (parents, leaf_bounds, walkers) = (parents.slice::<u32>(), leaf_bounds.slice::<Aabb>(), walkers.slice::<u32>());
     let words = aabbs.slice_mut::<u32>();

@@ -937,6 +937,7 @@ impl SelfContactBuffers {
                 t.sorted_bounds.id(),
                 self.walkers.id(),
                 self.walk_args.id(),
+                dispatch.id(),
                 t.aabbs.id(),
             ],
             Dispatch::Indirect(self.walk_args),

@@ -106,7 +106,9 @@ pub fn derive_pass_tree(
 }
 
 /// One thread per walker of the pass (`self_pairs::add_walker`'s dispatch): its climb
-/// (`widen_to_leaf_at`).
+/// (`widen_to_leaf_at`), where the boxes were derived before it (`derived`, the derivation's
+/// indirect dispatch: a pass's second run, after the collider's pushes, derives them only
+/// where a push moved the cloth, and its walkers otherwise climbed already).
 #[spirv(compute(threads(64)))]
 pub fn widen_pass_tree(
     #[spirv(global_invocation_id)] id: UVec3,
@@ -115,9 +117,10 @@ pub fn widen_pass_tree(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] leaf_bounds: &[Aabb],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] walkers: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] walk_args: &DispatchArgs,
-    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] aabbs: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] derived: &DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] aabbs: &mut [u32],
 ) {
-    if id.x < walk_args._pad {
+    if derived.x != 0 && id.x < walk_args._pad {
         widen_to_leaf_at(walkers[id.x as usize], self_params.leaf_count, parents, leaf_bounds, aabbs);
     }
 }
