@@ -119,37 +119,24 @@ pub fn store(target: &mut u32, value: u32) {
 /// the word already holds `value` or less.
 #[inline]
 pub fn min_f32(target: &mut u32, value: f32) {
-    #[cfg(target_arch = "spirv")]
-    unsafe {
-        let mut old = load(target);
-        while value < f32::from_bits(old) {
-            let seen = spirv_std::arch::atomic_compare_exchange::<
-                u32,
-                { Scope::Device as u32 },
-                { Semantics::NONE.bits() },
-                { Semantics::NONE.bits() },
-            >(target, value.to_bits(), old);
-            if seen == old {
-                break;
-            }
-            old = seen;
-        }
-    }
-    #[cfg(not(target_arch = "spirv"))]
-    {
-        if value < f32::from_bits(*target) {
-            *target = value.to_bits();
-        }
-    }
+    replace_f32_while(target, value, true);
 }
 
 /// `*target = max(*target, value)` on an f32 stored as its bits (`min_f32`'s mirror).
 #[inline]
 pub fn max_f32(target: &mut u32, value: f32) {
+    replace_f32_while(target, value, false);
+}
+
+/// Stores `value` in `target` (an f32's bits) while it is below (`lower`) or above the word's
+/// value, retrying the compare-and-swap when another invocation changed the word between.
+#[inline]
+fn replace_f32_while(target: &mut u32, value: f32, lower: bool) {
+    let beats = |old: u32| if lower { value < f32::from_bits(old) } else { value > f32::from_bits(old) };
     #[cfg(target_arch = "spirv")]
     unsafe {
         let mut old = load(target);
-        while value > f32::from_bits(old) {
+        while beats(old) {
             let seen = spirv_std::arch::atomic_compare_exchange::<
                 u32,
                 { Scope::Device as u32 },
@@ -164,7 +151,7 @@ pub fn max_f32(target: &mut u32, value: f32) {
     }
     #[cfg(not(target_arch = "spirv"))]
     {
-        if value > f32::from_bits(*target) {
+        if beats(*target) {
             *target = value.to_bits();
         }
     }

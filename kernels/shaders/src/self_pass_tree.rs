@@ -109,6 +109,7 @@ pub fn derive_pass_tree(
 /// (`widen_to_leaf_at`), where the boxes were derived before it (`derived`, the derivation's
 /// indirect dispatch: a pass's second run, after the collider's pushes, derives them only
 /// where a push moved the cloth, and its walkers otherwise climbed already).
+#[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
 pub fn widen_pass_tree(
     #[spirv(global_invocation_id)] id: UVec3,
