@@ -5,9 +5,10 @@
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
+use drape_kernels::lbvh::REFIT_THREADS;
 use drape_kernels::self_failsafe::{
     CHECK_THREADS, CarrierOut, Carriers, Found, WITH_LISTS, Walkers, check_collider_triangle_at, check_frame_at,
-    failsafe_box_at, note_everything, roll_back_at, sphere_carrier_at, triangle_carrier_at,
+    failsafe_box_at, note_everything, roll_back_at, sphere_carrier_at, triangle_carrier_at, widen_failsafe_tree_at,
 };
 use drape_types::{
     Aabb, BvhNode, CarrierPush, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health, Triangle,
@@ -185,6 +186,38 @@ fn boxes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let refit_flags = refit_flags.slice_mut::<u32>();
     for node in 0..threads.min(c.leaf_count.saturating_sub(1)) {
         refit_flags[node as usize] = 0;
+    }
+    Ok(())
+}
+
+/// The first round's tree derived from the lists' tree, widened by the walkers' climbs (over
+/// the refit's dispatch; the derivation is `self_pass_tree::DERIVE_PASS_TREE`'s).
+pub static WIDEN_FAILSAFE_TREE: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_failsafe::widen_failsafe_tree",
+        bindings: &[
+            read("self_params"),
+            read("sorted"),
+            read("escaped"),
+            read("parents"),
+            read("leaf_bounds"),
+            write("aabbs"),
+        ],
+        push_constant_size: 0,
+        workgroup_size: REFIT_THREADS,
+    },
+    cpu: widen_cpu,
+};
+
+fn widen_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let threads = d.invocations();
+    let [self_params, sorted, escaped, parents, leaf_bounds, aabbs] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let (sorted, escaped) = (sorted.slice::<UVec4>(), escaped.slice::<u32>());
+    let (parents, leaf_bounds) = (parents.slice::<u32>(), leaf_bounds.slice::<Aabb>());
+    let words = aabbs.slice_mut::<u32>();
+    for s in 0..threads.min(c.leaf_count) {
+        widen_failsafe_tree_at(s, c.leaf_count, (sorted, escaped), (parents, leaf_bounds), words);
     }
     Ok(())
 }

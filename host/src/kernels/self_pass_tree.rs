@@ -34,7 +34,7 @@ fn derive_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let boxes = (span_aabbs.slice::<Aabb>(), motion_aabbs.slice::<Aabb>());
     let (anchors, aabbs) = (anchors.slice::<Vec4>(), aabbs.slice_mut::<Aabb>());
     for i in 0..threads.min(c.leaf_count.saturating_sub(1)) {
-        pass_node_box_at(i, &span, boxes, anchors, aabbs);
+        pass_node_box_at(i, (&span, c.thickness), boxes, anchors, aabbs);
     }
     Ok(())
 }

@@ -1027,7 +1027,7 @@ impl SelfContactBuffers {
 /// A pass's push constants (`SelfPassPush`): its span of the lists' span, and whether the run
 /// finds the pass's walkers (`drape_kernels::self_pairs::FIND_WALKERS`, or 0).
 fn pass_push(span: ContactPush, find_walkers: u32) -> SelfPassPush {
-    SelfPassPush { from: span.from, to: span.to, find_walkers, _pad: 0 }
+    SelfPassPush { from: span.from, to: span.to, find_walkers, beyond: 0.0 }
 }
 
 #[cfg(test)]

@@ -11,15 +11,21 @@ use super::contact::{ColliderBuffers, ColliderLeaves};
 use super::empty_dispatch;
 use super::self_contact::{SelfContactBuffers, SelfContactCloth};
 use crate::graph::{Dispatch, Handle, Resources, Step};
-use crate::kernels::self_failsafe::{FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_COLLIDER_CHECK, FAILSAFE_ROLL_BACK};
+use crate::kernels::self_failsafe::{
+    FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_COLLIDER_CHECK, FAILSAFE_ROLL_BACK, WIDEN_FAILSAFE_TREE,
+};
+use crate::kernels::self_pass_tree::DERIVE_PASS_TREE;
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::self_failsafe::CARRIER_FRAME_WORDS;
 use drape_kernels::self_failsafe::{
-    CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, ROLLBACK_ROUNDS, SUBSTEPS_SHIFT, WINDOWED, WITH_LISTS,
+    CHECK_THREADS, FAILSAFE_COUNTER_WORDS, LAST_ROUND, LIST_CHECK_BEYOND, ROLLBACK_ROUNDS, SUBSTEPS_SHIFT, WINDOWED,
+    WITH_LISTS,
 };
-use drape_types::{CarrierPush, DispatchArgs, FailsafePush};
+use drape_types::{CarrierPush, DispatchArgs, FailsafePush, SelfPassPush};
 use glam::Vec4;
 
+/// The timing table's line of the fail-safe's refits of the tree (every round's).
+pub const FAILSAFE_REFIT_LABEL: &str = "self: fail-safe refit";
 /// The timing table's line of the fail-safe's check (every round's).
 pub const FAILSAFE_CHECK_LABEL: &str = "self: fail-safe check";
 /// The timing table's line of the fail-safe's check of the colliders' sharp triangles (every
@@ -130,9 +136,16 @@ impl FailsafeBuffers {
             )
         };
         steps.push(boxes(Dispatch::Threads(t.leaves)));
-        // With lists, only where a triangle walks in the check (`LIST_CHECK_BEYOND`).
-        let refit = if lists { Dispatch::Indirect(self.refit) } else { Dispatch::Threads(t.leaves) };
-        steps.extend(t.refit_other_steps_over("self: fail-safe refit", (t.sorted_bounds, t.aabbs), refit));
+        if lists && !windowed {
+            // Only where a triangle walks in the check (`LIST_CHECK_BEYOND`), or the colliders'
+            // check walks the tree: the lists' tree over the frame bounds every triangle that
+            // does not walk, and only those that do climb.
+            self.derived_tree_steps(own, steps);
+        } else {
+            // A windowed frame's last lists do not start where the frame did.
+            let refit = if lists { Dispatch::Indirect(self.refit) } else { Dispatch::Threads(t.leaves) };
+            steps.extend(t.refit_other_steps_over(FAILSAFE_REFIT_LABEL, (t.sorted_bounds, t.aabbs), refit));
+        }
         let particles = own.particles();
         for round in 0..ROLLBACK_ROUNDS {
             let last = if round + 1 == ROLLBACK_ROUNDS { LAST_ROUND } else { 0 };
@@ -151,7 +164,7 @@ impl FailsafeBuffers {
                 let (check, roll_back) = self.rounds[round as usize - 1];
                 steps.push(boxes(Dispatch::Indirect(check)));
                 let boxes_over_frame = (t.sorted_bounds, t.aabbs);
-                steps.push(t.refit_other_step("self: fail-safe refit", boxes_over_frame, Dispatch::Indirect(check)));
+                steps.push(t.refit_other_step(FAILSAFE_REFIT_LABEL, boxes_over_frame, Dispatch::Indirect(check)));
                 (Dispatch::Indirect(check), Dispatch::Indirect(roll_back))
             };
             steps.push(Step::run_with(
@@ -203,6 +216,35 @@ impl FailsafeBuffers {
                 roll_back,
             ));
         }
+    }
+
+    /// The first round's tree where the frame's lists span it (`drape_kernels::self_failsafe::
+    /// widen_failsafe_tree_at`): each internal node's box derived from the lists' tree over the
+    /// whole frame, past the slops by the check's reach (`LIST_CHECK_BEYOND`), then the climbs
+    /// of the triangles that walk; both over the refit's dispatch.
+    fn derived_tree_steps(&self, own: &SelfContactBuffers, steps: &mut Vec<Step>) {
+        let t = &own.tree;
+        let frame = SelfPassPush { from: 0.0, to: 1.0, find_walkers: 0, beyond: LIST_CHECK_BEYOND };
+        steps.push(Step::run_with(
+            FAILSAFE_REFIT_LABEL,
+            &DERIVE_PASS_TREE,
+            vec![t.collider.id(), own.span_aabbs.id(), own.motion_aabbs.id(), own.anchors.id(), t.aabbs.id()],
+            bytemuck::cast(frame),
+            Dispatch::Indirect(self.refit),
+        ));
+        steps.push(Step::run(
+            FAILSAFE_REFIT_LABEL,
+            &WIDEN_FAILSAFE_TREE,
+            vec![
+                t.collider.id(),
+                own.sorted.id(),
+                own.escaped.id(),
+                t.parents.id(),
+                t.sorted_bounds.id(),
+                t.aabbs.id(),
+            ],
+            Dispatch::Indirect(self.refit),
+        ));
     }
 
     /// Which particles collider `collider` (the model's `slot`-th) carries this frame, when it

@@ -69,6 +69,7 @@ use crate::self_pairs::{
     ANCHOR_WORDS, FRAME_START_WORD, LIST_ENTRY_WORDS, LIST_OVERFLOWED, SELF_LIST_CAPACITY, escaped_at, list_reach,
     may_touch,
 };
+use crate::self_pass_tree::widen_to_leaf_at;
 use drape_types::glam::{UVec3, UVec4, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{
     Aabb, BvhNode, CarrierPush, ColliderParams, ColliderPose, DispatchArgs, FailsafePush, Health, NO_LEAF, RigidPose,
@@ -588,7 +589,7 @@ pub fn frame_box_at(
     (escaped, strays): (&mut [u32], &mut [f32]),
 ) -> (Aabb, bool) {
     let ids = sorted[s as usize];
-    let end = SelfPassPush { from: 1.0, to: 1.0, find_walkers: 0, _pad: 0 };
+    let end = SelfPassPush { from: 1.0, to: 1.0, find_walkers: 0, beyond: 0.0 };
     let (out, stray) = escaped_at(ids.w, (x, x), anchors, indices, (&end, LIST_CHECK_BEYOND * thickness));
     let listed = [listed_start(anchors, ids.x), listed_start(anchors, ids.y), listed_start(anchors, ids.z)];
     let out = out || (windowed && pierceable_deep(listed, thickness));
@@ -977,6 +978,41 @@ pub fn failsafe_boxes(
     if id.x + 1 < self_params.leaf_count {
         refit_flags[id.x as usize] = 0;
     }
+}
+
+/// The first round's tree, where the frame's lists span the whole frame: each internal node's
+/// box derived from the lists' tree over the frame, past the slops by `LIST_CHECK_BEYOND`
+/// (`self_pass_tree::derive_pass_tree`, dispatched before this), holds the box over the frame
+/// of every triangle that did not walk (its corners started at their anchors' starts and ended
+/// within that of their predicted ends); each that walks climbs to the root widening the nodes
+/// above it (`self_pass_tree::widen_to_leaf_at`): one thread per sorted leaf `s`, over the
+/// refit's dispatch (raised where one walks, or where the colliders' check walks the tree).
+#[inline]
+pub fn widen_failsafe_tree_at(
+    s: u32,
+    leaf_count: u32,
+    (sorted, escaped): (&[UVec4], &[u32]),
+    (parents, leaf_bounds): (&[u32], &[Aabb]),
+    aabbs: &mut [u32],
+) {
+    if s < leaf_count && escaped[sorted[s as usize].w as usize] != 0 {
+        widen_to_leaf_at(s, leaf_count, parents, leaf_bounds, aabbs);
+    }
+}
+
+/// `widen_failsafe_tree_at` for each sorted leaf.
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(256)))]
+pub fn widen_failsafe_tree(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] escaped: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] parents: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] leaf_bounds: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] aabbs: &mut [u32],
+) {
+    widen_failsafe_tree_at(id.x, self_params.leaf_count, (sorted, escaped), (parents, leaf_bounds), aabbs);
 }
 
 /// One thread per sorted leaf: its pairs at the frame's end (`check_frame_at`); push

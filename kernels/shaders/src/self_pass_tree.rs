@@ -37,10 +37,11 @@ const ROUNDING_ABSOLUTE: f32 = 1e-6;
 /// span's end; `t^2 fall` at fraction t). A corner within its slop of its predicted path
 /// (`start + t motion + t^2 fall`) at fraction t lies in `start + t motion + t^2 fall` of the
 /// boxes (t >= 0), so a triangle that kept to its region at the pass's start and end swept a
-/// box (of its corners at those two times) inside the union of the two.
+/// box (of its corners at those two times) inside the union of the two; one whose corners lie
+/// up to `beyond` (m) past their slops, inside that union grown by `beyond`.
 #[inline]
-pub fn pass_node_box(start: &Aabb, motion: &Aabb, fall: Vec3, (from, to): (f32, f32)) -> Aabb {
-    let (lo, hi) = (start.min.xyz(), start.max.xyz());
+pub fn pass_node_box(start: &Aabb, motion: &Aabb, fall: Vec3, (from, to): (f32, f32), beyond: f32) -> Aabb {
+    let (lo, hi) = (start.min.xyz() - Vec3::splat(beyond), start.max.xyz() + Vec3::splat(beyond));
     let (motion_lo, motion_hi) = (motion.min.xyz(), motion.max.xyz());
     let (fall_from, fall_to) = (fall * (from * from), fall * (to * to));
     let lo = (lo + motion_lo * from + fall_from).min(lo + motion_lo * to + fall_to);
@@ -49,19 +50,21 @@ pub fn pass_node_box(start: &Aabb, motion: &Aabb, fall: Vec3, (from, to): (f32, 
     Aabb { min: (lo - margin).extend(0.0), max: (hi + margin).extend(0.0) }
 }
 
-/// Internal node `i`'s box for the pass `span` (`pass_node_box`), from the lists' tree kept
-/// apart from the passes' (`span_aabbs`, `motion_aabbs`) and gravity's share of the span's
-/// paths (any particle's anchor: particle 0's).
+/// Internal node `i`'s box for the pass `span` (`pass_node_box`, past the slops by `span.beyond`
+/// of the `thickness`), from the lists' tree kept apart from the passes' (`span_aabbs`,
+/// `motion_aabbs`) and gravity's share of the span's paths (any particle's anchor: particle 0's).
 #[inline]
 pub fn pass_node_box_at(
     i: u32,
-    span: &SelfPassPush,
+    (span, thickness): (&SelfPassPush, f32),
     (span_aabbs, motion_aabbs): (&[Aabb], &[Aabb]),
     anchors: &[Vec4],
     aabbs: &mut [Aabb],
 ) {
     let fall = anchors[FALL_WORD as usize].xyz();
-    aabbs[i as usize] = pass_node_box(&span_aabbs[i as usize], &motion_aabbs[i as usize], fall, (span.from, span.to));
+    let beyond = span.beyond * thickness;
+    let boxes = (&span_aabbs[i as usize], &motion_aabbs[i as usize]);
+    aabbs[i as usize] = pass_node_box(boxes.0, boxes.1, fall, (span.from, span.to), beyond);
 }
 
 /// A walker's climb (sorted leaf `leaf`, which escaped its region in the pass): every internal
@@ -101,7 +104,7 @@ pub fn derive_pass_tree(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &mut [Aabb],
 ) {
     if id.x + 1 < self_params.leaf_count {
-        pass_node_box_at(id.x, span, (span_aabbs, motion_aabbs), anchors, aabbs);
+        pass_node_box_at(id.x, (span, self_params.thickness), (span_aabbs, motion_aabbs), anchors, aabbs);
     }
 }
 
@@ -129,6 +132,7 @@ pub fn widen_pass_tree(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::self_failsafe::LIST_CHECK_BEYOND;
     use crate::self_pairs::{
         ANCHOR_WORDS, anchor_at, cloth_triangle_bounds_at, escaped_at, triangle_motion_at, triangle_start_at,
     };
@@ -141,9 +145,11 @@ mod tests {
     /// A triangle that keeps to its predicted region at a pass's start and end sweeps a box
     /// inside its bound over the pass (`pass_node_box`), with the corners as far off their
     /// paths as the escape test lets them be (at most their slops, most of them right at
-    /// them), at coordinates up to 50 m from the origin (where f32 rounds coarsest), speeds up
-    /// to 10 m/s and passes anywhere in the span. A bound without its rounding headroom lets
-    /// some out (the test can fail), and a corner beyond its slop escapes.
+    /// them; for half the tries up to the fail-safe's `LIST_CHECK_BEYOND` of the thickness
+    /// past them, which the bound takes as `beyond`), at coordinates up to 50 m from the
+    /// origin (where f32 rounds coarsest), speeds up to 10 m/s and passes anywhere in the
+    /// span. A bound without its rounding headroom lets some out (the test can fail), and a
+    /// corner beyond its reach escapes.
     #[test]
     fn a_triangle_kept_to_its_region_sweeps_a_box_inside_the_pass_bound() {
         let mut next = crate::test_random::unit_floats(0x9E37_79B9_7F4A_7C15);
@@ -169,7 +175,9 @@ mod tests {
             }
             let (a, b) = (unit().x.abs(), unit().x.abs());
             let (from, to) = (a.min(b), a.max(b));
-            let span = SelfPassPush { from, to, find_walkers: 0, _pad: 0 };
+            let beyond = if k % 2 == 0 { 0.0 } else { LIST_CHECK_BEYOND };
+            let span = SelfPassPush { from, to, find_walkers: 0, beyond };
+            let reach_past_slop = beyond * thickness;
             // Each corner at each end off its predicted path in a random direction (half of
             // them along an axis, where the box's face is the slop's reach), by a
             // random share of its slop or (about a third of them) by the slop scaled by 1 - 2e-6 to
@@ -186,11 +194,11 @@ mod tests {
                     let d = next();
                     let axis = [Vec3::X, Vec3::Y, Vec3::Z][((d.x + 1.0) * 1.5) as usize % 3] * d.y.signum();
                     let direction = if d.z > 0.0 { axis } else { d.normalize_or(Vec3::X) };
-                    (path + direction * slop * share).extend(1.0)
+                    (path + direction * (slop + reach_past_slop) * share).extend(1.0)
                 })
             };
             let (then, now) = (placed(from, &mut unit), placed(to, &mut unit));
-            let (escaped, _) = escaped_at(0, (&now, &then), &anchors, &indices, (&span, 0.0));
+            let (escaped, _) = escaped_at(0, (&now, &then), &anchors, &indices, (&span, reach_past_slop));
             if escaped {
                 tight_escapes += 1;
                 continue;
@@ -200,7 +208,7 @@ mod tests {
             let start = triangle_start_at(0, &anchors, &indices);
             let motion = triangle_motion_at(UVec4::new(0, 1, 2, 0), &anchors);
             let mut node = [Aabb::default()];
-            pass_node_box_at(0, &span, (&[start], &[motion]), &anchors, &mut node);
+            pass_node_box_at(0, (&span, thickness), (&[start], &[motion]), &anchors, &mut node);
             assert!(contains(&node[0], &swept), "try {k}: {swept:?} outside {:?}", node[0]);
         }
         // Both sides of the edge were tried.

@@ -324,7 +324,10 @@ pub struct ContactPush {
 /// Push constants of a self-collision pass's triangle boxes: the pass's span as fractions of the
 /// frame (as `ContactPush`), and whether this run of the boxes also finds the triangles that
 /// walk in the pass: 0 no, 1 yes (`drape_kernels::self_pairs::FIND_WALKERS`; a second run after
-/// the collider edges' pushes finds them anew).
+/// the collider edges' pushes finds them anew). `beyond`: how far past its slop a corner that
+/// did not escape may lie, as a share of the thickness (0 for a pass; the fail-safe's check lets
+/// its corners end `LIST_CHECK_BEYOND` past them), which a tree derived for the span
+/// (`drape_kernels::self_pass_tree`) takes in.
 #[repr(C)]
 #[derive(Copy, Clone, Debug, Default, PartialEq)]
 #[cfg_attr(not(target_arch = "spirv"), derive(bytemuck::Pod, bytemuck::Zeroable))]
@@ -332,7 +335,7 @@ pub struct SelfPassPush {
     pub from: f32,
     pub to: f32,
     pub find_walkers: u32,
-    pub _pad: u32,
+    pub beyond: f32,
 }
 
 /// Push constants of a self-collision list build (`drape_kernels::self_pairs`): what scales the
