@@ -238,15 +238,17 @@ impl SolverProgram {
     }
 
     /// Each self-colliding cloth's lists built again within a frame (what a frame whose lists
-    /// have windows adds: `FramePlan::self_windows`), and its passes' collider features with
-    /// and without the listed triangles out of the cloth's reach (`reach_filter_pays`: a frame's
-    /// passes and windows choose).
+    /// have windows adds: `FramePlan::self_windows`), its fail-safe's first refit either way (a
+    /// windowed frame climbs, one whose lists span it derives), and its passes' collider
+    /// features with and without the listed triangles out of the cloth's reach
+    /// (`reach_filter_pays`: a frame's passes and windows choose).
     pub fn self_window_steps(&self) -> Vec<Step> {
         let mut steps = Vec::new();
         for cloth in &self.cloths {
             if let Some(s) = &cloth.self_contact {
                 let own = cloth.self_contact_cloth();
                 s.window_start_steps(&own, (1, 1), &mut steps);
+                steps.extend(s.failsafe.first_refit_steps_either_way(s));
                 for (index, collider) in self.colliders.iter().enumerate() {
                     steps.extend(s.out_of_reach_steps((collider, index), cloth.health));
                     for reach in [false, true] {

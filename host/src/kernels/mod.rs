@@ -22,7 +22,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 68] = [
+pub const ALL: [&Kernel; 69] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &integrate::INTEGRATE_SUBSTEPS,
@@ -55,6 +55,7 @@ pub const ALL: [&Kernel; 68] = [
     &self_contact::APPLY_COLLIDER_PUSHES,
     &self_failsafe::FAILSAFE_BOXES,
     &self_failsafe::WIDEN_FAILSAFE_TREE,
+    &self_failsafe::FAILSAFE_BOXES_AND_REFIT,
     &self_failsafe::FAILSAFE_CHECK,
     &self_failsafe::FAILSAFE_CARRIERS_TRIANGLES,
     &self_failsafe::FAILSAFE_CARRIERS_SPHERES,

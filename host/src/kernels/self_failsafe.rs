@@ -5,7 +5,7 @@
 
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
-use drape_kernels::lbvh::REFIT_THREADS;
+use drape_kernels::lbvh::{REFIT_THREADS, refit_from_leaf};
 use drape_kernels::self_failsafe::{
     CHECK_THREADS, CarrierOut, Carriers, Found, WITH_LISTS, Walkers, check_collider_triangle_at, check_frame_at,
     failsafe_box_at, note_everything, roll_back_at, sphere_carrier_at, triangle_carrier_at, widen_failsafe_tree_at,
@@ -64,12 +64,81 @@ pub static FAILSAFE_CHECK: Kernel = Kernel {
             write("flags"),
             write("counters"),
             write("carried"),
+            write("refit_flags"),
         ],
         push_constant_size: size_of::<FailsafePush>() as u32,
         workgroup_size: CHECK_THREADS,
     },
     cpu: check_cpu,
 };
+
+/// A later round's boxes and the tree's refit to them, in one dispatch.
+pub static FAILSAFE_BOXES_AND_REFIT: Kernel = Kernel {
+    spec: KernelSpec {
+        entry: "self_failsafe::failsafe_boxes_and_refit",
+        bindings: &[
+            read("self_params"),
+            read("sorted"),
+            read("x"),
+            read("anchors"),
+            read("indices"),
+            write("leaf_bounds"),
+            write("escaped"),
+            write("strays"),
+            read("tree_every_pass"),
+            write("refit"),
+            read("nodes"),
+            read("parents"),
+            write("refit_flags"),
+            write("aabbs"),
+        ],
+        push_constant_size: size_of::<FailsafePush>() as u32,
+        workgroup_size: CHECK_THREADS,
+    },
+    cpu: boxes_and_refit_cpu,
+};
+
+fn boxes_and_refit_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
+    let push: FailsafePush = d.push_as();
+    let threads = d.invocations();
+    let [
+        self_params,
+        sorted,
+        x,
+        anchors,
+        indices,
+        leaf_bounds,
+        escaped,
+        strays,
+        tree_every_pass,
+        refit,
+        nodes,
+        parents,
+        refit_flags,
+        aabbs,
+    ] = d.bindings()?;
+    let c: ColliderParams = self_params.first()?;
+    let (sorted, x, anchors) = (sorted.slice::<UVec4>(), x.slice::<Vec4>(), anchors.slice::<Vec4>());
+    let (indices, leaf_bounds) = (indices.slice::<u32>(), leaf_bounds.slice_mut::<Aabb>());
+    let (escaped, strays) = (escaped.slice_mut::<u32>(), strays.slice_mut::<f32>());
+    let tree_every_pass: u32 = tree_every_pass.first()?;
+    let refit = refit.first_mut::<DispatchArgs>()?;
+    let leaves = threads.min(c.leaf_count);
+    for s in 0..leaves {
+        let out = (&mut *leaf_bounds, &mut *escaped, &mut *strays);
+        failsafe_box_at((s, &push), &c, (sorted, x, anchors, indices), out, (tree_every_pass, &mut *refit));
+    }
+    // Every box before any climb: the GPU's climbs read a sibling's box only after its thread
+    // released the node's flag, so any order of the climbs gives the same boxes.
+    if c.leaf_count >= 2 {
+        let (nodes, parents) = (nodes.slice::<BvhNode>(), parents.slice::<u32>());
+        let (flags, words) = (refit_flags.slice_mut::<u32>(), aabbs.slice_mut::<u32>());
+        for s in 0..leaves {
+            refit_from_leaf(s, c.leaf_count, nodes, parents, leaf_bounds, flags, words);
+        }
+    }
+    Ok(())
+}
 
 pub static FAILSAFE_CARRIERS_TRIANGLES: Kernel = Kernel {
     spec: KernelSpec {
@@ -242,8 +311,13 @@ fn check_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         flags,
         counters,
         carried,
+        refit_flags,
     ] = d.bindings()?;
     let c: ColliderParams = self_params.first()?;
+    let refit_flags = refit_flags.slice_mut::<u32>();
+    for node in 0..threads.min(c.leaf_count.saturating_sub(1)) {
+        refit_flags[node as usize] = 0;
+    }
     let tree = (nodes.slice::<BvhNode>(), aabbs.slice::<Aabb>(), leaf_bounds.slice::<Aabb>(), sorted.slice::<UVec4>());
     let (x, anchors) = (x.slice::<Vec4>(), anchors.slice::<Vec4>());
     let carriers = Carriers { carriers: carriers.slice::<u32>(), frames: carrier_frames.slice::<Vec4>() };

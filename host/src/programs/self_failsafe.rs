@@ -12,7 +12,8 @@ use super::empty_dispatch;
 use super::self_contact::{SelfContactBuffers, SelfContactCloth};
 use crate::graph::{Dispatch, Handle, Resources, Step};
 use crate::kernels::self_failsafe::{
-    FAILSAFE_BOXES, FAILSAFE_CHECK, FAILSAFE_COLLIDER_CHECK, FAILSAFE_ROLL_BACK, WIDEN_FAILSAFE_TREE,
+    FAILSAFE_BOXES, FAILSAFE_BOXES_AND_REFIT, FAILSAFE_CHECK, FAILSAFE_COLLIDER_CHECK, FAILSAFE_ROLL_BACK,
+    WIDEN_FAILSAFE_TREE,
 };
 use crate::kernels::self_pass_tree::DERIVE_PASS_TREE;
 use drape_kernels::WORKGROUP_SIZE;
@@ -160,11 +161,31 @@ impl FailsafeBuffers {
             } else {
                 // The particles put back moved: where their triangles ended against their
                 // predicted regions, and their boxes, again, and the tree refit to them (one
-                // carried back may lie outside its triangle's box of the round before).
+                // carried back may lie outside its triangle's box of the round before), in one
+                // dispatch (the check before cleared the refit's flags).
                 let (check, roll_back) = self.rounds[round as usize - 1];
-                steps.push(boxes(Dispatch::Indirect(check)));
-                let boxes_over_frame = (t.sorted_bounds, t.aabbs);
-                steps.push(t.refit_other_step(FAILSAFE_REFIT_LABEL, boxes_over_frame, Dispatch::Indirect(check)));
+                steps.push(Step::run_with(
+                    FAILSAFE_REFIT_LABEL,
+                    &FAILSAFE_BOXES_AND_REFIT,
+                    vec![
+                        t.collider.id(),
+                        own.sorted.id(),
+                        cloth.x.id(),
+                        own.anchors.id(),
+                        cloth.indices.id(),
+                        t.sorted_bounds.id(),
+                        own.escaped.id(),
+                        own.strays.id(),
+                        own.tree_every_pass.id(),
+                        self.refit.id(),
+                        t.nodes.id(),
+                        t.parents.id(),
+                        t.refit_flags(),
+                        t.aabbs.id(),
+                    ],
+                    bytemuck::cast(boxes_push),
+                    Dispatch::Indirect(check),
+                ));
                 (Dispatch::Indirect(check), Dispatch::Indirect(roll_back))
             };
             steps.push(Step::run_with(
@@ -187,6 +208,7 @@ impl FailsafeBuffers {
                     self.flags.id(),
                     self.counters.id(),
                     self.carried.id(),
+                    t.refit_flags(),
                 ],
                 bytemuck::cast(push),
                 check,
@@ -216,6 +238,19 @@ impl FailsafeBuffers {
                 roll_back,
             ));
         }
+    }
+
+    /// Both ways the first round refits the tree (`frame_end_steps`): derived from the lists'
+    /// tree and widened by the walkers, or climbed from every leaf (a windowed frame, or one
+    /// without lists). A frame of the other kind than the first records the other, whose
+    /// kernels and bindings must be bound from the start.
+    pub fn first_refit_steps_either_way(&self, own: &SelfContactBuffers) -> Vec<Step> {
+        let t = &own.tree;
+        let mut steps = Vec::new();
+        self.derived_tree_steps(own, &mut steps);
+        let climbed = (t.sorted_bounds, t.aabbs);
+        steps.extend(t.refit_other_steps_over(FAILSAFE_REFIT_LABEL, climbed, Dispatch::Indirect(self.refit)));
+        steps
     }
 
     /// The first round's tree where the frame's lists span it (`drape_kernels::self_failsafe::

@@ -60,7 +60,7 @@
 
 use crate::atomics;
 use crate::contact::{LeafKind, traverse};
-use crate::lbvh::{PairWalk, REFIT_THREADS};
+use crate::lbvh::{PairWalk, REFIT_THREADS, refit_from_leaf};
 use crate::pose::{to_local, to_world};
 use crate::self_contact::{
     FIXED_SCALE, LeafVisitor, accumulate, collapsed, longest_side2, mean_of, walk_in_batches, walk_overlapping, within,
@@ -1000,6 +1000,42 @@ pub fn widen_failsafe_tree_at(
     }
 }
 
+/// A later round's boxes and refit in one dispatch (the round's check dispatch, only when the
+/// round before put a particle back): each sorted leaf's box over the frame and whether it walks
+/// (`failsafe_box_at`), then its climb of the tree's refit (`lbvh::refit_from_leaf`; the
+/// flag's release orders a leaf's box before its sibling's climb reads it, as it does a node's).
+/// The refit's flags were cleared by the round before's check (`failsafe_check`).
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(64)))]
+pub fn failsafe_boxes_and_refit(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] push: &FailsafePush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] sorted: &[UVec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] anchors: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_bounds: &mut [Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] escaped: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] strays: &mut [f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] tree_every_pass: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] refit: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] nodes: &[BvhNode],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] parents: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] refit_flags: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] aabbs: &mut [u32],
+) {
+    let n = self_params.leaf_count;
+    if id.x < n {
+        let frame = (sorted, x, anchors, indices);
+        let out = (&mut *leaf_bounds, escaped, strays);
+        failsafe_box_at((id.x, push), self_params, frame, out, (tree_every_pass[0], refit));
+        if n >= 2 {
+            refit_from_leaf(id.x, n, nodes, parents, leaf_bounds, refit_flags, aabbs);
+        }
+    }
+}
+
 /// `widen_failsafe_tree_at` for each sorted leaf.
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(256)))]
@@ -1015,8 +1051,8 @@ pub fn widen_failsafe_tree(
     widen_failsafe_tree_at(id.x, self_params.leaf_count, (sorted, escaped), (parents, leaf_bounds), aabbs);
 }
 
-/// One thread per sorted leaf: its pairs at the frame's end (`check_frame_at`); push
-/// constants: `FailsafePush` (the round).
+/// One thread per sorted leaf: its pairs at the frame's end (`check_frame_at`), and the tree's
+/// refit flags cleared for the next round; push constants: `FailsafePush` (the round).
 #[allow(clippy::too_many_arguments)]
 #[spirv(compute(threads(64)))]
 pub fn failsafe_check(
@@ -1038,7 +1074,13 @@ pub fn failsafe_check(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] flags: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] counters: &mut [u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] carried: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 16)] refit_flags: &mut [u32],
 ) {
+    // The next round's refit climbs in its boxes' dispatch (`failsafe_boxes_and_refit`), which
+    // cannot clear its own flags.
+    if id.x + 1 < self_params.leaf_count {
+        refit_flags[id.x as usize] = 0;
+    }
     if id.x >= self_params.leaf_count {
         return;
     }
