@@ -239,7 +239,8 @@ impl SolverProgram {
 
     /// Each self-colliding cloth's lists built again within a frame (what a frame whose lists
     /// have windows adds: `FramePlan::self_windows`), its fail-safe's first refit either way (a
-    /// windowed frame climbs, one whose lists span it derives), and its passes' collider
+    /// windowed frame climbs, one whose lists span it derives), a pass's second run with lists
+    /// (a thickness changed at run time may turn them on), and its passes' collider
     /// features with and without the listed triangles out of the cloth's reach
     /// (`reach_filter_pays`: a frame's passes and windows choose).
     pub fn self_window_steps(&self) -> Vec<Step> {
@@ -249,6 +250,7 @@ impl SolverProgram {
                 let own = cloth.self_contact_cloth();
                 s.window_start_steps(&own, (1, 1), &mut steps);
                 steps.extend(s.failsafe.first_refit_steps_either_way(s));
+                steps.extend(s.pushed_run_steps(&own));
                 for (index, collider) in self.colliders.iter().enumerate() {
                     steps.extend(s.out_of_reach_steps((collider, index), cloth.health));
                     for reach in [false, true] {

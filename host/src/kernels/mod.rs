@@ -22,7 +22,7 @@ pub mod triangles;
 use crate::graph::Kernel;
 
 /// Every kernel in the SPIR-V module.
-pub const ALL: [&Kernel; 69] = [
+pub const ALL: [&Kernel; 70] = [
     &integrate::INTEGRATE_STAGE,
     &integrate::INTEGRATE_STAGE_SPRINGS,
     &integrate::INTEGRATE_SUBSTEPS,
@@ -45,6 +45,7 @@ pub const ALL: [&Kernel; 69] = [
     &self_pairs::TEST_QUEUED_PAIRS,
     &self_pass_tree::DERIVE_PASS_TREE,
     &self_pass_tree::WIDEN_PASS_TREE,
+    &self_pass_tree::TRIANGLE_BOUNDS_AND_PASS_TREE,
     &sharp_features::LIST_SHARP_FEATURES,
     &self_contact::COLLIDER_FEATURE_CONTACT,
     &feature_walks::CHOOSE_FEATURE_WALKS,

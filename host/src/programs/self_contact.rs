@@ -25,7 +25,7 @@ use crate::kernels::self_pairs::{
     ANCHOR_WINDOW, CLOTH_TRIANGLE_BOUNDS, CLOTH_TRIANGLE_STARTS, LIST_SELF_PAIRS, LISTED_SELF_PAIRS, PACK_WALK_NODES,
     REGATHER_CLOTH_TRIANGLES, SELF_TRIANGLE_CONTACT, TEST_QUEUED_PAIRS, WALK_SELF_PAIRS,
 };
-use crate::kernels::self_pass_tree::{DERIVE_PASS_TREE, WIDEN_PASS_TREE};
+use crate::kernels::self_pass_tree::{DERIVE_PASS_TREE, TRIANGLE_BOUNDS_AND_PASS_TREE, WIDEN_PASS_TREE};
 use crate::kernels::sharp_features::LIST_SHARP_FEATURES;
 use drape_kernels::feature_walks::{WALKS_AUTOMATIC, WALKS_FROM_CLOTH, WALKS_FROM_COLLIDER};
 use drape_kernels::self_contact::{CORRECTION_WORDS, NO_NEIGHBOUR, PUSH_WORDS, VERTEX_OWNED_BIT};
@@ -893,10 +893,10 @@ impl SelfContactBuffers {
                 vec![cloth.params.id(), cloth.x.id(), cloth.v.id(), self.pushes.id(), self.walk_args.id()],
                 Dispatch::Indirect(self.features_found),
             ));
-            self.triangle_bounds(cloth, (span, find), Dispatch::Indirect(self.features_found), steps);
             if lists {
-                self.pass_tree(pass_push(span, 0), self.features_found, steps);
+                self.bounds_and_pass_tree(cloth, pass_push(span, find), self.features_found, steps);
             } else {
+                self.triangle_bounds(cloth, (span, find), Dispatch::Indirect(self.features_found), steps);
                 steps.extend(t.refit_sorted_again_steps(self.features_found));
             }
         }
@@ -919,6 +919,56 @@ impl SelfContactBuffers {
     /// pass): each node's bound over the pass from the lists' tree, then the pass's walkers'
     /// climbs (`drape_kernels::self_pass_tree`). It stands for a refit (the walks find the same
     /// leaves) at a fraction of its climbs.
+    /// A pass's second run with lists (`bounds_and_pass_tree`), for a frame whose first plan had
+    /// none (a thickness changed at run time) to find bound from the start.
+    pub fn pushed_run_steps(&self, cloth: &SelfContactCloth) -> Vec<Step> {
+        let mut steps = Vec::new();
+        self.bounds_and_pass_tree(
+            cloth,
+            pass_push(substep_span(0, 1, 1), FIND_WALKERS),
+            self.features_found,
+            &mut steps,
+        );
+        steps
+    }
+
+    /// A pass's second run (after the collider's pushes, over `dispatch`): the triangles' boxes
+    /// and the pass's tree derived in one dispatch, then the walkers' climbs (`pass_tree`).
+    fn bounds_and_pass_tree(
+        &self,
+        cloth: &SelfContactCloth,
+        span: SelfPassPush,
+        dispatch: Handle<DispatchArgs>,
+        steps: &mut Vec<Step>,
+    ) {
+        let t = &self.tree;
+        steps.push(Step::run_with(
+            "self: triangle boxes",
+            &TRIANGLE_BOUNDS_AND_PASS_TREE,
+            vec![
+                t.collider.id(),
+                cloth.x.id(),
+                self.start.id(),
+                cloth.indices.id(),
+                self.anchors.id(),
+                self.leaf_of.id(),
+                t.sorted_bounds.id(),
+                self.escaped.id(),
+                self.strays.id(),
+                self.walkers.id(),
+                self.walk_args.id(),
+                self.tree_every_pass.id(),
+                self.pass_refit.id(),
+                self.span_aabbs.id(),
+                self.motion_aabbs.id(),
+                t.aabbs.id(),
+            ],
+            bytemuck::cast(span),
+            Dispatch::Indirect(dispatch),
+        ));
+        steps.push(self.widen_step(dispatch));
+    }
+
     fn pass_tree(&self, span: SelfPassPush, dispatch: Handle<DispatchArgs>, steps: &mut Vec<Step>) {
         let t = &self.tree;
         steps.push(Step::run_with(
@@ -928,7 +978,13 @@ impl SelfContactBuffers {
             bytemuck::cast(span),
             Dispatch::Indirect(dispatch),
         ));
-        steps.push(Step::run(
+        steps.push(self.widen_step(dispatch));
+    }
+
+    /// The walkers' climbs widening the pass's tree, where `derived` derived it.
+    fn widen_step(&self, derived: Handle<DispatchArgs>) -> Step {
+        let t = &self.tree;
+        Step::run(
             "refit",
             &WIDEN_PASS_TREE,
             vec![
@@ -937,11 +993,11 @@ impl SelfContactBuffers {
                 t.sorted_bounds.id(),
                 self.walkers.id(),
                 self.walk_args.id(),
-                dispatch.id(),
+                derived.id(),
                 t.aabbs.id(),
             ],
             Dispatch::Indirect(self.walk_args),
-        ));
+        )
     }
 
     /// The pairs of a pass spanning `span` of the lists' span, from the lists, and the walks of

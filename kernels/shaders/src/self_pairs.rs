@@ -1081,17 +1081,38 @@ pub fn cloth_triangle_bounds(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] tree_every_pass: &[u32],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] pass_refit: &mut DispatchArgs,
 ) {
-    if id.x >= self_params.leaf_count {
+    let triangles = (x, x_prev, indices, anchors, leaf_of);
+    let out = (leaf_bounds, escaped, strays, walkers, walk_args);
+    triangle_bounds_at((id.x, span), self_params, triangles, out, (tree_every_pass[0], pass_refit));
+}
+
+/// `cloth_triangle_bounds`' thread for triangle `t` (nothing past the cloth's triangles).
+#[allow(clippy::type_complexity)]
+#[inline]
+pub fn triangle_bounds_at(
+    (t, span): (u32, &SelfPassPush),
+    self_params: &ColliderParams,
+    (x, x_prev, indices, anchors, leaf_of): (&[Vec4], &[Vec4], &[u32], &[Vec4], &[u32]),
+    (leaf_bounds, escaped, strays, walkers, walk_args): (
+        &mut [Aabb],
+        &mut [u32],
+        &mut [f32],
+        &mut [u32],
+        &mut DispatchArgs,
+    ),
+    (tree_every_pass, pass_refit): (u32, &mut DispatchArgs),
+) {
+    if t >= self_params.leaf_count {
         return;
     }
-    let leaf = leaf_of[id.x as usize];
-    leaf_bounds[leaf as usize] = cloth_triangle_bounds_at(id.x, (x, x_prev), indices);
+    let leaf = leaf_of[t as usize];
+    leaf_bounds[leaf as usize] = cloth_triangle_bounds_at(t, (x, x_prev), indices);
     if span.find_walkers != FIND_WALKERS {
         return;
     }
-    let escape = escaped_at(id.x, (x, x_prev), anchors, indices, (span, 0.0));
-    let first_walker = note_escape((id.x, leaf), escape, (escaped, strays), (walkers, walk_args));
-    note_pass_tree((id.x, first_walker), tree_every_pass[0] != 0, self_params.leaf_count, pass_refit);
+    let escape = escaped_at(t, (x, x_prev), anchors, indices, (span, 0.0));
+    let first_walker = note_escape((t, leaf), escape, (escaped, strays), (walkers, walk_args));
+    note_pass_tree((t, first_walker), tree_every_pass != 0, self_params.leaf_count, pass_refit);
 }
 
 /// Threads per workgroup of the walks (`walk_self_pairs`): as many as the lists' (a pass's

@@ -18,7 +18,7 @@
 
 use crate::atomics;
 use crate::lbvh::parent_slot;
-use crate::self_pairs::FALL_WORD;
+use crate::self_pairs::{FALL_WORD, triangle_bounds_at};
 use drape_types::glam::{UVec3, Vec3, Vec4, Vec4Swizzles};
 use drape_types::{AABB_WORDS, Aabb, ColliderParams, DispatchArgs, LEAF_BIT, NO_NODE, SelfPassPush};
 use spirv_std::spirv;
@@ -103,6 +103,40 @@ pub fn derive_pass_tree(
     #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] anchors: &[Vec4],
     #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] aabbs: &mut [Aabb],
 ) {
+    if id.x + 1 < self_params.leaf_count {
+        pass_node_box_at(id.x, (span, self_params.thickness), (span_aabbs, motion_aabbs), anchors, aabbs);
+    }
+}
+
+/// A pass's second run (after the collider's pushes, over their dispatch) in one dispatch: each
+/// triangle's box and whether it walks (`self_pairs::triangle_bounds_at`), and each internal
+/// node's box for the pass (`pass_node_box_at`, which reads only the lists' tree): the walkers'
+/// climbs (`widen_pass_tree`) follow.
+#[allow(clippy::too_many_arguments)]
+#[spirv(compute(threads(256)))]
+pub fn triangle_bounds_and_pass_tree(
+    #[spirv(global_invocation_id)] id: UVec3,
+    #[spirv(push_constant)] span: &SelfPassPush,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 0)] self_params: &ColliderParams,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 1)] x: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 2)] x_prev: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 3)] indices: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 4)] anchors: &[Vec4],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 5)] leaf_of: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 6)] leaf_bounds: &mut [Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 7)] escaped: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 8)] strays: &mut [f32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 9)] walkers: &mut [u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 10)] walk_args: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 11)] tree_every_pass: &[u32],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 12)] pass_refit: &mut DispatchArgs,
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 13)] span_aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 14)] motion_aabbs: &[Aabb],
+    #[spirv(storage_buffer, descriptor_set = 0, binding = 15)] aabbs: &mut [Aabb],
+) {
+    let triangles = (x, x_prev, indices, anchors, leaf_of);
+    let out = (leaf_bounds, escaped, strays, walkers, walk_args);
+    triangle_bounds_at((id.x, span), self_params, triangles, out, (tree_every_pass[0], pass_refit));
     if id.x + 1 < self_params.leaf_count {
         pass_node_box_at(id.x, (span, self_params.thickness), (span_aabbs, motion_aabbs), anchors, aabbs);
     }
