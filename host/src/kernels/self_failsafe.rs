@@ -3,7 +3,7 @@
 //! at the frame's end (and of a triangle collider's sharp triangles against the cloth's), and
 //! the roll-back of the particles of the pairs found.
 
-use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use crate::graph::{BindingSpec, HostBuffer, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::lbvh::{REFIT_THREADS, refit_from_leaf};
 use drape_kernels::self_failsafe::{
@@ -117,27 +117,41 @@ fn boxes_and_refit_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         refit_flags,
         aabbs,
     ] = d.bindings()?;
+    let frame = [self_params, sorted, x, anchors, indices];
+    let c = boxes_over(&push, threads, frame, [&mut *leaf_bounds, escaped, strays, tree_every_pass, refit])?;
+    // Every box before any climb: the GPU's climbs read a sibling's box only after its thread
+    // released the node's flag, so any order of the climbs gives the same boxes.
+    if c.leaf_count >= 2 {
+        let (nodes, parents, leaf_bounds) =
+            (nodes.slice::<BvhNode>(), parents.slice::<u32>(), leaf_bounds.slice::<Aabb>());
+        let (flags, words) = (refit_flags.slice_mut::<u32>(), aabbs.slice_mut::<u32>());
+        for s in 0..threads.min(c.leaf_count) {
+            refit_from_leaf(s, c.leaf_count, nodes, parents, leaf_bounds, flags, words);
+        }
+    }
+    Ok(())
+}
+
+/// The fail-safe's boxes on the CPU (`failsafe_box_at` for each of the first `threads` sorted
+/// leaves), over `FAILSAFE_BOXES`' bindings but the refit's flags, in its order: what its twin
+/// and a later round's (`FAILSAFE_BOXES_AND_REFIT`) share. Returns the cloth's tree's record.
+fn boxes_over(
+    push: &FailsafePush,
+    threads: u32,
+    [self_params, sorted, x, anchors, indices]: [&mut HostBuffer; 5],
+    [leaf_bounds, escaped, strays, tree_every_pass, refit]: [&mut HostBuffer; 5],
+) -> Result<ColliderParams, String> {
     let c: ColliderParams = self_params.first()?;
     let (sorted, x, anchors) = (sorted.slice::<UVec4>(), x.slice::<Vec4>(), anchors.slice::<Vec4>());
     let (indices, leaf_bounds) = (indices.slice::<u32>(), leaf_bounds.slice_mut::<Aabb>());
     let (escaped, strays) = (escaped.slice_mut::<u32>(), strays.slice_mut::<f32>());
     let tree_every_pass: u32 = tree_every_pass.first()?;
     let refit = refit.first_mut::<DispatchArgs>()?;
-    let leaves = threads.min(c.leaf_count);
-    for s in 0..leaves {
+    for s in 0..threads.min(c.leaf_count) {
         let out = (&mut *leaf_bounds, &mut *escaped, &mut *strays);
-        failsafe_box_at((s, &push), &c, (sorted, x, anchors, indices), out, (tree_every_pass, &mut *refit));
+        failsafe_box_at((s, push), &c, (sorted, x, anchors, indices), out, (tree_every_pass, &mut *refit));
     }
-    // Every box before any climb: the GPU's climbs read a sibling's box only after its thread
-    // released the node's flag, so any order of the climbs gives the same boxes.
-    if c.leaf_count >= 2 {
-        let (nodes, parents) = (nodes.slice::<BvhNode>(), parents.slice::<u32>());
-        let (flags, words) = (refit_flags.slice_mut::<u32>(), aabbs.slice_mut::<u32>());
-        for s in 0..leaves {
-            refit_from_leaf(s, c.leaf_count, nodes, parents, leaf_bounds, flags, words);
-        }
-    }
-    Ok(())
+    Ok(c)
 }
 
 pub static FAILSAFE_CARRIERS_TRIANGLES: Kernel = Kernel {
@@ -242,16 +256,8 @@ fn boxes_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let threads = d.invocations();
     let [self_params, sorted, x, anchors, indices, leaf_bounds, escaped, strays, refit_flags, tree_every_pass, refit] =
         d.bindings()?;
-    let c: ColliderParams = self_params.first()?;
-    let (sorted, x, anchors) = (sorted.slice::<UVec4>(), x.slice::<Vec4>(), anchors.slice::<Vec4>());
-    let (indices, leaf_bounds) = (indices.slice::<u32>(), leaf_bounds.slice_mut::<Aabb>());
-    let (escaped, strays) = (escaped.slice_mut::<u32>(), strays.slice_mut::<f32>());
-    let tree_every_pass: u32 = tree_every_pass.first()?;
-    let refit = refit.first_mut::<DispatchArgs>()?;
-    for s in 0..threads.min(c.leaf_count) {
-        let out = (&mut *leaf_bounds, &mut *escaped, &mut *strays);
-        failsafe_box_at((s, &push), &c, (sorted, x, anchors, indices), out, (tree_every_pass, &mut *refit));
-    }
+    let frame = [self_params, sorted, x, anchors, indices];
+    let c = boxes_over(&push, threads, frame, [leaf_bounds, escaped, strays, tree_every_pass, refit])?;
     let refit_flags = refit_flags.slice_mut::<u32>();
     for node in 0..threads.min(c.leaf_count.saturating_sub(1)) {
         refit_flags[node as usize] = 0;

@@ -2,17 +2,16 @@
 //! frame (the frame's tree), the frame's pair lists, each pass's triangle boxes with whether
 //! each triangle escaped its region, and the pass's pairs (lists, or walks of the tree).
 
-use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
+use crate::graph::{BindingSpec, HostBuffer, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::WORKGROUP_SIZE;
 use drape_kernels::contact::CONTACT_THREADS;
 use drape_kernels::self_contact::PairResponse;
 use drape_kernels::self_contact::frame_of;
 use drape_kernels::self_contact::self_triangle_contact_at;
 use drape_kernels::self_pairs::{
-    FIND_WALKERS, LIST_OVERFLOWED, QUEUE_THREADS, WALK_THREADS, anchor_window_at, cloth_triangle_bounds_at,
-    count_full_list, escaped_at, list_self_pairs_at, listed_self_pairs_at, note_escape, note_pair_motion,
-    note_pass_tree, pack_walk_node_at, queued_pairs, regather_cloth_triangle, test_queued_pair_at, triangle_start_at,
-    walk_self_pairs_at,
+    LIST_OVERFLOWED, QUEUE_THREADS, WALK_THREADS, anchor_window_at, count_full_list, list_self_pairs_at,
+    listed_self_pairs_at, note_pair_motion, pack_walk_node_at, queued_pairs, regather_cloth_triangle,
+    test_queued_pair_at, triangle_bounds_at, triangle_start_at, walk_self_pairs_at,
 };
 use drape_types::{
     Aabb, BvhNode, ColliderParams, DispatchArgs, Health, SelfAnchorPush, SelfListPush, SelfPassPush, SimParams,
@@ -328,7 +327,17 @@ fn regather_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
 fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
     let span: SelfPassPush = d.push_as();
     let threads = d.invocations();
-    let [
+    triangle_bounds_over(&span, threads, d.bindings()?)?;
+    Ok(())
+}
+
+/// `cloth_triangle_bounds` on the CPU (`triangle_bounds_at` for each of the first `threads`
+/// triangles), over its bindings in its order: its twin's and the first of a pass's second
+/// run's (`self_pass_tree::TRIANGLE_BOUNDS_AND_PASS_TREE`). Returns the cloth's tree's record.
+pub(super) fn triangle_bounds_over(
+    span: &SelfPassPush,
+    threads: u32,
+    [
         self_params,
         x,
         x_prev,
@@ -342,29 +351,27 @@ fn bounds_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         walk_args,
         tree_every_pass,
         pass_refit,
-    ] = d.bindings()?;
+    ]: [&mut HostBuffer; 13],
+) -> Result<ColliderParams, String> {
     let c: ColliderParams = self_params.first()?;
     let (x, x_prev, anchors) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), anchors.slice::<Vec4>());
     let (indices, leaf_of) = (indices.slice::<u32>(), leaf_of.slice::<u32>());
     let (leaf_bounds, escaped, strays) =
         (leaf_bounds.slice_mut::<Aabb>(), escaped.slice_mut::<u32>(), strays.slice_mut::<f32>());
-    let (walkers, walk_args) = (walkers.slice_mut::<u32>(), walk_args.first_mut::<DispatchArgs>()?);
-    let tree_every_pass = tree_every_pass.first::<u32>()? != 0;
-    let pass_refit = pass_refit.first_mut::<DispatchArgs>()?;
-    let find_walkers = span.find_walkers == FIND_WALKERS;
-    for t in 0..threads.min(c.leaf_count) {
-        let leaf = *leaf_of.get(t as usize).ok_or("leaf_of shorter than the triangles")?;
-        let slot = leaf_bounds.get_mut(leaf as usize).ok_or("leaf_of names a leaf past the tree")?;
-        *slot = cloth_triangle_bounds_at(t, (x, x_prev), indices);
-        if !find_walkers {
-            continue;
-        }
-        let escape = escaped_at(t, (x, x_prev), anchors, indices, (&span, 0.0));
-        let first_walker =
-            note_escape((t, leaf), escape, (&mut *escaped, &mut *strays), (&mut *walkers, &mut *walk_args));
-        note_pass_tree((t, first_walker), tree_every_pass, c.leaf_count, pass_refit);
+    let triangles = threads.min(c.leaf_count);
+    let leaves = leaf_of.get(..triangles as usize).ok_or("leaf_of shorter than the triangles")?;
+    if leaves.iter().any(|&leaf| leaf as usize >= leaf_bounds.len()) {
+        return Err("leaf_of names a leaf past the tree".into());
     }
-    Ok(())
+    let (walkers, walk_args) = (walkers.slice_mut::<u32>(), walk_args.first_mut::<DispatchArgs>()?);
+    let tree_every_pass: u32 = tree_every_pass.first()?;
+    let pass_refit = pass_refit.first_mut::<DispatchArgs>()?;
+    for t in 0..triangles {
+        let out = (&mut *leaf_bounds, &mut *escaped, &mut *strays, &mut *walkers, &mut *walk_args);
+        let inputs = (x, x_prev, indices, anchors, leaf_of);
+        triangle_bounds_at((t, span), &c, inputs, out, (tree_every_pass, &mut *pass_refit));
+    }
+    Ok(c)
 }
 
 fn lists_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {

@@ -1,9 +1,9 @@
 //! A self-collision pass's tree from the lists' tree (`drape_kernels::self_pass_tree`): each
 //! internal node's bound over the pass, then the walkers' climbs widening it to their boxes.
 
+use super::self_pairs::triangle_bounds_over;
 use crate::graph::{BindingSpec, HostDispatch, Kernel, KernelSpec};
 use drape_kernels::self_pairs::WALK_THREADS;
-use drape_kernels::self_pairs::triangle_bounds_at;
 use drape_kernels::self_pass_tree::{pass_node_box_at, widen_to_leaf_at};
 use drape_types::{Aabb, ColliderParams, DispatchArgs, SelfPassPush};
 use glam::Vec4;
@@ -91,24 +91,25 @@ fn bounds_and_tree_cpu(d: &mut HostDispatch<'_>) -> Result<(), String> {
         motion_aabbs,
         aabbs,
     ] = d.bindings()?;
-    let c: ColliderParams = self_params.first()?;
-    let (x, x_prev, anchors) = (x.slice::<Vec4>(), x_prev.slice::<Vec4>(), anchors.slice::<Vec4>());
-    let (indices, leaf_of) = (indices.slice::<u32>(), leaf_of.slice::<u32>());
-    if leaf_of.len() < c.leaf_count as usize {
-        return Err("leaf_of shorter than the triangles".into());
-    }
-    let (leaf_bounds, escaped, strays) =
-        (leaf_bounds.slice_mut::<Aabb>(), escaped.slice_mut::<u32>(), strays.slice_mut::<f32>());
-    let (walkers, walk_args) = (walkers.slice_mut::<u32>(), walk_args.first_mut::<DispatchArgs>()?);
-    let tree_every_pass: u32 = tree_every_pass.first()?;
-    let pass_refit = pass_refit.first_mut::<DispatchArgs>()?;
-    for t in 0..threads.min(c.leaf_count) {
-        let out = (&mut *leaf_bounds, &mut *escaped, &mut *strays, &mut *walkers, &mut *walk_args);
-        let triangles = (x, x_prev, indices, anchors, leaf_of);
-        triangle_bounds_at((t, &span), &c, triangles, out, (tree_every_pass, &mut *pass_refit));
-    }
+    // The derivation below reads the anchors too.
+    let bounds = [
+        self_params,
+        x,
+        x_prev,
+        indices,
+        &mut *anchors,
+        leaf_of,
+        leaf_bounds,
+        escaped,
+        strays,
+        walkers,
+        walk_args,
+        tree_every_pass,
+        pass_refit,
+    ];
+    let c = triangle_bounds_over(&span, threads, bounds)?;
     let boxes = (span_aabbs.slice::<Aabb>(), motion_aabbs.slice::<Aabb>());
-    let aabbs = aabbs.slice_mut::<Aabb>();
+    let (anchors, aabbs) = (anchors.slice::<Vec4>(), aabbs.slice_mut::<Aabb>());
     for i in 0..threads.min(c.leaf_count.saturating_sub(1)) {
         pass_node_box_at(i, (&span, c.thickness), boxes, anchors, aabbs);
     }

@@ -525,29 +525,36 @@ impl SelfContactBuffers {
         dispatch: Dispatch,
         steps: &mut Vec<Step>,
     ) {
-        let t = &self.tree;
         let push = pass_push(span, find_walkers);
+        let bindings = self.triangle_bound_bindings(cloth);
         steps.push(Step::run_with(
             "self: triangle boxes",
             &CLOTH_TRIANGLE_BOUNDS,
-            vec![
-                t.collider.id(),
-                cloth.x.id(),
-                self.start.id(),
-                cloth.indices.id(),
-                self.anchors.id(),
-                self.leaf_of.id(),
-                t.sorted_bounds.id(),
-                self.escaped.id(),
-                self.strays.id(),
-                self.walkers.id(),
-                self.walk_args.id(),
-                self.tree_every_pass.id(),
-                self.pass_refit.id(),
-            ],
+            bindings,
             bytemuck::cast(push),
             dispatch,
         ));
+    }
+
+    /// What a pass's triangle boxes bind (`CLOTH_TRIANGLE_BOUNDS`, and the first of a second
+    /// run's, `TRIANGLE_BOUNDS_AND_PASS_TREE`).
+    fn triangle_bound_bindings(&self, cloth: &SelfContactCloth) -> Vec<BufferId> {
+        let t = &self.tree;
+        vec![
+            t.collider.id(),
+            cloth.x.id(),
+            self.start.id(),
+            cloth.indices.id(),
+            self.anchors.id(),
+            self.leaf_of.id(),
+            t.sorted_bounds.id(),
+            self.escaped.id(),
+            self.strays.id(),
+            self.walkers.id(),
+            self.walk_args.id(),
+            self.tree_every_pass.id(),
+            self.pass_refit.id(),
+        ]
     }
 
     /// At the frame of `substeps` substeps' start: the particles' anchors and the Morton box,
@@ -941,31 +948,10 @@ impl SelfContactBuffers {
         dispatch: Handle<DispatchArgs>,
         steps: &mut Vec<Step>,
     ) {
-        let t = &self.tree;
-        steps.push(Step::run_with(
-            "self: triangle boxes",
-            &TRIANGLE_BOUNDS_AND_PASS_TREE,
-            vec![
-                t.collider.id(),
-                cloth.x.id(),
-                self.start.id(),
-                cloth.indices.id(),
-                self.anchors.id(),
-                self.leaf_of.id(),
-                t.sorted_bounds.id(),
-                self.escaped.id(),
-                self.strays.id(),
-                self.walkers.id(),
-                self.walk_args.id(),
-                self.tree_every_pass.id(),
-                self.pass_refit.id(),
-                self.span_aabbs.id(),
-                self.motion_aabbs.id(),
-                t.aabbs.id(),
-            ],
-            bytemuck::cast(span),
-            Dispatch::Indirect(dispatch),
-        ));
+        let mut bindings = self.triangle_bound_bindings(cloth);
+        bindings.extend([self.span_aabbs.id(), self.motion_aabbs.id(), self.tree.aabbs.id()]);
+        let (kernel, push) = (&TRIANGLE_BOUNDS_AND_PASS_TREE, bytemuck::cast(span));
+        steps.push(Step::run_with("self: triangle boxes", kernel, bindings, push, Dispatch::Indirect(dispatch)));
         steps.push(self.widen_step(dispatch));
     }
 

@@ -115,28 +115,19 @@ impl FailsafeBuffers {
             steps.push(self.carriers_step((own, cloth), collider, slot as u32));
         }
         let boxes_push = FailsafePush { flags: if windowed { WINDOWED } else { 0 }, ..Default::default() };
-        let boxes = |dispatch| {
-            Step::run_with(
-                "self: fail-safe boxes",
-                &FAILSAFE_BOXES,
-                vec![
-                    t.collider.id(),
-                    own.sorted.id(),
-                    cloth.x.id(),
-                    own.anchors.id(),
-                    cloth.indices.id(),
-                    t.sorted_bounds.id(),
-                    own.escaped.id(),
-                    own.strays.id(),
-                    t.refit_flags(),
-                    own.tree_every_pass.id(),
-                    self.refit.id(),
-                ],
-                bytemuck::cast(boxes_push),
-                dispatch,
-            )
-        };
-        steps.push(boxes(Dispatch::Threads(t.leaves)));
+        // Both boxes kernels bind the frame's triangles, then what the boxes write.
+        let frame = [t.collider.id(), own.sorted.id(), cloth.x.id(), own.anchors.id(), cloth.indices.id()];
+        let written = [t.sorted_bounds.id(), own.escaped.id(), own.strays.id()];
+        let walks = [own.tree_every_pass.id(), self.refit.id()];
+        let bindings = [&frame[..], &written, &[t.refit_flags()], &walks].concat();
+        let boxes = Step::run_with(
+            "self: fail-safe boxes",
+            &FAILSAFE_BOXES,
+            bindings,
+            bytemuck::cast(boxes_push),
+            Dispatch::Threads(t.leaves),
+        );
+        steps.push(boxes);
         if lists && !windowed {
             // Only where a triangle walks in the check (`LIST_CHECK_BEYOND`), or the colliders'
             // check walks the tree: the lists' tree over the frame bounds every triangle that
@@ -164,25 +155,11 @@ impl FailsafeBuffers {
                 // carried back may lie outside its triangle's box of the round before), in one
                 // dispatch (the check before cleared the refit's flags).
                 let (check, roll_back) = self.rounds[round as usize - 1];
+                let climb = [t.nodes.id(), t.parents.id(), t.refit_flags(), t.aabbs.id()];
                 steps.push(Step::run_with(
                     FAILSAFE_REFIT_LABEL,
                     &FAILSAFE_BOXES_AND_REFIT,
-                    vec![
-                        t.collider.id(),
-                        own.sorted.id(),
-                        cloth.x.id(),
-                        own.anchors.id(),
-                        cloth.indices.id(),
-                        t.sorted_bounds.id(),
-                        own.escaped.id(),
-                        own.strays.id(),
-                        own.tree_every_pass.id(),
-                        self.refit.id(),
-                        t.nodes.id(),
-                        t.parents.id(),
-                        t.refit_flags(),
-                        t.aabbs.id(),
-                    ],
+                    [&frame[..], &written, &walks, &climb].concat(),
                     bytemuck::cast(boxes_push),
                     Dispatch::Indirect(check),
                 ));
